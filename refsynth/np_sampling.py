@@ -59,7 +59,25 @@ from refsynth.mrf import disc_offsets, gaussian_window, intensity_patches, windo
 from refsynth.priority import FillFront, onion_order
 from refsynth.similarity import intensity_scale, range_scale
 
-__all__ = ["np_fill", "PatchTable"]
+__all__ = ["np_fill", "eq5_set", "PatchTable"]
+
+
+def eq5_set(distances: np.ndarray, epsilon: float) -> np.ndarray:
+    """Eq. 5: indices of the candidates within ``(1 + ε)`` of the best match's distance.
+
+    Parameters
+    ----------
+    distances : ndarray of shape (M,), M >= 1
+        Eq. 2 distances of the candidate set ``A_p``.
+    epsilon : float
+        ε >= 0.
+
+    Returns
+    -------
+    ndarray of int
+        Indices into ``distances``, ascending; always includes ``argmin``.
+    """
+    return np.flatnonzero(distances <= (1.0 + epsilon) * distances.min())
 
 
 class PatchTable:
@@ -233,7 +251,7 @@ def np_fill(
             candidates = _widened_candidates(p, filled, Wp, radius)
         d = table.distances(p, candidates)
         best = int(np.argmin(d))
-        members = np.flatnonzero(d <= (1.0 + epsilon) * d[best])
+        members = eq5_set(d, epsilon)
         q = int(candidates[members[int(draws[step] * members.size)]])
         value = float(values[q])
         original[p] = original[q]

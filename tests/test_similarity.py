@@ -1,0 +1,169 @@
+"""Eq. 2 (§3.2.2): the distance between partial neighbourhoods, and the MRF window."""
+
+import numpy as np
+import pytest
+from hypothesis import assume, given
+from hypothesis import strategies as st
+from strategies import UNIT, neighbourhood_pair, partial_neighbourhood
+
+from refsynth.mrf import disc_offsets, gaussian_window, intensity_patches, range_patches
+from refsynth.np_sampling import PatchTable
+from refsynth.similarity import neighbourhood_distance, range_scale
+
+EPS = np.finfo(np.float64).eps
+
+
+@given(neighbourhood_pair(), st.floats(0.0, 10.0))
+def test_eq2_is_symmetric(pair, lam):
+    (ia, ra), (ib, rb) = pair
+    assert neighbourhood_distance(ia, ra, ib, rb, range_weight=lam) == neighbourhood_distance(
+        ib, rb, ia, ra, range_weight=lam
+    )
+
+
+@given(partial_neighbourhood(), st.floats(0.0, 10.0))
+def test_eq2_zero_for_identical_neighbourhoods(nb, lam):
+    intensity, rng = nb
+    assert neighbourhood_distance(intensity, rng, intensity, rng, range_weight=lam) == 0.0
+
+
+@given(neighbourhood_pair())
+def test_eq2_is_non_negative(pair):
+    (ia, ra), (ib, rb) = pair
+    assert neighbourhood_distance(ia, ra, ib, rb) >= 0.0
+
+
+@given(neighbourhood_pair(), UNIT)
+def test_eq2_ignores_range_outside_the_shared_support(pair, junk):
+    """Changing range where the other neighbourhood has none leaves Eq. 2 unchanged."""
+    (ia, ra), (ib, rb) = pair
+    only_a = np.isfinite(ra) & ~np.isfinite(rb)
+    assume(only_a.any())
+    ra2 = ra.copy()
+    ra2[only_a] = junk
+    assert neighbourhood_distance(ia, ra, ib, rb) == neighbourhood_distance(ia, ra2, ib, rb)
+
+
+@given(neighbourhood_pair())
+def test_eq2_range_term_vanishes_without_shared_range(pair):
+    (ia, ra), (ib, rb) = pair
+    rb = np.where(np.isfinite(ra), np.nan, rb)
+    d0 = neighbourhood_distance(ia, ra, ib, rb, range_weight=0.0)
+    d9 = neighbourhood_distance(ia, ra, ib, rb, range_weight=9.0)
+    assert d0 == d9
+
+
+def test_eq2_hand_computed_case():
+    """3×3 grey, one differing intensity at the centre and one range pair at a corner."""
+    g = gaussian_window(3)
+    ia = np.zeros((3, 3))
+    ib = np.zeros((3, 3))
+    ib[1, 1] = 0.5
+    ra = np.full((3, 3), np.nan)
+    rb = np.full((3, 3), np.nan)
+    ra[0, 0], rb[0, 0] = 0.2, 0.6
+    ra[2, 2] = 0.9  # only in a: ignored
+    expected = g[1, 1] * 0.25 + 4.0 * g[0, 0] * 0.16
+    assert neighbourhood_distance(ia, ra, ib, rb, range_weight=4.0) == pytest.approx(
+        expected, rel=10 * EPS
+    )
+
+
+def test_eq2_colour_averages_channels():
+    ia = np.zeros((3, 3, 3))
+    ib = np.zeros((3, 3, 3))
+    ib[1, 1] = 0.5
+    grey_a, grey_b = np.zeros((3, 3)), np.zeros((3, 3))
+    grey_b[1, 1] = 0.5
+    r = np.full((3, 3), np.nan)
+    assert neighbourhood_distance(ia, r, ib, r) == pytest.approx(
+        neighbourhood_distance(grey_a, r, grey_b, r), rel=10 * EPS
+    )
+
+
+@given(st.sampled_from([3, 5, 7]), st.floats(0.01, 0.5))
+def test_eq2_weighs_the_centre_more(n, delta):
+    """The same intensity difference costs more at the centre than at a corner."""
+    h = n // 2
+    base = np.zeros((n, n))
+    centre, corner = base.copy(), base.copy()
+    centre[h, h] = delta
+    corner[0, 0] = delta
+    r = np.full((n, n), np.nan)
+    assert neighbourhood_distance(base, r, centre, r) > neighbourhood_distance(base, r, corner, r)
+
+
+@given(st.sampled_from([1, 3, 5, 7, 9]))
+def test_gaussian_window_is_normalised_and_peaked(n):
+    g = gaussian_window(n)
+    assert g.shape == (n, n)
+    assert g.sum() == pytest.approx(1.0, rel=10 * EPS)
+    assert g[n // 2, n // 2] == g.max()
+    np.testing.assert_array_equal(g, g.T)
+    np.testing.assert_array_equal(g, g[::-1, ::-1])
+
+
+@pytest.mark.parametrize("n", [0, 2, -3])
+def test_gaussian_window_rejects_bad_sizes(n):
+    with pytest.raises(ValueError, match="`n`"):
+        gaussian_window(n)
+
+
+def test_gaussian_window_rejects_bad_sigma():
+    with pytest.raises(ValueError, match="`sigma`"):
+        gaussian_window(3, sigma=0.0)
+
+
+@given(st.floats(1.0, 6.0))
+def test_eq3_disc_holds_exactly_the_offsets_within_r(radius):
+    dr, dc = disc_offsets(radius)
+    k = int(radius) + 1
+    rr, cc = np.mgrid[-k : k + 1, -k : k + 1]
+    expected = int(((rr**2 + cc**2 <= radius**2) & ((rr != 0) | (cc != 0))).sum())
+    assert dr.size == expected
+    assert np.all(dr**2 + dc**2 <= radius**2)
+
+
+@given(small_scene_args=st.tuples(st.integers(4, 9), st.integers(4, 9), st.sampled_from([1, 3])))
+def test_patches_are_centred_windows(small_scene_args):
+    h, w, c = small_scene_args
+    image = np.arange(h * w * c, dtype=float).reshape(h, w, c)
+    rng = np.arange(h * w, dtype=float).reshape(h, w)
+    ip = intensity_patches(image, 3)
+    rp = range_patches(rng, 3)
+    assert ip.shape == (h, w, 3, 3, c) and rp.shape == (h, w, 3, 3)
+    np.testing.assert_array_equal(ip[1:-1, 1:-1, 1, 1], image[1:-1, 1:-1])
+    np.testing.assert_array_equal(ip[2, 2], image[1:4, 1:4])
+    assert np.isnan(rp[0, 0, 0, 0]) and rp[0, 0, 1, 1] == rng[0, 0]
+
+
+def test_range_scale_of_a_constant_is_one():
+    assert range_scale(np.array([[2.0, np.nan], [2.0, 2.0]])) == (2.0, 1.0)
+
+
+@given(
+    st.integers(5, 9),
+    st.integers(5, 9),
+    st.sampled_from([1, 3]),
+    st.sampled_from([3, 5]),
+    st.floats(0.0, 8.0),
+    st.integers(0, 2**32 - 1),
+)
+def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, seed):
+    """NP's one-matrix-product form of Eq. 2 equals the pair-by-pair definition."""
+    rng = np.random.default_rng(seed)
+    image = rng.random((h, w, c))
+    rimg = np.where(rng.random((h, w)) < 0.5, rng.random((h, w)), np.nan)
+    pad = n // 2 + 1
+    table = PatchTable(image, rimg, n, pad, lam)
+    ip = intensity_patches(image, n)
+    rp = range_patches(rimg, n)
+    wp = w + 2 * pad
+    p = (int(rng.integers(h)), int(rng.integers(w)))
+    qs = [(int(rng.integers(h)), int(rng.integers(w))) for _ in range(6)]
+    flat = np.array([(q[0] + pad) * wp + q[1] + pad for q in qs])
+    got = table.distances((p[0] + pad) * wp + p[1] + pad, flat)
+    want = [
+        neighbourhood_distance(ip[p], rp[p], ip[q], rp[q], range_weight=lam) for q in qs
+    ]
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
