@@ -257,7 +257,8 @@ def synthesize(
         rng = np.random.default_rng(seed)
     else:
         raise TypeError(
-            f"The parameter `seed` must be an int, a numpy Generator or None, got {type(seed).__name__}"
+            "The parameter `seed` must be an int, a numpy Generator or None, "
+            f"got {type(seed).__name__}"
         )
 
     from refsynth.edges import canny, to_grey

@@ -160,7 +160,9 @@ def test_incremental_front_matches_full_recomputation(h, w, n, use_edges, use_is
         assert p >= 0
         r, c = divmod(p, front.shape[1])
         r, c = r - pad, c - pad
-        expected = priority(conf, values, filled, edges, n, use_edges=use_edges, use_isophotes=use_iso)
+        expected = priority(
+            conf, values, filled, edges, n, use_edges=use_edges, use_isophotes=use_iso
+        )
         tier = edges & use_edges
         on_front = ~np.isnan(expected)
         # the chosen pixel is on the front, in the lowest tier present, with the top priority

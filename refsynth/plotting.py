@@ -1,0 +1,142 @@
+"""Figures in the paper's layouts (Figs. 11–17).
+
+Every function returns a :class:`matplotlib.figure.Figure` built without
+pyplot's global state, so it works under any backend (tests use Agg) and the
+caller decides where to save it.
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.3, Figs. 11–17, doi:10.1007/s11263-007-0108-2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from matplotlib.figure import Figure
+
+__all__ = ["result_figure", "comparison_figure"]
+
+RANGE_CMAP = "viridis"
+ERROR_CMAP = "magma"
+
+
+def _range_limits(*images: np.ndarray) -> tuple[float, float]:
+    values = np.concatenate([im[np.isfinite(im)].ravel() for im in images if im is not None])
+    return float(values.min()), float(values.max())
+
+
+def _show(ax, image, title, **kwargs):
+    image = np.asarray(image)
+    if image.ndim == 3 and image.shape[2] == 1:
+        image = image[:, :, 0]
+    if image.ndim == 2 and "cmap" not in kwargs:
+        kwargs["cmap"] = "gray"
+    handle = ax.imshow(image, interpolation="nearest", **kwargs)
+    ax.set_title(title, fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    return handle
+
+
+def result_figure(
+    intensity: np.ndarray,
+    edges: np.ndarray,
+    partial_range: np.ndarray,
+    result: np.ndarray,
+    truth: np.ndarray | None = None,
+    *,
+    units: str = "",
+    title: str | None = None,
+) -> Figure:
+    """The paper's layout: intensity, edges, partial range, result, ground truth, residual.
+
+    Parameters
+    ----------
+    intensity : ndarray of shape (H, W) or (H, W, 3)
+    edges : ndarray of shape (H, W), bool
+    partial_range : ndarray of shape (H, W), NaN where unknown
+    result : ndarray of shape (H, W)
+        The synthesized range.
+    truth : ndarray of shape (H, W), optional
+        Ground truth; without it the figure has four panels.
+    units : str
+        Range unit, for the colour bars.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    panels = 6 if truth is not None else 4
+    fig = Figure(figsize=(3.2 * 3, 3.0 * 2) if panels == 6 else (3.2 * 2, 3.0 * 2))
+    cols = 3 if panels == 6 else 2
+    axes = fig.subplots(2, cols).ravel()
+    vmin, vmax = _range_limits(partial_range, result, truth)
+    _show(axes[0], np.clip(intensity, 0, 1) if np.ndim(intensity) == 3 else intensity, "intensity")
+    _show(axes[1], edges, "Canny edges (σ = 0.8)")
+    cmap_kw = dict(cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
+    known = np.isfinite(partial_range)
+    _show(axes[2], partial_range, f"partial range ({100 * (1 - known.mean()):.0f} % unknown)",
+          **cmap_kw)
+    handle = _show(axes[3], result, "synthesized range", **cmap_kw)
+    if truth is not None:
+        _show(axes[4], truth, "ground truth", **cmap_kw)
+        residual = np.where(known | ~np.isfinite(truth), np.nan, np.abs(result - truth))
+        mar = np.nanmean(residual)
+        err = _show(axes[5], residual, f"|residual|, MAR {mar:.3g} {units}".strip(),
+                    cmap=ERROR_CMAP)
+        fig.colorbar(err, ax=axes[5], fraction=0.046, pad=0.04)
+    fig.colorbar(handle, ax=axes[3], fraction=0.046, pad=0.04, label=units or None)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def comparison_figure(
+    truth: np.ndarray,
+    partials: Mapping[str, np.ndarray],
+    results: Mapping[tuple[str, str], np.ndarray],
+    *,
+    units: str = "",
+    title: str | None = None,
+) -> Figure:
+    """A grid: one row per sampling (partial range, then each method's result).
+
+    Parameters
+    ----------
+    truth : ndarray of shape (H, W)
+    partials : mapping of sampling name to partial range
+    results : mapping of (sampling name, method name) to synthesized range
+    units : str
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Each result panel's title gives its MAR (Eq. 13) over the unknown pixels.
+    """
+    methods = list(dict.fromkeys(m for _, m in results))
+    rows, cols = len(partials), len(methods) + 2
+    fig = Figure(figsize=(2.6 * cols, 2.6 * rows))
+    axes = np.atleast_2d(fig.subplots(rows, cols))
+    vmin, vmax = _range_limits(truth, *partials.values())
+    kw = dict(cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
+    for row, (name, partial) in enumerate(partials.items()):
+        known = np.isfinite(partial)
+        _show(axes[row, 0], partial, f"{name}: {100 * (1 - known.mean()):.0f} % unknown", **kw)
+        evaluated = ~known & np.isfinite(truth)
+        for col, method in enumerate(methods, start=1):
+            est = results.get((name, method))
+            if est is None:
+                axes[row, col].axis("off")
+                continue
+            mar = float(np.mean(np.abs(est - truth)[evaluated]))
+            _show(axes[row, col], est, f"{method}: MAR {mar:.3g} {units}".strip(), **kw)
+        _show(axes[row, -1], truth, "ground truth", **kw)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
