@@ -433,11 +433,14 @@ def canny(
 
     Examples
     --------
-    >>> image = np.zeros((7, 7))
+    A vertical step from 0 to 1 whose middle column is 0.5 gives one edge line
+    down that column (the image border is never marked):
+
+    >>> image = np.zeros((6, 7))
+    >>> image[:, 3] = 0.5
     >>> image[:, 4:] = 1.0
     >>> canny(image).astype(int)
     array([[0, 0, 0, 0, 0, 0, 0],
-           [0, 0, 0, 1, 0, 0, 0],
            [0, 0, 0, 1, 0, 0, 0],
            [0, 0, 0, 1, 0, 0, 0],
            [0, 0, 0, 1, 0, 0, 0],
