@@ -216,14 +216,50 @@ def onion_order(known: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return unknown[np.lexsort((tie, layer.ravel()[unknown]))]
 
 
+# fields of FillFront's per-pixel state (last axis)
+_CONF, _DROW, _VROW, _DCOL, _VCOL, _MROW, _MCOL, _NEIGH, _COUNT, _EDGE = range(10)
+_FIELDS = 10
+
+
+def _update_templates(n: int) -> np.ndarray:
+    """How filling one voxel changes the running sums on the (n+2)×(n+2) block around it.
+
+    Row ``k`` of the result is the change for a unit value of coefficient ``k``
+    of ``[confidence, left Δ, left pair, right Δ, right pair, up Δ, up pair,
+    down Δ, down pair, mask]``, raveled over (row, col, field).
+    """
+    m = n + 2
+    t = np.zeros((10, m, m, _FIELDS))
+    centre = (slice(1, n + 1), slice(1, n + 1))
+    t[0][centre + (_CONF,)] = 1.0
+    # the pair (p - e, p) is stored at p - e: its window is shifted by -e
+    t[1][1 : n + 1, 0:n, _DCOL] = 1.0
+    t[2][1 : n + 1, 0:n, _VCOL] = 1.0
+    t[3][centre + (_DCOL,)] = 1.0
+    t[4][centre + (_VCOL,)] = 1.0
+    t[5][0:n, 1 : n + 1, _DROW] = 1.0
+    t[6][0:n, 1 : n + 1, _VROW] = 1.0
+    t[7][centre + (_DROW,)] = 1.0
+    t[8][centre + (_VROW,)] = 1.0
+    h = n // 2
+    near = (slice(h, h + 3), slice(h, h + 3))
+    t[9][near + (_MROW,)] = _SOBEL_ROW[::-1, ::-1]
+    t[9][near + (_MCOL,)] = _SOBEL_COL[::-1, ::-1]
+    t[9][near + (_NEIGH,)] = 1.0
+    return t.reshape(10, -1)
+
+
 class FillFront:
     """The fill front with its priorities (Eqs. 10–12), updated incrementally.
 
     Works on a frame padded by ``pad`` pixels on every side, so updates near
-    the image border need no clipping. Quantities kept as running box sums
-    over the n×n window: the confidence (Eq. 11), the range differences and
-    their counts (Eq. 12's isophote), the Sobel gradient of the filled mask
-    (the front normal) and the 3×3 count of filled neighbours (the front).
+    the image border need no clipping. Per pixel it keeps, as running sums
+    over the n×n window, the confidence (Eq. 11) and the range differences
+    with their counts (Eq. 12's isophote), and the Sobel gradient of the
+    filled mask (the front normal) and the 3×3 count of filled neighbours
+    (the front). These live side by side in one pixel-major array, so filling
+    a voxel is one small matrix product (:func:`_update_templates`) added to
+    the (n+2)×(n+2) block around it, and re-prioritising reads that block once.
 
     Parameters
     ----------
@@ -260,34 +296,33 @@ class FillFront:
         self.use_edges, self.use_isophotes = use_edges, use_isophotes
         H, W = known.shape
         self.shape = (H + 2 * pad, W + 2 * pad)
-        box = np.pad(np.ones((H, W)), pad)
         self.inside = np.pad(np.ones((H, W), dtype=bool), pad)
         self.filled = np.pad(known, pad)
         self.range_norm = np.pad(np.where(known, range_norm, 0.0), pad)
         self.confidence = self.filled.astype(np.float64)
-        # running sums over the n x n window
-        self.conf_sum = box_sum(self.confidence, n)
-        self.window_count = box_sum(box, n)
+        state = np.empty(self.shape + (_FIELDS,))
+        state[..., _CONF] = box_sum(self.confidence, n)
         d_row, v_row, d_col, v_col = _pair_differences(self.range_norm, self.filled)
-        self.drow_sum, self.vrow_sum = box_sum(d_row, n), box_sum(v_row, n)
-        self.dcol_sum, self.vcol_sum = box_sum(d_col, n), box_sum(v_col, n)
+        state[..., _DROW], state[..., _VROW] = box_sum(d_row, n), box_sum(v_row, n)
+        state[..., _DCOL], state[..., _VCOL] = box_sum(d_col, n), box_sum(v_col, n)
         mask = self.filled.astype(np.float64)
-        self.mask_row = ndimage.correlate(mask, _SOBEL_ROW, mode="constant")
-        self.mask_col = ndimage.correlate(mask, _SOBEL_COL, mode="constant")
-        self.filled_neighbours = box_sum(mask, 3)
+        state[..., _MROW] = ndimage.correlate(mask, _SOBEL_ROW, mode="constant")
+        state[..., _MCOL] = ndimage.correlate(mask, _SOBEL_COL, mode="constant")
+        state[..., _NEIGH] = box_sum(mask, 3)
+        state[..., _COUNT] = np.maximum(box_sum(self.inside, n), 1.0)
         edge_pad = np.pad(np.asarray(edges, dtype=bool), pad)
-        self.edge_term = 1.0 / (1.0 + box_sum(edge_pad, n)) if use_edges else np.ones(self.shape)
+        state[..., _EDGE] = 1.0 / (1.0 + box_sum(edge_pad, n)) if use_edges else 1.0
+        self.state = state
+        self.templates = _update_templates(n)
         self.tier = edge_pad.astype(np.int8) if use_edges else np.zeros(self.shape, np.int8)
         self.tie = rng.permutation(self.inside.size).reshape(self.shape)
         self.current = np.full(self.shape, np.nan)
-        self.heap: list[tuple[int, float, int, int]] = []
-        self._wr = self._wc = slice(0, 0)
 
-        front = self.inside & ~self.filled & (self.filled_neighbours > 0)
-        p = self._priority(slice(None), slice(None))
+        front = self.inside & ~self.filled & (state[..., _NEIGH] > 0)
+        p = self._priority(state)
         self.current[front] = p[front]
         flat = np.flatnonzero(front)
-        self.heap = list(
+        self.heap: list[tuple[int, float, int, int]] = list(
             zip(
                 self.tier.ravel()[flat].tolist(),
                 (-p.ravel()[flat]).tolist(),
@@ -297,23 +332,30 @@ class FillFront:
         )
         heapq.heapify(self.heap)
 
-    # -- Eq. 10 on a block of the frame ---------------------------------------
-    def _priority(self, rows: slice, cols: slice) -> np.ndarray:
-        c = self.conf_sum[rows, cols] / np.maximum(self.window_count[rows, cols], 1.0)
-        if self.use_isophotes:
-            g_row = self.drow_sum[rows, cols] / np.maximum(self.vrow_sum[rows, cols], 1.0)
-            g_col = self.dcol_sum[rows, cols] / np.maximum(self.vcol_sum[rows, cols], 1.0)
-            m_row, m_col = self.mask_row[rows, cols], self.mask_col[rows, cols]
-            norm = np.hypot(m_row, m_col)
-            norm = np.where(norm > 0, norm, 1.0)
-            d = _data_term(g_row, g_col, m_row / norm, m_col / norm)
-        else:
-            d = 1.0
-        return c * d + self.edge_term[rows, cols]
+    # -- Eq. 10 on a block of the state ---------------------------------------
+    def _priority(self, block: np.ndarray) -> np.ndarray:
+        c = block[..., _CONF] / block[..., _COUNT]
+        if not self.use_isophotes:
+            return c + block[..., _EDGE]
+        g_row = block[..., _DROW] / np.maximum(block[..., _VROW], 1.0)
+        g_col = block[..., _DCOL] / np.maximum(block[..., _VCOL], 1.0)
+        m_row, m_col = block[..., _MROW], block[..., _MCOL]
+        norm = np.hypot(m_row, m_col)
+        norm[norm == 0] = 1.0
+        # Eq. 12 with alpha = 1; the isophote is the gradient turned by 90 degrees
+        d = 1.0 - np.abs(g_row * m_col - g_col * m_row) / norm
+        return c * np.clip(d, 0.0, 1.0) + block[..., _EDGE]
+
+    def priorities(self) -> np.ndarray:
+        """Eq. 10 over the padded frame (NaN off the front), for tests and figures."""
+        p = self._priority(self.state)
+        front = self.inside & ~self.filled & (self.state[..., _NEIGH] > 0)
+        return np.where(front, p, np.nan)
 
     def confidence_at(self, flat: int | np.ndarray) -> np.ndarray | float:
         """Eq. 11 at padded flat index/indices ``flat``."""
-        return self.conf_sum.flat[flat] / self.window_count.flat[flat]
+        s = self.state.reshape(-1, _FIELDS)
+        return s[flat, _CONF] / s[flat, _COUNT]
 
     def pop(self) -> int:
         """Remove and return the padded flat index of the highest-priority front voxel.
@@ -330,61 +372,48 @@ class FillFront:
     def fill(self, p: int, value: float, confidence: float, *, update: bool = True) -> None:
         """Record that padded flat index ``p`` received range ``value`` (normalised).
 
-        Updates every running sum on the windows that contain ``p`` and, when
-        ``update`` is True, re-prioritises the front around it.
+        Adds the change to every running sum on the windows that contain ``p``
+        and, when ``update`` is True, re-prioritises the front around it.
         """
-        W = self.shape[1]
-        i, j = divmod(p, W)
-        h = self.h
+        i, j = divmod(p, self.shape[1])
         filled, r = self.filled, self.range_norm
+        coef = [confidence, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+        # the pairs (i, j-1)-(i, j), (i, j)-(i, j+1), (i-1, j)-(i, j), (i, j)-(i+1, j)
+        if filled[i, j - 1]:
+            coef[1], coef[2] = value - r[i, j - 1], 1.0
+        if filled[i, j + 1]:
+            coef[3], coef[4] = r[i, j + 1] - value, 1.0
+        if filled[i - 1, j]:
+            coef[5], coef[6] = value - r[i - 1, j], 1.0
+        if filled[i + 1, j]:
+            coef[7], coef[8] = r[i + 1, j] - value, 1.0
         filled[i, j] = True
         r[i, j] = value
         self.confidence[i, j] = confidence
-        rows, cols = slice(i - h, i + h + 1), slice(j - h, j + h + 1)
-        self.conf_sum[rows, cols] += confidence
-        # pairs (i, j-1)-(i, j) and (i, j)-(i, j+1), (i-1, j)-(i, j) and (i, j)-(i+1, j)
-        if filled[i, j - 1]:
-            self.dcol_sum[rows, j - 1 - h : j + h] += value - r[i, j - 1]
-            self.vcol_sum[rows, j - 1 - h : j + h] += 1.0
-        if filled[i, j + 1]:
-            self.dcol_sum[rows, cols] += r[i, j + 1] - value
-            self.vcol_sum[rows, cols] += 1.0
-        if filled[i - 1, j]:
-            self.drow_sum[i - 1 - h : i + h, cols] += value - r[i - 1, j]
-            self.vrow_sum[i - 1 - h : i + h, cols] += 1.0
-        if filled[i + 1, j]:
-            self.drow_sum[rows, cols] += r[i + 1, j] - value
-            self.vrow_sum[rows, cols] += 1.0
-        near_r, near_c = slice(i - 1, i + 2), slice(j - 1, j + 2)
-        self.mask_row[near_r, near_c] += _SOBEL_ROW[::-1, ::-1]
-        self.mask_col[near_r, near_c] += _SOBEL_COL[::-1, ::-1]
-        self.filled_neighbours[near_r, near_c] += 1.0
-        if update:
-            self._reprioritise(i, j)
-
-    def _reprioritise(self, i: int, j: int) -> None:
         k = self.h + 1
         rows, cols = slice(i - k, i + k + 1), slice(j - k, j + k + 1)
-        front = (
-            self.inside[rows, cols]
-            & ~self.filled[rows, cols]
-            & (self.filled_neighbours[rows, cols] > 0)
-        )
-        if not front.any():
-            return
-        p = self._priority(rows, cols)
+        block = self.state[rows, cols]
+        block += (np.array(coef) @ self.templates).reshape(block.shape)
+        if update:
+            self._reprioritise(block, rows, cols, i - k, j - k)
+
+    def _reprioritise(self, block, rows, cols, top: int, left: int) -> None:
+        front = (block[..., _NEIGH] > 0) & self.inside[rows, cols] & ~self.filled[rows, cols]
+        p = self._priority(block)
         current = self.current[rows, cols]
         changed = front & (p != current)
-        if not changed.any():
-            return
-        current[changed] = p[changed]
         li, lj = np.nonzero(changed)
-        W = self.shape[1]
-        flat = ((li + (i - k)) * W + (lj + (j - k))).tolist()
-        neg = (-p[changed]).tolist()
-        tier = self.tier[rows, cols][changed].tolist()
-        tie = self.tie[rows, cols][changed].tolist()
-        push = heapq.heappush
-        heap = self.heap
-        for entry in zip(tier, neg, tie, flat):
+        if li.size == 0:
+            return
+        new = p[li, lj]
+        current[li, lj] = new
+        flat = ((li + top) * self.shape[1] + (lj + left)).tolist()
+        entries = zip(
+            self.tier[rows, cols][li, lj].tolist(),
+            (-new).tolist(),
+            self.tie[rows, cols][li, lj].tolist(),
+            flat,
+        )
+        push, heap = heapq.heappush, self.heap
+        for entry in entries:
             push(heap, entry)

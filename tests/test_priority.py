@@ -175,9 +175,12 @@ def test_incremental_front_matches_full_recomputation(h, w, n, use_edges, use_is
         filled[r, c] = True
         values[r, c] = value
         conf[r, c] = cval
-        np.testing.assert_allclose(front.conf_sum[inner] / front.window_count[inner],
-                                   confidence_term(conf, n), atol=1e-9)
-    got = front._priority(*inner)
+        np.testing.assert_allclose(
+            front.confidence_at(np.arange(front.state[..., 0].size)).reshape(front.shape)[inner],
+            confidence_term(conf, n),
+            atol=1e-9,
+        )
+    got = front.priorities()[inner]
     want = priority(conf, values, filled, edges, n, use_edges=use_edges, use_isophotes=use_iso)
     sel = ~np.isnan(want)
     np.testing.assert_allclose(got[sel], want[sel], atol=1e-9)
