@@ -1,0 +1,253 @@
+"""Reading and writing the arrays refsynth works on: PFM, NPY and images.
+
+- :func:`read_pfm` / :func:`write_pfm`: the Portable Float Map of the
+  Middlebury stereo benchmark (ground-truth disparities, ``inf`` = unknown).
+- :func:`read_image`: PNG, JPEG, TIFF, PGM/PPM … through Pillow (which
+  matplotlib depends on), as float64 in [0, 1] or as the stored integers.
+- :func:`read_array`: any of the above, chosen by the file's suffix.
+
+The PFM format: a text header of three whitespace-separated tokens, ``PF``
+(3 channels) or ``Pf`` (1 channel), then ``W H``, then a scale whose sign
+gives the byte order (negative: little-endian, positive: big-endian),
+followed by a single whitespace character and ``W·H·C`` float32 values,
+rows stored from the *bottom* of the image to the top.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, UnidentifiedImageError
+
+__all__ = ["read_pfm", "write_pfm", "read_image", "read_array", "IMAGE_SUFFIXES"]
+
+#: Suffixes :func:`read_array` hands to :func:`read_image` (read by Pillow).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm", ".ppm", ".pbm")
+
+
+def _check_path(path) -> Path:
+    if not isinstance(path, (str, Path)):
+        raise TypeError(f"The parameter `path` must be a str or a Path, got {type(path).__name__}")
+    return Path(path)
+
+
+def _read_bytes(path: Path) -> bytes:
+    if not path.is_file():
+        raise FileNotFoundError(f"No such file: '{path}'")
+    return path.read_bytes()
+
+
+# ----------------------------------------------------------------------------- PFM
+
+
+def _pfm_header(data: bytes, path: Path) -> tuple[list[bytes], int]:
+    """The four header tokens (kind, W, H, scale) and the offset of the first data byte."""
+    tokens: list[bytes] = []
+    position = 0
+    while len(tokens) < 4:
+        while position < len(data) and data[position : position + 1].isspace():
+            position += 1
+        start = position
+        while position < len(data) and not data[position : position + 1].isspace():
+            position += 1
+        if start == position:
+            raise ValueError(f"Cannot read '{path}' as PFM: the header is truncated")
+        tokens.append(data[start:position])
+        if tokens[0] not in (b"PF", b"Pf"):
+            raise ValueError(
+                f"Cannot read '{path}' as PFM: it must start with 'PF' or 'Pf', "
+                f"got {tokens[0][:10]!r}"
+            )
+    # exactly one whitespace character separates the header from the data
+    return tokens, position + 1
+
+
+def read_pfm(path: str | Path) -> np.ndarray:
+    """Read a Portable Float Map.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.pfm`` file: ``PF`` (colour) or ``Pf`` (grey), either byte order.
+
+    Returns
+    -------
+    ndarray of shape (H, W) or (H, W, 3), float32
+        In native byte order, rows from the top of the image down (the file
+        stores them bottom-up). Values are returned as stored: for Middlebury
+        disparities ``inf`` marks the pixels without ground truth.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        If the file is not a valid PFM (the message names the path).
+    """
+    path = _check_path(path)
+    data = _read_bytes(path)
+    (kind, width_token, height_token, scale_token), offset = _pfm_header(data, path)
+    try:
+        width, height, scale = int(width_token), int(height_token), float(scale_token)
+    except ValueError:
+        raise ValueError(
+            f"Cannot read '{path}' as PFM: bad header {width_token!r} {height_token!r} "
+            f"{scale_token!r}"
+        ) from None
+    if width <= 0 or height <= 0 or scale == 0 or not np.isfinite(scale):
+        raise ValueError(f"Cannot read '{path}' as PFM: bad size {width}x{height} or scale {scale}")
+    channels = 3 if kind == b"PF" else 1
+    dtype = np.dtype("<f4" if scale < 0 else ">f4")
+    count = width * height * channels
+    if len(data) - offset < count * 4:
+        raise ValueError(
+            f"Cannot read '{path}' as PFM: expected {count * 4} bytes of data for "
+            f"{width}x{height}x{channels}, got {len(data) - offset}"
+        )
+    values = np.frombuffer(data, dtype=dtype, count=count, offset=offset)
+    image = values.reshape((height, width, channels) if channels == 3 else (height, width))
+    return np.flipud(image).astype(np.float32)
+
+
+def write_pfm(path: str | Path, array: np.ndarray) -> None:
+    """Write a Portable Float Map (little-endian, scale -1).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (overwritten if it exists).
+    array : ndarray of shape (H, W) or (H, W, 3)
+        Real values, stored as float32 (``Pf`` for (H, W), ``PF`` for
+        (H, W, 3)); non-finite values are written as they are.
+
+    Raises
+    ------
+    TypeError
+        If ``array`` is not a real numeric numpy array.
+    ValueError
+        If its shape is not (H, W) or (H, W, 3) with H, W >= 1.
+    """
+    path = _check_path(path)
+    if not isinstance(array, np.ndarray):
+        raise TypeError(f"The parameter `array` must be a numpy array, got {type(array).__name__}")
+    if (
+        array.dtype == bool
+        or not np.issubdtype(array.dtype, np.number)
+        or np.issubdtype(array.dtype, np.complexfloating)
+    ):
+        raise TypeError(f"The parameter `array` must be a real numeric array, got {array.dtype}")
+    if not (array.ndim == 2 or (array.ndim == 3 and array.shape[2] == 3)) or 0 in array.shape:
+        raise ValueError(
+            f"The parameter `array` must have shape (H, W) or (H, W, 3), got {array.shape}"
+        )
+    height, width = array.shape[:2]
+    kind = "PF" if array.ndim == 3 else "Pf"
+    header = f"{kind}\n{width} {height}\n-1.0\n".encode("ascii")
+    body = np.ascontiguousarray(np.flipud(array), dtype="<f4").tobytes()
+    path.write_bytes(header + body)
+
+
+# ----------------------------------------------------------------------------- images
+
+
+def read_image(path: str | Path, *, raw: bool = False) -> np.ndarray:
+    """Read a PNG, JPEG, TIFF, PGM … image through Pillow; drop any alpha channel.
+
+    Parameters
+    ----------
+    path : str or Path
+        Any file Pillow reads.
+    raw : bool, default False
+        False: return float64 in [0, 1], the stored integers divided by their
+        type's full scale (255 for 8-bit, 65535 for 16-bit; Pillow's 32-bit
+        integer mode, which it uses for some 16-bit files, is also divided by
+        65535); float images (TIFF mode ``F``) are returned as they are.
+        True: return the stored values unchanged (uint8, uint16, int32 or
+        float32) — what a disparity PNG needs (see
+        :func:`refsynth.datasets.load_middlebury`).
+
+    Returns
+    -------
+    ndarray of shape (H, W) or (H, W, 3)
+        Grey images (Pillow modes ``1``, ``L``, ``LA``, ``I``, ``I;16``,
+        ``F``) come back 2-D; everything else is converted to RGB.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        If Pillow cannot read it (the message names the path).
+    """
+    path = _check_path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"No such file: '{path}'")
+    try:
+        with Image.open(path) as image:
+            image.load()
+            mode = image.mode
+            if mode in ("LA", "La"):
+                image = image.getchannel("L")
+                mode = "L"
+            elif mode not in ("1", "L", "I", "F") and not mode.startswith("I;16"):
+                image = image.convert("RGB")
+                mode = "RGB"
+            array = np.array(image)
+    except (UnidentifiedImageError, OSError, SyntaxError) as error:
+        raise ValueError(f"Cannot read '{path}' as an image: {error}") from error
+    if mode.startswith("I;16"):
+        array = array.astype(np.uint16)
+    if raw:
+        return array
+    if array.dtype == bool:
+        return array.astype(np.float64)
+    if array.dtype == np.uint8:
+        return array / 255.0
+    if np.issubdtype(array.dtype, np.integer):
+        return array / 65535.0
+    return array.astype(np.float64)
+
+
+def read_array(path: str | Path, *, raw: bool = False) -> np.ndarray:
+    """Read an array from ``.npy``, ``.pfm`` or an image file, by suffix.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.npy`` (read with ``allow_pickle=False``), ``.pfm``
+        (:func:`read_pfm`) or one of :data:`IMAGE_SUFFIXES`
+        (:func:`read_image`); the suffix is matched case-insensitively.
+    raw : bool, default False
+        For image files only, passed to :func:`read_image`: False gives
+        float64 in [0, 1], True the stored integers.
+
+    Returns
+    -------
+    ndarray
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        If the suffix is not one of those above, or the file cannot be read
+        (the message names the path).
+    """
+    path = _check_path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".pfm":
+        return read_pfm(path)
+    if suffix in IMAGE_SUFFIXES:
+        return read_image(path, raw=raw)
+    if suffix == ".npy":
+        if not path.is_file():
+            raise FileNotFoundError(f"No such file: '{path}'")
+        try:
+            return np.load(path, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as error:
+            raise ValueError(f"Cannot read '{path}' as .npy: {error}") from error
+    raise ValueError(
+        f"Cannot read '{path}': the suffix must be .npy, .pfm or one of "
+        f"{', '.join(IMAGE_SUFFIXES)}, got {path.suffix or 'none'!r}"
+    )

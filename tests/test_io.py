@@ -1,0 +1,186 @@
+"""Tests of refsynth.io: PFM, NPY and image files."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from PIL import Image
+
+from refsynth.io import read_array, read_image, read_pfm, write_pfm
+
+
+@st.composite
+def float_map(draw):
+    """A tiny (H, W) or (H, W, 3) float32 array, with inf and NaN allowed."""
+    height, width = draw(st.integers(1, 5)), draw(st.integers(1, 5))
+    shape = draw(st.sampled_from([(height, width), (height, width, 3)]))
+    return draw(arrays(np.float32, shape, elements=st.floats(width=32, allow_nan=True)))
+
+
+@settings(deadline=None)
+@given(float_map())
+def test_pfm_round_trip(tmp_path_factory, array):
+    path = tmp_path_factory.mktemp("pfm") / "map.pfm"
+    original = array.copy()
+    write_pfm(path, array)
+    back = read_pfm(path)
+    assert back.dtype == np.float32
+    assert back.shape == array.shape
+    np.testing.assert_array_equal(back, array)  # NaN == NaN here, and bit-exact otherwise
+    np.testing.assert_array_equal(array, original)
+    np.testing.assert_array_equal(read_array(path), array)
+
+
+def _pfm_bytes(array: np.ndarray, *, big_endian: bool, header_spacing: str = "\n") -> bytes:
+    """A PFM written by hand: rows bottom-to-top, byte order from the scale's sign."""
+    kind = "PF" if array.ndim == 3 else "Pf"
+    scale = "1.0" if big_endian else "-1.0"
+    height, width = array.shape[:2]
+    sep = header_spacing
+    header = f"{kind}{sep}{width} {height}{sep}{scale}\n".encode()
+    return header + np.flipud(array).astype(">f4" if big_endian else "<f4").tobytes()
+
+
+@pytest.mark.parametrize("big_endian", [False, True])
+@pytest.mark.parametrize("channels", [1, 3])
+def test_read_pfm_byte_order_and_row_order(tmp_path, big_endian, channels):
+    shape = (2, 3) if channels == 1 else (2, 3, 3)
+    array = np.arange(np.prod(shape), dtype=np.float32).reshape(shape)
+    array[0, 0] = np.inf
+    path = tmp_path / "hand.pfm"
+    path.write_bytes(_pfm_bytes(array, big_endian=big_endian))
+    back = read_pfm(path)
+    np.testing.assert_array_equal(back, array)
+    # the first row of the result is the *last* row stored in the file
+    assert back[0, 0].ravel()[0] == np.inf
+
+
+def test_read_pfm_tolerates_header_whitespace(tmp_path):
+    array = np.array([[1.5, -2.0]], dtype=np.float32)
+    path = tmp_path / "spaces.pfm"
+    path.write_bytes(_pfm_bytes(array, big_endian=False, header_spacing=" \n"))
+    np.testing.assert_array_equal(read_pfm(path), array)
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [
+        (b"P6\n1 1\n255\n\x00\x00\x00", "must start with 'PF' or 'Pf'"),
+        (b"Pf\n2", "header is truncated"),
+        (b"Pf\nx 2\n-1\n" + bytes(8), "bad header"),
+        (b"Pf\n0 2\n-1\n", "bad size"),
+        (b"Pf\n2 2\n0\n" + bytes(16), "bad size"),
+        (b"Pf\n2 2\n-1\n" + bytes(15), "expected 16 bytes"),
+    ],
+)
+def test_read_pfm_rejects_bad_files(tmp_path, content, match):
+    path = tmp_path / "bad.pfm"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=match) as info:
+        read_pfm(path)
+    assert str(path) in str(info.value)
+
+
+def test_write_pfm_validation(tmp_path):
+    with pytest.raises(TypeError, match="`array` must be a numpy array"):
+        write_pfm(tmp_path / "a.pfm", [[1.0]])
+    with pytest.raises(TypeError, match="`array` must be a real numeric array"):
+        write_pfm(tmp_path / "a.pfm", np.ones((2, 2), bool))
+    with pytest.raises(ValueError, match=r"`array` must have shape \(H, W\) or \(H, W, 3\)"):
+        write_pfm(tmp_path / "a.pfm", np.ones((2, 2, 2)))
+    with pytest.raises(ValueError, match=r"got \(0, 2\)"):
+        write_pfm(tmp_path / "a.pfm", np.ones((0, 2)))
+    with pytest.raises(TypeError, match="`path` must be a str or a Path"):
+        write_pfm(3, np.ones((2, 2)))
+
+
+# ----------------------------------------------------------------------------- images
+
+
+@pytest.mark.parametrize("suffix", [".png", ".tif", ".bmp", ".ppm"])
+def test_read_image_rgb_round_trip(tmp_path, suffix):
+    rgb = np.random.default_rng(0).integers(0, 256, (4, 5, 3), dtype=np.uint8)
+    path = tmp_path / f"rgb{suffix}"
+    Image.fromarray(rgb).save(path)
+    image = read_image(path)
+    assert image.dtype == np.float64
+    assert image.shape == (4, 5, 3)
+    np.testing.assert_allclose(image * 255, rgb, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(read_image(path, raw=True), rgb)
+    np.testing.assert_array_equal(read_array(path), image)
+
+
+def test_read_image_drops_alpha(tmp_path):
+    rgba = np.random.default_rng(1).integers(0, 256, (3, 4, 4), dtype=np.uint8)
+    path = tmp_path / "rgba.png"
+    Image.fromarray(rgba).save(path)
+    np.testing.assert_array_equal(read_image(path, raw=True), rgba[..., :3])
+    grey_alpha = Image.fromarray(rgba[..., 0]).convert("LA")
+    grey_alpha.save(tmp_path / "la.png")
+    np.testing.assert_array_equal(read_image(tmp_path / "la.png", raw=True), rgba[..., 0])
+
+
+def test_read_image_grey_8_and_16_bit(tmp_path):
+    grey = np.arange(12, dtype=np.uint8).reshape(3, 4) * 20
+    Image.fromarray(grey).save(tmp_path / "grey.png")
+    np.testing.assert_allclose(read_image(tmp_path / "grey.png"), grey / 255.0)
+    deep = np.arange(12, dtype=np.uint16).reshape(3, 4) * 5000
+    Image.fromarray(deep).save(tmp_path / "deep.png")
+    raw = read_image(tmp_path / "deep.png", raw=True)
+    np.testing.assert_array_equal(raw, deep)
+    np.testing.assert_allclose(read_image(tmp_path / "deep.png"), deep / 65535.0)
+
+
+def test_read_image_jpeg(tmp_path):
+    flat = np.full((8, 8, 3), 128, dtype=np.uint8)
+    Image.fromarray(flat).save(tmp_path / "flat.jpg", quality=95)
+    image = read_array(tmp_path / "flat.jpg")
+    assert image.shape == (8, 8, 3)
+    np.testing.assert_allclose(image, 128 / 255, atol=2 / 255)
+
+
+def test_read_image_palette_is_converted_to_rgb(tmp_path):
+    grey = np.arange(16, dtype=np.uint8).reshape(4, 4) * 16
+    Image.fromarray(grey).convert("P").save(tmp_path / "palette.png")
+    image = read_image(tmp_path / "palette.png", raw=True)
+    assert image.shape == (4, 4, 3)
+    np.testing.assert_array_equal(image[..., 0], grey)
+
+
+def test_read_image_errors(tmp_path):
+    with pytest.raises(FileNotFoundError, match="missing.png"):
+        read_image(tmp_path / "missing.png")
+    broken = tmp_path / "broken.png"
+    broken.write_bytes(b"not an image")
+    with pytest.raises(ValueError, match="Cannot read .*broken.png.* as an image"):
+        read_image(broken)
+    with pytest.raises(TypeError, match="`path` must be a str or a Path"):
+        read_image(None)
+
+
+# ----------------------------------------------------------------------------- read_array
+
+
+def test_read_array_npy_and_suffix_case(tmp_path):
+    array = np.arange(6.0).reshape(2, 3)
+    np.save(tmp_path / "a.npy", array)
+    np.testing.assert_array_equal(read_array(tmp_path / "a.npy"), array)
+    np.testing.assert_array_equal(read_array(str(tmp_path / "a.npy")), array)
+    write_pfm(tmp_path / "B.PFM", array)
+    np.testing.assert_array_equal(read_array(tmp_path / "B.PFM"), array)
+
+
+def test_read_array_errors(tmp_path):
+    with pytest.raises(ValueError, match=r"Cannot read .*data.csv.*suffix must be .npy, .pfm"):
+        read_array(tmp_path / "data.csv")
+    with pytest.raises(ValueError, match="got 'none'"):
+        read_array(tmp_path / "no_suffix")
+    bad = tmp_path / "bad.npy"
+    bad.write_bytes(b"garbage")
+    with pytest.raises(ValueError, match=r"Cannot read .*bad.npy.* as .npy"):
+        read_array(bad)
+    with pytest.raises(FileNotFoundError, match="missing.npy"):
+        read_array(tmp_path / "missing.npy")
+    with pytest.raises(FileNotFoundError, match="missing.pfm"):
+        read_array(tmp_path / "missing.pfm")
