@@ -31,7 +31,8 @@ normalised range stored as 0 where unknown. So every candidate's row of
 ``[I | V | R | R²]`` (a precomputed patch array, updated in place on the n×n
 windows around each newly filled voxel) is multiplied by one weight vector
 built from ``p``'s row: the whole candidate set costs one gather and one
-matrix–vector product.
+matrix–vector product. The coverage penalty of :mod:`refsynth.similarity`
+(``κ λ Σ_v G_v V_p (1 − V_q)``) folds into the same product.
 
 A gap wider than ``r``
 ----------------------
@@ -110,6 +111,7 @@ class PatchTable:
         n: int,
         pad: int,
         range_weight: float,
+        coverage_penalty: float = 0.0,
         dtype=np.float64,
     ) -> None:
         H, W, C = image.shape
@@ -149,13 +151,21 @@ class PatchTable:
         self.update_rows = np.tile(-offsets, 3)
         self.update_cols = np.concatenate([v_cols, r_cols, r2_cols])
         self.nn = nn
+        self.v_cols = v_cols
+        self.v_block = slice(base, base + nn)  # where w multiplies the candidate's V
+        self.penalty = (coverage_penalty * lam * g).astype(dtype)
 
     def distances(self, p: int, candidates: np.ndarray) -> np.ndarray:
-        """Eq. 2 between ``N_p`` and each candidate neighbourhood (flat padded indices)."""
-        w = self.table[p, self.perm] * self.coef
+        """Eq. 2 between ``N_p`` and each candidate (flat padded indices), plus the
+        coverage penalty ``κ λ Σ_v G_v`` over the offsets where ``N_p`` has range
+        and the candidate has none."""
+        row = self.table[p]
+        w = row[self.perm] * self.coef
+        has = row[self.v_cols]
+        w[self.v_block] -= self.penalty * has
         d = self.table[candidates] @ w
         d += self.self_term[candidates]
-        d += self.self_term[p]
+        d += self.self_term[p] + self.penalty @ has
         return np.maximum(d, 0.0, out=d)
 
     def set_range(self, p: int, value: float) -> None:
@@ -184,7 +194,8 @@ def np_fill(
     use_edges: bool = True,
     use_isophotes: bool = True,
     ordering: str = "priority",
-    range_weight: float = 4.0,
+    range_weight: float = 16.0,
+    coverage_penalty: float = 0.003,
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fill the unknown range by NP sampling in the chosen order (§3.2.2, §3.2.4).
@@ -217,7 +228,7 @@ def np_fill(
     image = image / intensity_scale(image)
 
     pad = max(int(np.ceil(radius)), n // 2 + 1)
-    table = PatchTable(image, range_norm, n, pad, range_weight)
+    table = PatchTable(image, range_norm, n, pad, range_weight, coverage_penalty)
     front = FillFront(
         known,
         range_norm,

@@ -17,11 +17,32 @@ Intensity and range live in different units. refsynth divides the intensity
 by its span over the whole image and the range by the span of the *known*
 range, so both lie in [0, 1], and averages the intensity term over the colour
 channels, so grey and colour images weigh the same. The range term then gets
-the weight ``λ`` (``range_weight``, default 4): the trials noted in
+the weight ``λ`` (``range_weight``, default 16): the trials noted in
 ``EQUATIONS.md`` found intensity-only matches pulling in depths from
 similar-looking surfaces, and a range term several times heavier than the
-intensity term working better. With ``λ = 0`` Eq. 2 reduces to an intensity
-match.
+intensity term working better. The default was chosen on synthetic rooms of
+seeds 100–102 (λ ∈ {1, 4, 16, 32, 64, 256}; 16 to 256 were within a few
+hundredths of a metre of each other, 1 and 4 clearly worse), a development
+set disjoint from the demo's scene and from the Motorcycle. With ``λ = 0``
+Eq. 2 reduces to an intensity match.
+
+Coverage penalty (a departure from the paper, in NP only)
+---------------------------------------------------------
+Eq. 2 as written rewards a candidate for *lacking* range: where ``N_p`` has
+range and the candidate has none, the range term is simply dropped, so a
+candidate at the image border, or beside unknown range, pays nothing for the
+range it cannot compare. On stripe samplings that lets intensity noise pick
+candidates many rows away. NP therefore adds ``κ λ Σ_v G_v`` over the
+offsets where ``N_p`` has range and the candidate does not (``κ`` =
+``coverage_penalty``, default 0.003, so ``κλ ≈ 0.05``: a missing range costs
+about as much as an intensity difference of a fifth of the span). ``κ = 0``
+gives the literal Eq. 2. On the development rooms any κ from 0.001 to 1
+roughly halved NP's MAR on grid and x-stripe samplings; κ ≥ 0.03 began to
+override intensity at depth steps next to not-yet-filled edge pixels (the
+two-plane test in ``tests/test_np_sampling.py``), so the default sits well
+below that. :func:`neighbourhood_distance`
+stays the literal Eq. 2, and the penalty is applied in
+:class:`refsynth.np_sampling.PatchTable`.
 
 :func:`neighbourhood_distance` is the literal reading of Eq. 2, one pair at a
 time. :mod:`refsynth.np_sampling` evaluates the same sum for a whole candidate
@@ -62,7 +83,7 @@ def neighbourhood_distance(
     intensity_b: np.ndarray,
     range_b: np.ndarray,
     *,
-    range_weight: float = 4.0,
+    range_weight: float = 16.0,
     window: np.ndarray | None = None,
 ) -> float:
     """Eq. 2 for one pair of partial neighbourhoods.
@@ -73,7 +94,7 @@ def neighbourhood_distance(
         Normalised intensity; NaN where a voxel has no intensity (off the image).
     range_a, range_b : ndarray of shape (n, n)
         Normalised range, NaN where unknown.
-    range_weight : float, default 4
+    range_weight : float, default 16
         The weight λ of the range term.
     window : ndarray of shape (n, n), optional
         The Gaussian window ``G``; default :func:`refsynth.mrf.gaussian_window`.

@@ -164,7 +164,8 @@ def synthesize(
     use_edges: bool = True,
     use_isophotes: bool = True,
     ordering: str = "priority",
-    range_weight: float = 4.0,
+    range_weight: float = 16.0,
+    coverage_penalty: float = 0.003,
     progress: Callable[[int, int], None] | None = None,
 ) -> SynthesisResult:
     """Infer the missing range from intensity and partial range (§3.2).
@@ -200,9 +201,14 @@ def synthesize(
     ordering : {"priority", "onion"}
         The paper's information-driven order (Eqs. 10–12) or the onion-peel
         order it compares against (Fig. 7).
-    range_weight : float, default 4
+    range_weight : float, default 16
         Weight λ of the range term of Eq. 2 against the intensity term,
         both normalised (see :mod:`refsynth.similarity`).
+    coverage_penalty : float, default 0.003
+        κ: the cost, in units of λ·(known range span)², of each window offset
+        (weighted by ``G``) where the target has range and a candidate has none. ``0`` is the
+        literal Eq. 2 (see :mod:`refsynth.similarity` for why refsynth
+        departs from it).
     progress : callable, optional
         Called as ``progress(done, total)`` every few hundred pixels.
 
@@ -238,6 +244,7 @@ def synthesize(
     epsilon = _check_positive("epsilon", epsilon, allow_zero=True)
     canny_sigma = _check_positive("canny_sigma", canny_sigma, allow_zero=True)
     range_weight = _check_positive("range_weight", range_weight, allow_zero=True)
+    coverage_penalty = _check_positive("coverage_penalty", coverage_penalty, allow_zero=True)
     for name, flag in (("use_edges", use_edges), ("use_isophotes", use_isophotes)):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"The parameter `{name}` must be a bool, got {type(flag).__name__}")
@@ -281,6 +288,7 @@ def synthesize(
         use_isophotes=bool(use_isophotes),
         ordering=ordering,
         range_weight=range_weight,
+        coverage_penalty=coverage_penalty,
     )
     filled, confidence, order = np_fill(
         image,
@@ -294,6 +302,7 @@ def synthesize(
         use_isophotes=bool(use_isophotes),
         ordering=ordering,
         range_weight=range_weight,
+        coverage_penalty=coverage_penalty,
         progress=progress,
     )
     return SynthesisResult(

@@ -147,15 +147,17 @@ def test_range_scale_of_a_constant_is_one():
     st.sampled_from([1, 3]),
     st.sampled_from([3, 5]),
     st.floats(0.0, 8.0),
+    st.sampled_from([0.0, 0.003, 1.0]),
     st.integers(0, 2**32 - 1),
 )
-def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, seed):
-    """NP's one-matrix-product form of Eq. 2 equals the pair-by-pair definition."""
+def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, kappa, seed):
+    """NP's one-matrix-product form of Eq. 2 equals the pair-by-pair definition,
+    plus κλΣG over the offsets where the target has range and the candidate has none."""
     rng = np.random.default_rng(seed)
     image = rng.random((h, w, c))
     rimg = np.where(rng.random((h, w)) < 0.5, rng.random((h, w)), np.nan)
     pad = n // 2 + 1
-    table = PatchTable(image, rimg, n, pad, lam)
+    table = PatchTable(image, rimg, n, pad, lam, kappa)
     ip = intensity_patches(image, n)
     rp = range_patches(rimg, n)
     wp = w + 2 * pad
@@ -163,7 +165,10 @@ def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, seed):
     qs = [(int(rng.integers(h)), int(rng.integers(w))) for _ in range(6)]
     flat = np.array([(q[0] + pad) * wp + q[1] + pad for q in qs])
     got = table.distances((p[0] + pad) * wp + p[1] + pad, flat)
+    g = gaussian_window(n)
     want = [
-        neighbourhood_distance(ip[p], rp[p], ip[q], rp[q], range_weight=lam) for q in qs
+        neighbourhood_distance(ip[p], rp[p], ip[q], rp[q], range_weight=lam)
+        + kappa * lam * g[np.isfinite(rp[p]) & ~np.isfinite(rp[q])].sum()
+        for q in qs
     ]
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
