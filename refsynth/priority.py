@@ -343,8 +343,8 @@ class FillFront:
         norm = np.hypot(m_row, m_col)
         norm[norm == 0] = 1.0
         # Eq. 12 with alpha = 1; the isophote is the gradient turned by 90 degrees
-        d = 1.0 - np.abs(g_row * m_col - g_col * m_row) / norm
-        return c * np.clip(d, 0.0, 1.0) + block[..., _EDGE]
+        d = 1.0 - np.abs(g_row * m_col - g_col * m_row) / norm  # <= 1 by construction
+        return c * np.maximum(d, 0.0) + block[..., _EDGE]
 
     def priorities(self) -> np.ndarray:
         """Eq. 10 over the padded frame (NaN off the front), for tests and figures."""

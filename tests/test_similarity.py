@@ -148,16 +148,17 @@ def test_range_scale_of_a_constant_is_one():
     st.sampled_from([3, 5]),
     st.floats(0.0, 8.0),
     st.sampled_from([0.0, 0.003, 1.0]),
+    st.sampled_from([np.float64, np.float32]),
     st.integers(0, 2**32 - 1),
 )
-def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, kappa, seed):
+def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, kappa, dtype, seed):
     """NP's one-matrix-product form of Eq. 2 equals the pair-by-pair definition,
     plus κλΣG over the offsets where the target has range and the candidate has none."""
     rng = np.random.default_rng(seed)
     image = rng.random((h, w, c))
     rimg = np.where(rng.random((h, w)) < 0.5, rng.random((h, w)), np.nan)
     pad = n // 2 + 1
-    table = PatchTable(image, rimg, n, pad, lam, kappa)
+    table = PatchTable(image, rimg, n, pad, lam, kappa, dtype)
     ip = intensity_patches(image, n)
     rp = range_patches(rimg, n)
     wp = w + 2 * pad
@@ -171,4 +172,6 @@ def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, kappa, seed
         + kappa * lam * g[np.isfinite(rp[p]) & ~np.isfinite(rp[q])].sum()
         for q in qs
     ]
-    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+    # float32 is what NP uses: the expanded squares lose a few digits to cancellation
+    tol = dict(rtol=1e-9, atol=1e-12) if dtype == np.float64 else dict(rtol=1e-4, atol=1e-4)
+    np.testing.assert_allclose(got, want, **tol)
