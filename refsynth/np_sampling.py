@@ -174,6 +174,27 @@ class PatchTable:
         d += self.self_term[p] + self.penalty @ has
         return np.maximum(d, 0.0, out=d)
 
+    def batch_distances(self, targets: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+        """:meth:`distances` for many targets at once (BP's candidate search).
+
+        Parameters
+        ----------
+        targets : ndarray of int, shape (B,)
+        candidates : ndarray of int, shape (B, M)
+
+        Returns
+        -------
+        ndarray of shape (B, M)
+        """
+        rows = self.table[targets]
+        w = rows[:, self.perm] * self.coef
+        has = rows[:, self.v_cols]
+        w[:, self.v_block] -= self.penalty * has
+        d = np.matmul(self.table[candidates], w[:, :, None])[:, :, 0]
+        d += self.self_term[candidates]
+        d += (self.self_term[targets] + has @ self.penalty)[:, None]
+        return np.maximum(d, 0.0, out=d)
+
     def set_range(self, p: int, value: float) -> None:
         """Record normalised range ``value`` at flat padded index ``p``."""
         vals = np.repeat(np.array([1.0, value, value * value]), self.nn)

@@ -20,7 +20,8 @@ import numpy as np
 
 __all__ = ["SynthesisResult", "synthesize", "normalise_intensity"]
 
-METHODS = ("np",)
+METHODS = ("np", "bp")
+PRODUCTS = ("max", "sum")
 ORDERINGS = ("priority", "onion")
 
 
@@ -35,15 +36,22 @@ class SynthesisResult:
     confidence : ndarray of shape (H, W), float64
         In [0, 1]: 1 where the range was measured; for NP the confidence the
         pixel received when it was synthesized (Eq. 11, see
-        :mod:`refsynth.priority`).
+        :mod:`refsynth.priority`); for BP the normalised belief of the chosen
+        label (Eq. 8, see :mod:`refsynth.bp`).
     order : ndarray of shape (N, 2), int64
-        The synthesized pixels as (row, col), in the order they were filled.
+        The synthesized pixels as (row, col): NP's fill order; for BP, which
+        decides all pixels together, raster order.
     edges : ndarray of shape (H, W), bool
         The Canny edge map used (all False when ``use_edges=False``).
     method : str
-        ``"np"``.
+        ``"np"`` or ``"bp"``.
     params : dict
         The parameters of the run, for provenance.
+    iterations : int
+        BP's message-passing sweeps (0 for NP).
+    candidate_values : ndarray of shape (N, k) or None
+        BP: the centre range of each pixel's ``k`` candidates (rows in
+        ``order``), to judge candidate generation apart from inference.
     """
 
     range: np.ndarray
@@ -52,6 +60,8 @@ class SynthesisResult:
     edges: np.ndarray
     method: str
     params: dict = field(default_factory=dict)
+    iterations: int = 0
+    candidate_values: np.ndarray | None = None
 
 
 def normalise_intensity(intensity: np.ndarray) -> np.ndarray:
@@ -166,6 +176,13 @@ def synthesize(
     ordering: str = "priority",
     range_weight: float = 16.0,
     coverage_penalty: float = 0.003,
+    candidates: int = 8,
+    proximity: float = 1.0,
+    sigma_i: float = 0.1,
+    sigma_s: float = 0.2,
+    iterations: int = 50,
+    tolerance: float = 1e-4,
+    product: str = "max",
     progress: Callable[[int, int], None] | None = None,
 ) -> SynthesisResult:
     """Infer the missing range from intensity and partial range (§3.2).
@@ -178,8 +195,9 @@ def synthesize(
     partial_range : ndarray of shape (H, W), floating
         The measured range, NaN where unknown, in any length unit; the
         result comes back in the same unit.
-    method : {"np"}
-        Non-parametric sampling (§3.2.2, Eqs. 2–5).
+    method : {"np", "bp"}
+        Non-parametric sampling (§3.2.2, Eqs. 2–5) or belief propagation
+        (§3.2.3, Eqs. 6–9, Fig. 6).
     seed : int, numpy.random.Generator or None
         Source of every random choice (the draw from the Eq. 5 set, ties in
         the fill order). The same seed gives bit-identical output.
@@ -194,13 +212,14 @@ def synthesize(
     edges : ndarray of shape (H, W), bool, optional
         A precomputed edge map; overrides the Canny detector.
     use_edges : bool, default True
-        Use the edge count of Eq. 10 and fill edge pixels last. ``False`` is
-        the paper's no-edge ablation (Fig. 13, Table 3).
+        NP: use the edge count of Eq. 10 and fill edge pixels last. BP: the
+        edge-constraint rule (edge nodes send no messages). ``False`` is the
+        paper's no-edge ablation (Fig. 13, Table 3).
     use_isophotes : bool, default True
-        Use the isophote data term of Eq. 12. ``False`` sets D = 1 (Fig. 16).
+        NP: use the isophote data term of Eq. 12. ``False`` sets D = 1 (Fig. 16).
     ordering : {"priority", "onion"}
-        The paper's information-driven order (Eqs. 10–12) or the onion-peel
-        order it compares against (Fig. 7).
+        NP: the paper's information-driven order (Eqs. 10–12) or the
+        onion-peel order it compares against (Fig. 7).
     range_weight : float, default 16
         Weight λ of the range term of Eq. 2 against the intensity term,
         both normalised (see :mod:`refsynth.similarity`).
@@ -208,7 +227,23 @@ def synthesize(
         κ: the cost, in units of λ·(known range span)², of each window offset
         (weighted by ``G``) where the target has range and a candidate has none. ``0`` is the
         literal Eq. 2 (see :mod:`refsynth.similarity` for why refsynth
-        departs from it).
+        departs from it). BP ranks its candidates with the same distance.
+    candidates : int, default 8
+        BP: ``k``, the candidates (labels) per unknown pixel.
+    proximity : float, default 1
+        BP: μ, the weight of the spatial prior ``μ (|p − q| / r)²`` added to
+        Eq. 2 when ranking candidates and in Φ (a departure from the paper,
+        see :mod:`refsynth.bp`); 0 ranks by Eq. 2 alone.
+    sigma_i : float, default 0.1
+        BP: σ_i of Eq. 7, in units of the Eq. 2 distance's square root.
+    sigma_s : float, default 0.2
+        BP: σ_s of Eq. 6, in units of the known range's span.
+    iterations : int, default 50
+        BP: at most this many message-passing sweeps (the paper's 50).
+    tolerance : float, default 1e-4
+        BP: stop when no (log) message changes by more than this.
+    product : {"max", "sum"}
+        BP: max-product (MAP, default) or sum-product messages.
     progress : callable, optional
         Called as ``progress(done, total)`` every few hundred pixels.
 
@@ -233,6 +268,14 @@ def synthesize(
     image, range_values = validate_inputs(intensity, partial_range)
     if not isinstance(method, str) or method not in METHODS:
         raise ValueError(f"The parameter `method` must be one of {METHODS}, got {method!r}")
+    if not isinstance(product, str) or product not in PRODUCTS:
+        raise ValueError(f"The parameter `product` must be one of {PRODUCTS}, got {product!r}")
+    candidates = _check_int("candidates", candidates, 1)
+    iterations = _check_int("iterations", iterations, 0)
+    proximity = _check_positive("proximity", proximity, allow_zero=True)
+    sigma_i = _check_positive("sigma_i", sigma_i)
+    sigma_s = _check_positive("sigma_s", sigma_s)
+    tolerance = _check_positive("tolerance", tolerance, allow_zero=True)
     if not isinstance(ordering, str) or ordering not in ORDERINGS:
         raise ValueError(f"The parameter `ordering` must be one of {ORDERINGS}, got {ordering!r}")
     neighbourhood = _check_int("neighbourhood", neighbourhood, 1)
@@ -282,14 +325,46 @@ def synthesize(
         method=method,
         neighbourhood=neighbourhood,
         radius=radius,
-        epsilon=epsilon,
         canny_sigma=canny_sigma,
         use_edges=bool(use_edges),
-        use_isophotes=bool(use_isophotes),
-        ordering=ordering,
         range_weight=range_weight,
         coverage_penalty=coverage_penalty,
     )
+    if method == "bp":
+        from refsynth.bp import bp_fill
+
+        params.update(candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
+                      iterations=iterations, tolerance=tolerance, product=product)
+        bp = bp_fill(
+            image,
+            range_values,
+            edge_map,
+            neighbourhood=neighbourhood,
+            radius=radius,
+            k=candidates,
+            sigma_i=sigma_i,
+            sigma_s=sigma_s,
+            iterations=iterations,
+            tolerance=tolerance,
+            product=product,
+            use_edges=bool(use_edges),
+            range_weight=range_weight,
+            coverage_penalty=coverage_penalty,
+            proximity=proximity,
+            progress=progress,
+        )
+        return SynthesisResult(
+            range=bp.range,
+            confidence=bp.confidence,
+            order=bp.order,
+            edges=edge_map,
+            method=method,
+            params=params,
+            iterations=bp.iterations,
+            candidate_values=bp.candidate_values,
+        )
+
+    params.update(epsilon=epsilon, use_isophotes=bool(use_isophotes), ordering=ordering)
     filled, confidence, order = np_fill(
         image,
         range_values,

@@ -37,7 +37,13 @@ def test_bad_arrays_are_rejected(intensity, partial, error, match):
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
-        ({"method": "bp"}, ValueError, "`method`"),
+        ({"method": "lbp"}, ValueError, "`method`"),
+        ({"product": "min"}, ValueError, "`product`"),
+        ({"candidates": 0}, ValueError, "`candidates` must be >= 1"),
+        ({"iterations": -1}, ValueError, "`iterations` must be >= 0"),
+        ({"sigma_i": 0.0}, ValueError, "`sigma_i`"),
+        ({"sigma_s": -1.0}, ValueError, "`sigma_s`"),
+        ({"tolerance": -1.0}, ValueError, "`tolerance`"),
         ({"method": 3}, ValueError, "`method`"),
         ({"ordering": "spiral"}, ValueError, "`ordering`"),
         ({"neighbourhood": 4}, ValueError, "`neighbourhood` must be odd"),
