@@ -15,11 +15,12 @@ import numpy as np
 
 __all__ = ["main", "run_demo"]
 
-#: The demo's NP variants: the paper's method and the two ablations of Table 3 / Fig. 7.
+#: The demo's methods: NP, its two ablations of Table 3 / Fig. 7, and BP.
 DEMO_METHODS = {
     "NP": {},
     "NP, no edges": {"use_edges": False},
     "NP, onion order": {"ordering": "onion"},
+    "BP": {"method": "bp"},
 }
 
 
@@ -55,15 +56,17 @@ def run_demo(out: Path, size: int = 128, seed: int = 0) -> list[dict]:
 
     Two samplings (grid stripes rw/xw = 5/25, about 61 % unknown, as in Table 1;
     vertical x-stripes at 78 % unknown, as in Table 4) × NP with priority order,
-    NP without edges, NP with onion-peel order, and the nearest-neighbour fill.
-    Writes ``demo_result.png`` (the paper's layout, NP on the grid sampling) and
-    ``demo_comparison.png`` (every sampling × method) into ``out``.
+    NP without edges, NP with onion-peel order, BP, and the nearest-neighbour,
+    linear and harmonic fills. Writes ``demo_result.png`` (the paper's layout,
+    NP on the grid sampling), ``demo_np_bp.png`` (NP's and BP's results,
+    residuals and confidence maps) and ``demo_comparison.png`` (every sampling
+    × method) into ``out``.
     """
     from refsynth import synthesize
-    from refsynth.baselines import nearest_fill
+    from refsynth.baselines import BASELINES
     from refsynth.datasets import synthetic_room
     from refsynth.metrics import evaluate
-    from refsynth.plotting import comparison_figure, result_figure
+    from refsynth.plotting import comparison_figure, methods_figure, result_figure
     from refsynth.sampling import stripes, unknown_fraction, x_stripes_for_fraction
 
     scene = synthetic_room((size, size), seed=seed)
@@ -73,33 +76,38 @@ def run_demo(out: Path, size: int = 128, seed: int = 0) -> list[dict]:
         "x-stripes 78%": x_stripes_for_fraction(shape, 0.78),
     }
     rows, partials, results = [], {}, {}
-    first = None
+    full: dict = {}
     for sampling, known in samplings.items():
         partial = np.where(known, scene.range, np.nan)
         partials[sampling] = partial
-        for method, kwargs in [*DEMO_METHODS.items(), ("nearest", None)]:
+        for method, kwargs in [*DEMO_METHODS.items(), *((name, None) for name in BASELINES)]:
             start = time.perf_counter()
             if kwargs is None:
-                estimate = nearest_fill(scene.intensity, partial)
+                estimate = BASELINES[method](scene.intensity, partial)
             else:
                 res = synthesize(
                     scene.intensity, partial, seed=seed,
-                    progress=_progress(f"{sampling}, {method}"),
-                    **kwargs,
+                    progress=_progress(f"{sampling}, {method}"), **kwargs,
                 )
                 estimate = res.range
-                if first is None:
-                    first = (sampling, res)
+                full[(sampling, method)] = res
             seconds = time.perf_counter() - start
             results[(sampling, method)] = estimate
             scores = evaluate(estimate, scene.range, known)
             rows.append(dict(sampling=sampling, unknown=100 * unknown_fraction(known),
                              method=method, seconds=seconds, **scores))
     out.mkdir(parents=True, exist_ok=True)
-    sampling, res = first
+    sampling = next(iter(samplings))
+    res = full[(sampling, "NP")]
     fig = result_figure(scene.intensity, res.edges, partials[sampling], res.range, scene.range,
                         units=scene.units, title=f"{scene.name}: NP, {sampling}")
     fig.savefig(out / "demo_result.png", dpi=110)
+    fig = methods_figure(
+        scene.range, partials[sampling],
+        {m: (full[(sampling, m)].range, full[(sampling, m)].confidence) for m in ("NP", "BP")},
+        units=scene.units, title=f"{scene.name}, {sampling}: NP and BP",
+    )
+    fig.savefig(out / "demo_np_bp.png", dpi=110)
     fig = comparison_figure(scene.range, partials, results, units=scene.units,
                             title=f"{scene.name}, seed {seed}: MAR (Eq. 13) per method")
     fig.savefig(out / "demo_comparison.png", dpi=110)
@@ -115,8 +123,8 @@ def _cmd_demo(args) -> int:
         ("sampling", "sampling", ""), ("unknown", "unknown %", ".1f"), ("method", "method", ""),
         ("mar", "MAR (m)", ".4f"), ("rmse", "RMSE (m)", ".4f"), ("seconds", "seconds", ".2f"),
     ]))
-    print(f"figures: {Path(args.out) / 'demo_result.png'}, "
-          f"{Path(args.out) / 'demo_comparison.png'}")
+    names = ("demo_result.png", "demo_np_bp.png", "demo_comparison.png")
+    print("figures: " + ", ".join(str(Path(args.out) / name) for name in names))
     return 0
 
 
@@ -186,7 +194,7 @@ def build_parser() -> argparse.ArgumentParser:
     synth.add_argument("--out", required=True, help="output .npy file")
     synth.add_argument("--mask", help="known-range mask (nonzero = known) applied to RANGE")
     synth.add_argument("--figure", help="also write a PNG figure here")
-    synth.add_argument("--method", default="np", choices=["np"])
+    synth.add_argument("--method", default="np", choices=["np", "bp"])
     synth.add_argument("--seed", type=int, default=0)
     synth.add_argument("--neighbourhood", type=int, default=5)
     synth.add_argument("--radius", type=float, default=10.0)

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["result_figure", "comparison_figure"]
+__all__ = ["result_figure", "comparison_figure", "methods_figure"]
 
 RANGE_CMAP = "viridis"
 ERROR_CMAP = "magma"
@@ -136,6 +136,52 @@ def comparison_figure(
             mar = float(np.mean(np.abs(est - truth)[evaluated]))
             _show(axes[row, col], est, f"{method}: MAR {mar:.3g} {units}".strip(), **kw)
         _show(axes[row, -1], truth, "ground truth", **kw)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def methods_figure(
+    truth: np.ndarray,
+    partial_range: np.ndarray,
+    results: Mapping[str, tuple[np.ndarray, np.ndarray]],
+    *,
+    units: str = "",
+    title: str | None = None,
+) -> Figure:
+    """One row per method: its result, its absolute residual and its confidence map.
+
+    Parameters
+    ----------
+    truth : ndarray of shape (H, W)
+    partial_range : ndarray of shape (H, W), NaN where unknown
+    results : mapping of method name to (range, confidence)
+    units : str
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Residual panels share one colour scale, so the methods compare at a glance.
+    """
+    rows = len(results)
+    fig = Figure(figsize=(3.3 * 3, 3.0 * rows))
+    axes = np.atleast_2d(fig.subplots(rows, 3))
+    vmin, vmax = _range_limits(truth, partial_range)
+    unknown = ~np.isfinite(partial_range) & np.isfinite(truth)
+    residuals = {m: np.where(unknown, np.abs(r - truth), np.nan) for m, (r, _) in results.items()}
+    top = max(float(np.nanpercentile(e, 99)) for e in residuals.values()) or 1.0
+    for row, (method, (estimate, confidence)) in enumerate(results.items()):
+        h = _show(axes[row, 0], estimate, f"{method}: synthesized range",
+                  cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
+        fig.colorbar(h, ax=axes[row, 0], fraction=0.046, pad=0.04)
+        mar = float(np.nanmean(residuals[method]))
+        h = _show(axes[row, 1], residuals[method], f"|residual|, MAR {mar:.3g} {units}".strip(),
+                  cmap=ERROR_CMAP, vmin=0, vmax=top)
+        fig.colorbar(h, ax=axes[row, 1], fraction=0.046, pad=0.04)
+        h = _show(axes[row, 2], confidence, "confidence", cmap="viridis", vmin=0, vmax=1)
+        fig.colorbar(h, ax=axes[row, 2], fraction=0.046, pad=0.04)
     if title:
         fig.suptitle(title)
     fig.tight_layout()

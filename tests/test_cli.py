@@ -13,12 +13,13 @@ from refsynth.io import write_pfm
 def test_demo_prints_the_table_and_writes_figures(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), "--size", "32"]) == 0
     out = capsys.readouterr().out
-    for needle in ("grid 5/25", "x-stripes 78%", "NP, no edges", "NP, onion order", "nearest"):
+    for needle in ("grid 5/25", "x-stripes 78%", "NP, no edges", "NP, onion order", "BP",
+                   "nearest", "linear", "harmonic"):
         assert needle in out
-    assert (tmp_path / "demo_result.png").stat().st_size > 10_000
-    assert (tmp_path / "demo_comparison.png").stat().st_size > 10_000
+    for name in ("demo_result.png", "demo_np_bp.png", "demo_comparison.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
     mars = [float(line.split()[-3]) for line in out.splitlines() if line.startswith(("grid", "x-"))]
-    assert len(mars) == 8 and all(0 <= m < 5 for m in mars)
+    assert len(mars) == 14 and all(0 <= m < 5 for m in mars)
 
 
 @pytest.fixture
@@ -55,6 +56,13 @@ def test_synth_with_a_mask_over_a_full_range(files):
                  "--mask", str(files / "mask.npy"), "--out", str(out), "--no-edges",
                  "--ordering", "onion"])
     assert code == 0
+    assert np.all(np.isfinite(np.load(out)))
+
+
+def test_synth_with_bp(files):
+    out = files / "bp.npy"
+    assert main(["synth", str(files / "image.npy"), str(files / "partial.npy"), "--out", str(out),
+                 "--method", "bp"]) == 0
     assert np.all(np.isfinite(np.load(out)))
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 from matplotlib.figure import Figure
 
-from refsynth.plotting import comparison_figure, result_figure
+from refsynth.plotting import comparison_figure, methods_figure, result_figure
 
 
 def _arrays():
@@ -34,3 +34,13 @@ def test_comparison_figure_reports_each_methods_mar():
     fig = comparison_figure(truth, {"s": partial}, {("s", "exact"): truth, ("s", "off"): truth + 1})
     titles = [ax.get_title() for ax in fig.axes]
     assert "exact: MAR 0" in titles and "off: MAR 1" in titles
+
+
+def test_methods_figure_has_result_residual_and_confidence_per_method():
+    _, _, partial, truth = _arrays()
+    conf = np.ones_like(truth)
+    fig = methods_figure(truth, partial, {"NP": (truth, conf), "BP": (truth + 0.5, conf)},
+                         units="m")
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    assert titles.count("confidence") == 2
+    assert "|residual|, MAR 0 m" in titles and "|residual|, MAR 0.5 m" in titles
