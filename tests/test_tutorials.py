@@ -41,3 +41,14 @@ def test_tutorial_runs(path, tmp_path):
         assert 0 <= d_lo <= d_hi <= 1
         for label in ("priority order", "onion order", "no edges", "no isophotes"):
             assert re.search(rf"{label}: MAR [\d.]+ ± [\d.]+ m", out)
+        return
+    if path.name.startswith("02_"):
+        assert "agreeing candidate 0.0000" in out
+        sweeps = re.findall(r"after \d sweep\(s\): P\(2 m\) per pixel = \[([\d., ]+)\]", out)
+        assert len(sweeps) == 3
+        for probs in sweeps:
+            assert all(0.0 <= float(p) <= 1.0 for p in probs.split(","))
+        bp_mar, ceiling, np_mar = map(float, re.search(
+            r"BP: MAR ([\d.]+) m .* candidate ceiling ([\d.]+) m; NP: MAR ([\d.]+) m",
+            out).groups())
+        assert ceiling <= bp_mar and 0 < np_mar < 3

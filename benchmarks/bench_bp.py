@@ -1,0 +1,187 @@
+"""BP range synthesis: time, memory, accuracy against NP and the baselines (§3.2.3).
+
+Prints, as Markdown tables:
+
+1. speed: BP on the 128×128 synthetic room at 61 % (grid 5/25) and on the
+   Motorcycle at 450×375, 78 % unknown (x-stripes), with peak memory; time
+   against ``k`` and against the number of unknown pixels (the paper's
+   ``O(n k² T)``);
+2. accuracy on the synthetic room (128×128, the paper's grid stripes
+   rw/xw = 24/80, 10/20, 5/25, 3/28) and on the Motorcycle (450×375, x-stripes
+   63/78/85 %): BP, BP without the edge-constraint rule, NP (3 seeds), and the
+   nearest, linear and harmonic fills, each measured in the same run; for BP
+   also the *candidate ceiling* (the MAR if every pixel picked its best
+   candidate) and the MAR of the 50 % most confident synthesized pixels
+   against the other 50 %.
+
+Every case runs in a fresh process, so that its peak resident memory
+(``ru_maxrss``) is its own. Needs scikit-image for the Motorcycle pair.
+
+Run::
+
+    python benchmarks/bench_bp.py            # about 12 minutes on 2 cores
+    python benchmarks/bench_bp.py --quick    # speed section only
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import resource
+import sys
+import time
+
+import numpy as np
+
+
+def _rss_mb() -> float:
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / 1024.0 if sys.platform != "darwin" else rss / 1024.0**2
+
+
+def _scene(name, size):
+    from refsynth.datasets import motorcycle, synthetic_room
+
+    return synthetic_room((size, size), seed=0) if name == "room" else motorcycle(size)
+
+
+def _sampling(shape, spec):
+    from refsynth.sampling import stripes, x_stripes_for_fraction
+
+    if spec.startswith("g"):
+        rw, xw = (int(v) for v in spec[1:].split("_"))
+        return stripes(shape, rw, xw, axes="xy")
+    return x_stripes_for_fraction(shape, int(spec[1:]) / 100.0)
+
+
+METHODS = {
+    "BP": {"method": "bp"},
+    "BP, no edge rule": {"method": "bp", "use_edges": False},
+    "NP": {"method": "np"},
+}
+
+
+def _case(args):
+    scene_name, size, spec, method, seed, extra = args
+    import refsynth
+    from refsynth.baselines import BASELINES
+    from refsynth.metrics import evaluate
+    from refsynth.sampling import unknown_fraction
+
+    scene = _scene(scene_name, size)
+    known = _sampling(scene.range.shape, spec) & scene.has_truth
+    partial = np.where(known, scene.range, np.nan)
+    before = _rss_mb()
+    start = time.perf_counter()
+    row = {}
+    if method in BASELINES:
+        estimate = BASELINES[method](scene.intensity, partial)
+    else:
+        result = refsynth.synthesize(scene.intensity, partial, seed=seed,
+                                     **METHODS[method], **extra)
+        estimate = result.range
+        if result.method == "bp":
+            rows, cols = result.order[:, 0], result.order[:, 1]
+            truth = scene.range[rows, cols]
+            ok = np.isfinite(truth)
+            err = np.abs(result.candidate_values[ok] - truth[ok, None])
+            conf = result.confidence[rows, cols][ok]
+            chosen = np.abs(estimate[rows, cols][ok] - truth[ok])
+            top = conf >= np.median(conf)
+            row.update(ceiling=float(err.min(axis=1).mean()), iterations=result.iterations,
+                       mar_confident=float(chosen[top].mean()),
+                       mar_rest=float(chosen[~top].mean()) if (~top).any() else float("nan"))
+    seconds = time.perf_counter() - start
+    row.update(scene=scene.name, sampling=spec, unknown=100 * unknown_fraction(known),
+               n_unknown=int((~known).sum()), method=method, seed=seed, seconds=seconds,
+               rss_before=before, rss_peak=_rss_mb(), k=extra.get("candidates", 8),
+               **evaluate(estimate, scene.range, known))
+    return row
+
+
+def _run(cases, pool):
+    rows = []
+    for row in pool.imap(_case, cases):
+        rows.append(row)
+        print(f"  {row['scene']} {row['sampling']} {row['method']} seed {row['seed']}: "
+              f"{row['seconds']:.2f} s, MAR {row['mar']:.4f}", file=sys.stderr)
+    return rows
+
+
+def _fmt(value, spec=".3f"):
+    return "–" if value is None or (isinstance(value, float) and np.isnan(value)) else \
+        format(value, spec)
+
+
+def _accuracy_table(rows):
+    groups: dict = {}
+    for r in rows:
+        groups.setdefault((r["scene"], r["sampling"], r["method"]), []).append(r)
+    print("| scene | sampling | unknown | method | MAR | RMSE | bad>1 | candidate ceiling "
+          "| MAR 50 % most confident / rest | iterations | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for (scene, sampling, method), members in groups.items():
+        mar = np.array([m["mar"] for m in members])
+        spread = f" ± {mar.std(ddof=1):.3f}" if len(mar) > 1 else ""
+        first = members[0]
+        split = (f"{first['mar_confident']:.3f} / {first['mar_rest']:.3f}"
+                 if "mar_confident" in first else "–")
+        print(f"| {scene} | {sampling} | {first['unknown']:.1f} % | {method}"
+              f"{' (' + str(len(mar)) + ' seeds)' if len(mar) > 1 else ''} | "
+              f"{mar.mean():.3f}{spread} | {np.mean([m['rmse'] for m in members]):.3f} | "
+              f"{np.mean([m['bad1'] for m in members]):.3f} | {_fmt(first.get('ceiling'))} | "
+              f"{split} | {first.get('iterations', '–')} | "
+              f"{np.mean([m['seconds'] for m in members]):.2f} |")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="the speed section only")
+    parser.add_argument("--seeds", type=int, default=3, help="NP seeds (default 3)")
+    args = parser.parse_args(argv)
+    ctx = mp.get_context("spawn")
+    with ctx.Pool(1, maxtasksperchild=1) as pool:
+        print("## 1. Speed and memory\n")
+        cases = [("room", 128, "g5_25", "BP", 0, {}),
+                 ("motorcycle", (450, 375), "x78", "BP", 0, {})]
+        rows = _run(cases, pool)
+        print("| scene | sampling | unknown | k | iterations | wall s | RSS before → peak MB |")
+        print("|---|---|---|---|---|---|---|")
+        for r in rows:
+            print(f"| {r['scene']} | {r['sampling']} | {r['unknown']:.1f} % | {r['k']} | "
+                  f"{r['iterations']} | {r['seconds']:.2f} | "
+                  f"{r['rss_before']:.0f} → {r['rss_peak']:.0f} |")
+        print("\nTime against k (Motorcycle 225×188, x-stripes 78 %, 20 iterations, "
+              "no early stop):\n")
+        fixed = {"iterations": 20, "tolerance": 0.0}
+        cases = [("motorcycle", (225, 188), "x78", "BP", 0, {"candidates": k, **fixed})
+                 for k in (4, 8, 16)]
+        cases += [("motorcycle", size, "x78", "BP", 0, fixed)
+                  for size in ((112, 94), (450, 375))]
+        rows = _run(cases, pool)
+        print("| size | unknown pixels n | k | wall s | µs per n·k² |")
+        print("|---|---|---|---|---|")
+        for r in rows:
+            print(f"| {r['scene']} | {r['n_unknown']} | {r['k']} | {r['seconds']:.2f} | "
+                  f"{1e6 * r['seconds'] / (r['n_unknown'] * r['k'] ** 2):.3f} |")
+        if args.quick:
+            return 0
+
+        print("\n## 2. Accuracy\n")
+        cases = []
+        for scene, size, samplings in (
+            ("room", 128, ("g24_80", "g10_20", "g5_25", "g3_28")),
+            ("motorcycle", (450, 375), ("x63", "x78", "x85")),
+        ):
+            for spec in samplings:
+                cases += [(scene, size, spec, "BP", 0, {}),
+                          (scene, size, spec, "BP, no edge rule", 0, {})]
+                cases += [(scene, size, spec, "NP", s, {}) for s in range(args.seeds)]
+                cases += [(scene, size, spec, b, 0, {})
+                          for b in ("nearest", "linear", "harmonic")]
+        _accuracy_table(_run(cases, pool))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
