@@ -143,8 +143,9 @@ np_result = refsynth.synthesize(scene.intensity, partial, seed=0)
 rows, cols = bp.order[:, 0], bp.order[:, 1]
 truth = scene.range[rows, cols]
 ceiling = np.abs(bp.candidate_values - truth[:, None]).min(axis=1).mean()
-print(f"BP: MAR {mar(bp.range, scene.range, known):.3f} m after {bp.iterations} sweeps; "
-      f"candidate ceiling {ceiling:.3f} m; NP: MAR {mar(np_result.range, scene.range, known):.3f} m")
+mar_bp, mar_np = mar(bp.range, scene.range, known), mar(np_result.range, scene.range, known)
+print(f"BP: MAR {mar_bp:.3f} m after {bp.iterations} sweeps; "
+      f"candidate ceiling {ceiling:.3f} m; NP: MAR {mar_np:.3f} m")
 
 error = np.abs(bp.range[rows, cols] - truth)
 confidence = bp.confidence[rows, cols]
