@@ -39,8 +39,11 @@ The algorithm of Fig. 6, step by step:
    intensity edge send no messages, and evidence does not flow across edges.
 6. Eq. 8, the MAP label of each node,
    ``x_i = argmax Φ(x_i, y_i) Π_j M_ji(x_i)``; the centre of its range patch is
-   the synthesized range. The normalised belief of that label is the pixel's
-   confidence.
+   the synthesized range. The pixel's confidence is the normalised belief of
+   that label, pooled with the labels whose centre range is the same (within
+   ``VALUE_TOLERANCE`` of the known span): different training patches often
+   propose the same range, and splitting the belief between them would read
+   as doubt about the range where there is none.
 
 Everything is array operations over all nodes × k (× k for Ψ and the
 messages), in chunks that bound the memory.
@@ -78,6 +81,10 @@ __all__ = [
 ]
 
 _CHUNK_FLOATS = 1 << 24  # about 64 MB of float32 per temporary block
+
+#: Candidates whose centre ranges differ by at most this fraction of the known
+#: range's span count as one range hypothesis in the confidence map.
+VALUE_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
@@ -548,7 +555,11 @@ def bp_fill(
     out = range_values.copy()
     out[unknown] = cand_values[np.arange(flat.size), best]
     confidence = known.astype(np.float64)
-    confidence[unknown] = prob[np.arange(flat.size), best]
+    # the belief that the range is the chosen value: candidates whose centres lie
+    # within VALUE_TOLERANCE of the known span of it are the same range hypothesis
+    chosen = cand_values[np.arange(flat.size), best]
+    same = np.abs(cand_values - chosen[:, None]) <= VALUE_TOLERANCE * span
+    confidence[unknown] = np.minimum((prob * same).sum(axis=1), 1.0)
     tick()
     return BPResult(
         range=out,
