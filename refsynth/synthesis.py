@@ -36,8 +36,9 @@ class SynthesisResult:
     confidence : ndarray of shape (H, W), float64
         In [0, 1]: 1 where the range was measured; for NP the confidence the
         pixel received when it was synthesized (Eq. 11, see
-        :mod:`refsynth.priority`); for BP the normalised belief of the chosen
-        label (Eq. 8, see :mod:`refsynth.bp`).
+        :mod:`refsynth.priority`); for BP the normalised belief (Eq. 8) of the
+        chosen range, pooled over the candidates that propose it (see
+        :mod:`refsynth.bp`).
     order : ndarray of shape (N, 2), int64
         The synthesized pixels as (row, col): NP's fill order; for BP, which
         decides all pixels together, raster order.
