@@ -1,4 +1,4 @@
-"""The command line: ``python -m refsynth demo | synth``.
+"""The command line: ``python -m refsynth demo | synth | scan``.
 
 Errors print one line on stderr and exit with status 2, without a traceback.
 Long runs report progress on stderr.
@@ -203,6 +203,10 @@ def build_parser() -> argparse.ArgumentParser:
     synth.add_argument("--no-edges", action="store_true")
     synth.add_argument("--no-isophotes", action="store_true")
     synth.set_defaults(func=_cmd_synth)
+
+    from refsynth.rig.cli import add_scan_parser
+
+    add_scan_parser(sub)
     return parser
 
 

@@ -2,6 +2,9 @@
 
 - :func:`synthetic_room`: a ray-cast indoor scene in metres, the stand-in
   for the USF range database and the authors' own lab scans (§3.3, §4.2).
+- :func:`room_geometry` / :func:`cast_rays`: that room's layout for a seed,
+  and any set of rays from its centre cast into it (what the simulated rig
+  of :mod:`refsynth.rig` measures and photographs).
 - :func:`motorcycle`: scikit-image's copy of the Middlebury 2014
   *Motorcycle* pair, resized to the paper's 450 × 375 (§3.3, Table 4).
 - :func:`load_middlebury`: any Middlebury image + disparity from disk.
@@ -34,6 +37,11 @@ from refsynth.io import IMAGE_SUFFIXES, read_image, read_pfm
 __all__ = [
     "Scene",
     "synthetic_room",
+    "room_geometry",
+    "cast_rays",
+    "RoomGeometry",
+    "RoomBox",
+    "RayHits",
     "motorcycle",
     "load_middlebury",
     "resize_area",
@@ -300,6 +308,306 @@ def _check_seed(seed):
     )
 
 
+@dataclass(frozen=True, eq=False)
+class RoomBox:
+    """One box in the synthetic room: furniture on the floor, or the divider.
+
+    Attributes
+    ----------
+    centre : ndarray of shape (3,)
+        World coordinates in metres (x right, y up, z forward; origin at the
+        camera centre).
+    half : ndarray of shape (3,)
+        Half-extents along the box's own axes.
+    angle : float
+        Rotation about the vertical (y) axis, radians.
+    albedo : float
+    grain : bool
+        Whether the box carries a wood-grain albedo texture.
+    """
+
+    centre: np.ndarray
+    half: np.ndarray
+    angle: float
+    albedo: float
+    grain: bool
+
+
+@dataclass(frozen=True, eq=False)
+class RoomGeometry:
+    """The layout of a synthetic room, as drawn by :func:`room_geometry` (§3.3, §4).
+
+    World frame: metres, origin at the camera (and laser) centre, x to the
+    right, y up, z forward (the demo camera's optical axis before its yaw).
+    The room spans ``|x| <= half_width``, ``-camera_height <= y <=
+    ceiling`` and ``z <= back``; it is open behind the camera (``z -> -inf``),
+    so any ray with a horizontal component sideways or forward hits a wall.
+
+    Attributes
+    ----------
+    half_width, camera_height, ceiling, back : float
+        The room box (see above).
+    yaw : float
+        The yaw of :func:`synthetic_room`'s camera, radians (not used by
+        :func:`cast_rays`).
+    wall_albedo : float
+    light : ndarray of shape (3,)
+        Unit vector towards the distant light.
+    boxes : tuple of RoomBox
+        The divider first, then the furniture.
+    tile : float
+        Floor tile size, metres.
+    tile_albedo : ndarray of shape (8, 8)
+        Per-tile albedo variation.
+    painting_x, painting_y, horizon : float
+        The painting on the back wall: centre x, centre y, and the height of
+        its horizon (fraction of the half-height).
+    painting_half : ndarray of shape (2,)
+        Its half-width and half-height.
+    door_wall : float
+        ``-1`` or ``+1``: the side wall with the door.
+    door_z : float
+        The door's centre along z.
+    """
+
+    half_width: float
+    camera_height: float
+    ceiling: float
+    back: float
+    yaw: float
+    wall_albedo: float
+    light: np.ndarray
+    boxes: tuple[RoomBox, ...]
+    tile: float
+    tile_albedo: np.ndarray
+    painting_x: float
+    painting_half: np.ndarray
+    painting_y: float
+    horizon: float
+    door_wall: float
+    door_z: float
+
+
+@dataclass(frozen=True, eq=False)
+class RayHits:
+    """What :func:`cast_rays` finds along each ray.
+
+    Attributes
+    ----------
+    distance : ndarray of shape (...), float64
+        Euclidean distance in metres from the origin to the first surface
+        hit (inf for a ray that leaves through the open side behind the
+        camera).
+    normal : ndarray of shape (..., 3), float64
+        World-frame unit normal of the surface hit.
+    albedo : ndarray of shape (...), float64
+        Its albedo (texture included).
+    shading : ndarray of shape (...), float64
+        Lambertian shading ``a + (1 − a) max(0, n·l)`` with ``a = 0.35``; the
+        noise-free intensity is ``albedo * shading``.
+    """
+
+    distance: np.ndarray
+    normal: np.ndarray
+    albedo: np.ndarray
+    shading: np.ndarray
+
+
+def _draw_room(rng: np.random.Generator) -> RoomGeometry:
+    """Draw the layout; the draws and their order are those of :func:`synthetic_room`."""
+    half_width = rng.uniform(2.6, 3.4)  # room: x in [-half_width, half_width]
+    camera_height = rng.uniform(1.3, 1.6)  # floor at y = -camera_height
+    ceiling = rng.uniform(2.6, 3.0) - camera_height
+    back = rng.uniform(7.0, 8.0)  # back wall at z = back
+    yaw = rng.uniform(-0.1, 0.1)
+    wall_albedo = rng.uniform(0.6, 0.8)
+    light = np.array([rng.uniform(-0.5, -0.2), rng.uniform(0.6, 0.9), rng.uniform(-0.7, -0.4)])
+    light /= np.linalg.norm(light)
+    side = rng.choice([-1.0, 1.0])  # the divider on this side, the painting on the other
+
+    # the divider: a thin panel parallel to the back wall, with its albedo
+    divider_width = rng.uniform(0.8, 1.2)
+    divider_height = rng.uniform(1.9, 2.3)
+    divider_x = side * rng.uniform(0.4, 1.4)
+    divider_z = back - rng.uniform(1.0, 2.0)
+    boxes = [
+        RoomBox(
+            centre=np.array([divider_x, -camera_height + divider_height / 2, divider_z]),
+            half=np.array([divider_width / 2, divider_height / 2, 0.02]),
+            angle=0.0,
+            albedo=wall_albedo,
+            grain=False,
+        )
+    ]
+    # the furniture: boxes on the floor, kept clear of the divider's columns
+    for index in range(int(rng.integers(3, 6))):
+        half = np.array([rng.uniform(0.2, 0.6), 0.0, rng.uniform(0.2, 0.6)])
+        half[1] = rng.uniform(0.2, 0.75)
+        radius = float(np.hypot(half[0], half[2]))
+        for _ in range(100):
+            z = rng.uniform(2.5, back - 1.0)
+            reach = min(half_width - radius, z * np.tan(np.radians(28)))
+            x = rng.uniform(-reach, reach)
+            if abs(x - divider_x) > divider_width / 2 + radius + 0.2:
+                break
+        boxes.append(
+            RoomBox(
+                centre=np.array([x, -camera_height + half[1], z]),
+                half=half,
+                angle=rng.uniform(-0.6, 0.6),
+                albedo=rng.uniform(0.25, 0.9),
+                grain=index == 0,
+            )
+        )
+    tile = rng.uniform(0.5, 0.7)
+    tile_albedo = rng.uniform(-0.04, 0.04, size=(8, 8))
+    painting_x = -side * rng.uniform(1.0, 1.8)
+    painting_half = np.array([rng.uniform(0.5, 0.8), rng.uniform(0.35, 0.5)])
+    painting_y = rng.uniform(0.0, 0.4)
+    horizon = rng.uniform(-0.3, 0.3)
+    door_wall = rng.choice([-1.0, 1.0])
+    door_z = rng.uniform(3.5, back - 1.5)
+    return RoomGeometry(
+        half_width=half_width,
+        camera_height=camera_height,
+        ceiling=ceiling,
+        back=back,
+        yaw=yaw,
+        wall_albedo=wall_albedo,
+        light=light,
+        boxes=tuple(boxes),
+        tile=tile,
+        tile_albedo=tile_albedo,
+        painting_x=painting_x,
+        painting_half=painting_half,
+        painting_y=painting_y,
+        horizon=horizon,
+        door_wall=door_wall,
+        door_z=door_z,
+    )
+
+
+def room_geometry(seed=0) -> RoomGeometry:
+    """The layout of :func:`synthetic_room`'s room for a seed, to ray-cast at will (§4).
+
+    Parameters
+    ----------
+    seed : int, numpy.random.Generator or None, default 0
+        The same int gives the same room as ``synthetic_room(shape, seed)``
+        for every ``shape``.
+
+    Returns
+    -------
+    RoomGeometry
+
+    See Also
+    --------
+    cast_rays : intersect any set of rays from the origin with the room.
+
+    Examples
+    --------
+    >>> room = room_geometry(1)
+    >>> hits = cast_rays(room, np.array([[0.0, 0.0, 1.0]]))
+    >>> bool(hits.distance[0] <= room.back)
+    True
+    """
+    return _draw_room(np.random.default_rng(_check_seed(seed)))
+
+
+def cast_rays(room: RoomGeometry, rays: np.ndarray) -> RayHits:
+    """Intersect rays from the origin with the room; the nearest surface wins (§3.3, §4).
+
+    Parameters
+    ----------
+    room : RoomGeometry
+        From :func:`room_geometry`.
+    rays : ndarray of shape (..., 3)
+        Unit direction vectors in the world frame (x right, y up, z
+        forward), all starting at the origin (the camera and laser centre).
+
+    Returns
+    -------
+    RayHits
+        Distance, normal, albedo and shading per ray, arrays of shape
+        ``rays.shape[:-1]`` (normal: ``rays.shape``).
+
+    Notes
+    -----
+    Each ray is intersected with the room's six planes (the exit of the
+    room box) and with every box (slab method) as array operations over all
+    rays; the nearest hit wins. The albedo carries the floor tiles, the
+    painting and its frame on the back wall, the door on a side wall and the
+    wood grain of one box.
+    """
+    if not isinstance(room, RoomGeometry):
+        raise TypeError(f"The parameter `room` must be a RoomGeometry, got {type(room).__name__}")
+    if not isinstance(rays, np.ndarray) or rays.ndim < 1 or rays.shape[-1] != 3:
+        got = rays.shape if isinstance(rays, np.ndarray) else type(rays).__name__
+        raise ValueError(f"The parameter `rays` must be an array of shape (..., 3), got {got}")
+    rays = rays.astype(np.float64, copy=False)
+    grid = rays.shape[:-1]
+    camera_height, back = room.camera_height, room.back
+
+    # --- the room: the nearest of its planes along each ray (the exit of the box) ----
+    lower = np.array([-room.half_width, -camera_height, -np.inf])
+    upper = np.array([room.half_width, room.ceiling, back])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        exits = np.where(rays > 0, upper / rays, np.where(rays < 0, lower / rays, np.inf))
+    axis = exits.argmin(axis=-1)  # 0: a side wall, 1: floor or ceiling, 2: back wall
+    distance = np.take_along_axis(exits, axis[..., None], axis=-1)[..., 0]
+    sign = np.sign(np.take_along_axis(rays, axis[..., None], axis=-1)[..., 0])
+    normal = np.zeros_like(rays)
+    np.put_along_axis(normal, axis[..., None], -sign[..., None], axis=-1)
+    with np.errstate(invalid="ignore"):  # 0 · inf for a ray leaving behind the camera
+        point = rays * distance[..., None]
+    x, y, z = point[..., 0], point[..., 1], point[..., 2]
+
+    albedo = np.full(grid, room.wall_albedo)
+    floor = (axis == 1) & (sign < 0)
+    albedo[(axis == 1) & (sign > 0)] = 0.85  # ceiling
+    # floor tiles: a checkerboard with a little per-tile variation
+    with np.errstate(invalid="ignore"):
+        i = np.floor(np.nan_to_num(x / room.tile)).astype(int)
+        j = np.floor(np.nan_to_num(z / room.tile)).astype(int)
+    tiles = np.where((i + j) % 2 == 0, 0.6, 0.38) + room.tile_albedo[i % 8, j % 8]
+    albedo[floor] = tiles[floor]
+    # a framed painting on the back wall: bright sky over dark ground
+    px, py = np.abs(x - room.painting_x), np.abs(y - room.painting_y)
+    painting_half = room.painting_half
+    on_back = axis == 2
+    frame = on_back & (px <= painting_half[0]) & (py <= painting_half[1])
+    canvas = on_back & (px <= painting_half[0] - 0.05) & (py <= painting_half[1] - 0.05)
+    albedo[frame] = 0.15
+    sky = (y - room.painting_y) / painting_half[1] > room.horizon
+    albedo[canvas] = np.where(sky, 0.9, 0.3)[canvas]
+    # a door on one side wall
+    door = (
+        (axis == 0)
+        & (np.sign(x) == room.door_wall)
+        & (np.abs(z - room.door_z) <= 0.45)
+        & (y <= -camera_height + 2.0)
+    )
+    albedo[door] = 0.3
+
+    # --- the objects: nearest hit wins ---------------------------------------------------
+    for item in room.boxes:
+        hit_distance, hit_normal = _ray_box(rays, item.centre, item.half, item.angle)
+        closer = hit_distance < distance
+        distance = np.where(closer, hit_distance, distance)
+        normal[closer] = hit_normal[closer]
+        value = np.full(grid, item.albedo)
+        if item.grain:
+            # wood grain along the box's own x axis, slightly wavy with height
+            offset = rays * np.where(closer, hit_distance, 0.0)[..., None] - item.centre
+            along = offset[..., 0] * np.cos(item.angle) - offset[..., 2] * np.sin(item.angle)
+            along = along + 0.03 * np.sin(2 * np.pi * offset[..., 1] / 0.4)
+            value = value * (0.8 + 0.2 * np.sin(2 * np.pi * along / 0.12))
+        albedo[closer] = value[closer]
+
+    shading = 0.35 + 0.65 * np.clip(normal @ room.light, 0.0, None)
+    return RayHits(distance=distance, normal=normal, albedo=albedo, shading=shading)
+
+
 def synthetic_room(shape: tuple[int, int] = (128, 128), seed=0) -> Scene:
     """A ray-cast indoor scene in metres with registered grey intensity (§3.3, §4).
 
@@ -349,7 +657,10 @@ def synthetic_room(shape: tuple[int, int] = (128, 128), seed=0) -> Scene:
     -----
     Each pixel's ray is intersected with the room's six planes (the exit of
     the room box) and with every box (slab method) as array operations over
-    all pixels; the nearest hit wins.
+    all pixels; the nearest hit wins. The layout is :func:`room_geometry`'s
+    for the same seed and the rays go through :func:`cast_rays`, so other
+    sensors (the simulated rig of :mod:`refsynth.rig`) can see the same room
+    from the same centre.
 
     Examples
     --------
@@ -367,60 +678,7 @@ def synthetic_room(shape: tuple[int, int] = (128, 128), seed=0) -> Scene:
         )
     height, width = int(shape[0]), int(shape[1])
     rng = np.random.default_rng(_check_seed(seed))
-
-    # --- the layout, all drawn before any pixel work --------------------------------
-    half_width = rng.uniform(2.6, 3.4)  # room: x in [-half_width, half_width]
-    camera_height = rng.uniform(1.3, 1.6)  # floor at y = -camera_height
-    ceiling = rng.uniform(2.6, 3.0) - camera_height
-    back = rng.uniform(7.0, 8.0)  # back wall at z = back
-    yaw = rng.uniform(-0.1, 0.1)
-    wall_albedo = rng.uniform(0.6, 0.8)
-    light = np.array([rng.uniform(-0.5, -0.2), rng.uniform(0.6, 0.9), rng.uniform(-0.7, -0.4)])
-    light /= np.linalg.norm(light)
-    side = rng.choice([-1.0, 1.0])  # the divider on this side, the painting on the other
-
-    # the divider: a thin panel parallel to the back wall, with its albedo
-    divider_width = rng.uniform(0.8, 1.2)
-    divider_height = rng.uniform(1.9, 2.3)
-    divider_x = side * rng.uniform(0.4, 1.4)
-    divider_z = back - rng.uniform(1.0, 2.0)
-    objects = [
-        {
-            "centre": np.array([divider_x, -camera_height + divider_height / 2, divider_z]),
-            "half": np.array([divider_width / 2, divider_height / 2, 0.02]),
-            "angle": 0.0,
-            "albedo": wall_albedo,
-            "grain": False,
-        }
-    ]
-    # the furniture: boxes on the floor, kept clear of the divider's columns
-    for index in range(int(rng.integers(3, 6))):
-        half = np.array([rng.uniform(0.2, 0.6), 0.0, rng.uniform(0.2, 0.6)])
-        half[1] = rng.uniform(0.2, 0.75)
-        radius = float(np.hypot(half[0], half[2]))
-        for _ in range(100):
-            z = rng.uniform(2.5, back - 1.0)
-            reach = min(half_width - radius, z * np.tan(np.radians(28)))
-            x = rng.uniform(-reach, reach)
-            if abs(x - divider_x) > divider_width / 2 + radius + 0.2:
-                break
-        objects.append(
-            {
-                "centre": np.array([x, -camera_height + half[1], z]),
-                "half": half,
-                "angle": rng.uniform(-0.6, 0.6),
-                "albedo": rng.uniform(0.25, 0.9),
-                "grain": index == 0,
-            }
-        )
-    tile = rng.uniform(0.5, 0.7)
-    tile_albedo = rng.uniform(-0.04, 0.04, size=(8, 8))
-    painting_x = -side * rng.uniform(1.0, 1.8)
-    painting_half = np.array([rng.uniform(0.5, 0.8), rng.uniform(0.35, 0.5)])
-    painting_y = rng.uniform(0.0, 0.4)
-    horizon = rng.uniform(-0.3, 0.3)
-    door_wall = rng.choice([-1.0, 1.0])
-    door_z = rng.uniform(3.5, back - 1.5)
+    room = _draw_room(rng)  # the layout, all drawn before any pixel work
     noise = rng.normal(0.0, 0.01, size=(height, width))
 
     # --- the rays --------------------------------------------------------------------
@@ -428,66 +686,14 @@ def synthetic_room(shape: tuple[int, int] = (128, 128), seed=0) -> Scene:
     u = (np.arange(width) + 0.5 - width / 2) / focal
     v = (height / 2 - (np.arange(height) + 0.5)) / focal
     camera = np.stack(np.broadcast_arrays(u[None, :], v[:, None], 1.0), axis=-1)
-    cos, sin = np.cos(yaw), np.sin(yaw)
+    cos, sin = np.cos(room.yaw), np.sin(room.yaw)
     rays = camera @ np.array([[cos, 0.0, -sin], [0.0, 1.0, 0.0], [sin, 0.0, cos]])
     rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
 
-    # --- the room: the nearest of its planes along each ray (the exit of the box) ----
-    lower = np.array([-half_width, -camera_height, -np.inf])
-    upper = np.array([half_width, ceiling, back])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        exits = np.where(rays > 0, upper / rays, np.where(rays < 0, lower / rays, np.inf))
-    axis = exits.argmin(axis=-1)  # 0: a side wall, 1: floor or ceiling, 2: back wall
-    distance = np.take_along_axis(exits, axis[..., None], axis=-1)[..., 0]
-    sign = np.sign(np.take_along_axis(rays, axis[..., None], axis=-1)[..., 0])
-    normal = np.zeros_like(rays)
-    np.put_along_axis(normal, axis[..., None], -sign[..., None], axis=-1)
-    point = rays * distance[..., None]
-    x, y, z = point[..., 0], point[..., 1], point[..., 2]
-
-    albedo = np.full((height, width), wall_albedo)
-    floor = (axis == 1) & (sign < 0)
-    albedo[(axis == 1) & (sign > 0)] = 0.85  # ceiling
-    # floor tiles: a checkerboard with a little per-tile variation
-    i, j = np.floor(x / tile).astype(int), np.floor(z / tile).astype(int)
-    tiles = np.where((i + j) % 2 == 0, 0.6, 0.38) + tile_albedo[i % 8, j % 8]
-    albedo[floor] = tiles[floor]
-    # a framed painting on the back wall: bright sky over dark ground
-    px, py = np.abs(x - painting_x), np.abs(y - painting_y)
-    on_back = axis == 2
-    frame = on_back & (px <= painting_half[0]) & (py <= painting_half[1])
-    canvas = on_back & (px <= painting_half[0] - 0.05) & (py <= painting_half[1] - 0.05)
-    albedo[frame] = 0.15
-    sky = (y - painting_y) / painting_half[1] > horizon
-    albedo[canvas] = np.where(sky, 0.9, 0.3)[canvas]
-    # a door on one side wall
-    door = (
-        (axis == 0)
-        & (np.sign(x) == door_wall)
-        & (np.abs(z - door_z) <= 0.45)
-        & (y <= -camera_height + 2.0)
-    )
-    albedo[door] = 0.3
-
-    # --- the objects: nearest hit wins ---------------------------------------------------
-    for item in objects:
-        hit_distance, hit_normal = _ray_box(rays, item["centre"], item["half"], item["angle"])
-        closer = hit_distance < distance
-        distance = np.where(closer, hit_distance, distance)
-        normal[closer] = hit_normal[closer]
-        value = np.full((height, width), item["albedo"])
-        if item["grain"]:
-            # wood grain along the box's own x axis, slightly wavy with height
-            offset = rays * np.where(closer, hit_distance, 0.0)[..., None] - item["centre"]
-            along = offset[..., 0] * np.cos(item["angle"]) - offset[..., 2] * np.sin(item["angle"])
-            along = along + 0.03 * np.sin(2 * np.pi * offset[..., 1] / 0.4)
-            value = value * (0.8 + 0.2 * np.sin(2 * np.pi * along / 0.12))
-        albedo[closer] = value[closer]
-
-    shading = 0.35 + 0.65 * np.clip(normal @ light, 0.0, None)
-    intensity = np.clip(albedo * shading + noise, 0.0, 1.0)
+    hits = cast_rays(room, rays)
+    intensity = np.clip(hits.albedo * hits.shading + noise, 0.0, 1.0)
     name = f"synthetic-room-{seed}" if _is_int(seed) else "synthetic-room"
-    return Scene(intensity=intensity, range=distance, units="m", name=name)
+    return Scene(intensity=intensity, range=hits.distance, units="m", name=name)
 
 
 # ----------------------------------------------------------------------------- Middlebury

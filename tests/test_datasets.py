@@ -10,11 +10,14 @@ from hypothesis.extra.numpy import arrays
 from PIL import Image
 
 from refsynth.datasets import (
+    RoomGeometry,
     Scene,
+    cast_rays,
     load_middlebury,
     motorcycle,
     resize_area,
     resize_disparity,
+    room_geometry,
     synthetic_room,
 )
 from refsynth.io import write_pfm
@@ -199,6 +202,38 @@ def test_synthetic_room_is_fast():
 def test_synthetic_room_validation(arguments, error, match):
     with pytest.raises(error, match=match):
         synthetic_room(*arguments)
+
+
+def test_room_geometry_is_the_room_of_synthetic_room():
+    room = room_geometry(2)
+    assert isinstance(room, RoomGeometry) and 4 <= len(room.boxes) <= 6
+    assert room_geometry(2).back == room.back and room_geometry(3).back != room.back
+    # the demo camera's central rays (yaw applied) hit what synthetic_room reports
+    scene = synthetic_room((16, 16), seed=2)
+    focal = 8 / np.tan(np.radians(30))
+    u = (np.arange(16) + 0.5 - 8) / focal
+    camera = np.stack(np.broadcast_arrays(u[None, :], u[::-1][:, None], 1.0), axis=-1)
+    cos, sin = np.cos(room.yaw), np.sin(room.yaw)
+    rays = camera @ np.array([[cos, 0.0, -sin], [0.0, 1.0, 0.0], [sin, 0.0, cos]])
+    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
+    hits = cast_rays(room, rays)
+    np.testing.assert_array_equal(hits.distance, scene.range)
+    assert hits.normal.shape == (16, 16, 3) and hits.albedo.shape == hits.shading.shape == (16, 16)
+    np.testing.assert_allclose(np.abs(scene.intensity - hits.albedo * hits.shading).mean(), 0.008,
+                               atol=0.004)  # only the 0.01 noise (and clipping) differs
+
+
+def test_cast_rays_any_ray_set():
+    room = room_geometry(0)
+    up = cast_rays(room, np.array([0.0, 1.0, 0.0]))  # one ray: the ceiling
+    assert up.distance.shape == () and up.distance == pytest.approx(room.ceiling)
+    np.testing.assert_array_equal(up.normal, [0.0, -1.0, 0.0])
+    behind = cast_rays(room, np.array([[0.0, 0.0, -1.0]]))  # out of the open side
+    assert np.isinf(behind.distance[0])
+    with pytest.raises(ValueError, match="`rays` must be an array of shape"):
+        cast_rays(room, np.zeros((4, 2)))
+    with pytest.raises(TypeError, match="`room` must be a RoomGeometry"):
+        cast_rays("room", np.zeros((4, 3)))
 
 
 # ----------------------------------------------------------------------------- Scene

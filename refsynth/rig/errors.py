@@ -1,0 +1,95 @@
+"""The exceptions of the rig's drivers (§3.1, §4).
+
+Every one names the device (``"pan unit"`` or ``"rangefinder"``) and the
+command, so that a message reads on its own::
+
+    rangefinder: GS0379024310;0007: status 02 (laser off)
+    pan unit: PP600: ! Maximum allowable pan position exceeded
+
+They derive from :class:`OSError` (a device failing is an input/output
+error), which the command line reports as one line with exit status 2.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "RigError",
+    "DeviceError",
+    "ReplyError",
+    "DeviceTimeout",
+    "PortLost",
+    "RetriesExhausted",
+]
+
+
+class RigError(OSError):
+    """A failure talking to a device of the rig.
+
+    Attributes
+    ----------
+    device : str
+        ``"pan unit"`` or ``"rangefinder"``.
+    command : str
+        The command as sent (terminator removed), or a short description.
+    detail : str
+        What went wrong.
+    """
+
+    def __init__(self, device: str, command: str, detail: str) -> None:
+        self.device = device
+        self.command = command
+        self.detail = detail
+        super().__init__(f"{device}: {command}: {detail}")
+
+    def __str__(self) -> str:
+        return f"{self.device}: {self.command}: {self.detail}"
+
+    def __reduce__(self):
+        return (type(self), (self.device, self.command, self.detail))
+
+
+class DeviceError(RigError):
+    """The device answered with an error (``! message`` or a non-zero status).
+
+    Attributes
+    ----------
+    code : int or None
+        The rangefinder's status code (None for the pan unit).
+    message : str
+        The pan unit's message, or the status code's meaning.
+    transient : bool
+        Whether the same request may well succeed if sent again.
+    """
+
+    def __init__(
+        self, device: str, command: str, detail: str, *, code: int | None = None,
+        message: str = "", transient: bool = False,
+    ) -> None:
+        super().__init__(device, command, detail)
+        self.code = code
+        self.message = message
+        self.transient = transient
+
+    def __reduce__(self):
+        return (_rebuild_device_error, (self.device, self.command, self.detail, self.code,
+                                        self.message, self.transient))
+
+
+def _rebuild_device_error(device, command, detail, code, message, transient):
+    return DeviceError(device, command, detail, code=code, message=message, transient=transient)
+
+
+class ReplyError(RigError):
+    """A reply that breaks the protocol (wrong echo, bad status, wrong length, CRC mismatch)."""
+
+
+class DeviceTimeout(RigError):
+    """No complete reply before the command's deadline."""
+
+
+class PortLost(RigError):
+    """The port failed (the device vanished), or could not be reopened."""
+
+
+class RetriesExhausted(RigError):
+    """The same request failed every time it was tried; ``__cause__`` holds the last failure."""
