@@ -127,6 +127,9 @@ def candidates(
         Number of candidates per node.
     radius : float
         Search radius ``r``; doubled for a node until it has ``k`` candidates.
+    proximity : float
+        μ of the spatial prior ``μ (|p − q| / r)²`` added to Eq. 2 (a
+        departure from the paper, which ranks by the observation alone).
 
     Returns
     -------
@@ -446,7 +449,8 @@ def bp_fill(
 ) -> BPResult:
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
 
-    Called by :func:`refsynth.synthesize`, which validates the inputs. BP is
+    Called by :func:`refsynth.synthesize`, which validates the inputs and
+    documents the parameters (``k`` is its ``candidates``). BP is
     deterministic: no random choice is made.
 
     Returns
