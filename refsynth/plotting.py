@@ -70,9 +70,14 @@ def result_figure(
     matplotlib.figure.Figure
     """
     panels = 6 if truth is not None else 4
-    fig = Figure(figsize=(3.2 * 3, 3.0 * 2) if panels == 6 else (3.2 * 2, 3.0 * 2))
-    cols = 3 if panels == 6 else 2
-    axes = fig.subplots(2, cols).ravel()
+    aspect = partial_range.shape[1] / partial_range.shape[0]
+    if aspect > 2:  # a panorama: one panel per row
+        fig = Figure(figsize=(9.0, panels * (9.0 / aspect + 0.6)))
+        axes = fig.subplots(panels, 1).ravel()
+    else:
+        cols = 3 if panels == 6 else 2
+        fig = Figure(figsize=(3.2 * cols, 3.0 * 2))
+        axes = fig.subplots(2, cols).ravel()
     vmin, vmax = _range_limits(partial_range, result, truth)
     _show(axes[0], np.clip(intensity, 0, 1) if np.ndim(intensity) == 3 else intensity, "intensity")
     _show(axes[1], edges, "Canny edges (σ = 0.8)")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from refsynth.baselines import BASELINES
-from refsynth.cli import DEMO_METHODS, main
+from refsynth.cli import DEMO_METHODS, main, run_pipeline_demo
 from refsynth.io import write_pfm
 
 
@@ -22,6 +22,18 @@ def test_demo_prints_the_table_and_writes_figures(tmp_path, capsys):
     mars = [float(line.split()[-3]) for line in out.splitlines() if line.startswith(("grid", "x-"))]
     assert len(mars) == 2 * (len(DEMO_METHODS) + len(BASELINES))
     assert all(0 <= m < 5 for m in mars)
+
+
+def test_pipeline_demo_acquires_and_registers(tmp_path):
+    """Simulated scan -> registration; synthesis itself is tested elsewhere."""
+    pytest.importorskip("pty")
+    summary = run_pipeline_demo(tmp_path, seed=0, methods=())
+    h, w = summary["panorama"]
+    assert w > 3 * h > 0
+    assert 0.3 < summary["known"] < 0.5
+    assert (tmp_path / "scan" / "scan.npz").is_file()
+    a, b, _, _ = summary["warp"]
+    assert a == pytest.approx(300.0) and b == pytest.approx(-1.0)
 
 
 @pytest.fixture

@@ -44,3 +44,13 @@ def test_methods_figure_has_result_residual_and_confidence_per_method():
     titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
     assert titles.count("confidence") == 2
     assert "|residual|, MAR 0 m" in titles and "|residual|, MAR 0.5 m" in titles
+
+
+def test_result_figure_stacks_the_panels_of_a_panorama():
+    rng = np.random.default_rng(1)
+    truth = rng.random((20, 90)) + 2
+    partial = np.where(rng.random((20, 90)) < 0.4, truth, np.nan)
+    fig = result_figure(rng.random((20, 90)), rng.random((20, 90)) > 0.8, partial, truth, truth)
+    boxes = [ax.get_position() for ax in fig.axes if ax.get_title()]
+    assert len(boxes) == 6
+    assert len({round(b.x0, 2) for b in boxes}) == 1  # one column
