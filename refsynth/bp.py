@@ -11,7 +11,7 @@ The algorithm of Fig. 6, step by step:
 2. For each ``y_i``, find the ``k`` closest patches among the local training
    set — the patches centred on measured pixels within ``r`` of ``i`` — by the
    distance of Eq. 2 (intensity, plus the range known in ``y_i``, with NP's
-   coverage penalty; :mod:`refsynth.similarity`). Their range patches are the
+   mean-filled range term; :mod:`refsynth.similarity`). Their range patches are the
    ``k`` labels of node ``i``. When fewer than ``k`` training patches lie
    within ``r`` (a gap wider than ``r``), the search radius doubles until ``k``
    are found or the whole image is searched.
@@ -443,7 +443,7 @@ def bp_fill(
     damping: float = 0.0,
     use_edges: bool = True,
     range_weight: float = 16.0,
-    coverage_penalty: float = 0.003,
+    missing_range: str = "mean",
     proximity: float = 1.0,
     progress: Callable[[int, int], None] | None = None,
 ) -> BPResult:
@@ -471,7 +471,7 @@ def bp_fill(
     range_norm = (range_values - low) / span
     image = image / intensity_scale(image)
     pad = max(int(np.ceil(radius)), h + 1)
-    table = PatchTable(image, range_norm, n, pad, range_weight, coverage_penalty, np.float32)
+    table = PatchTable(image, range_norm, n, pad, range_weight, missing_range, np.float32)
     Hp, Wp = H + 2 * pad, W + 2 * pad
     known_pad = np.pad(known, pad).ravel()
     unknown = ~known

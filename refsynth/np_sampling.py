@@ -31,8 +31,9 @@ normalised range stored as 0 where unknown. So every candidate's row of
 ``[I | V | R | R²]`` (a precomputed patch array, updated in place on the n×n
 windows around each newly filled voxel) is multiplied by one weight vector
 built from ``p``'s row: the whole candidate set costs one gather and one
-matrix–vector product. The coverage penalty of :mod:`refsynth.similarity`
-(``κ λ Σ_v G_v V_p (1 − V_q)``) folds into the same product.
+matrix–vector product (three columns: the intensity term, the range term over
+the shared support, and the shared support's weight, which the mean-filled
+range term of :mod:`refsynth.similarity` needs).
 
 A gap wider than ``r``
 ----------------------
@@ -55,12 +56,17 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.mrf import disc_offsets, gaussian_window, intensity_patches, window_offsets
 from refsynth.priority import FillFront, onion_order
 from refsynth.similarity import intensity_scale, range_scale
 
 __all__ = ["np_fill", "eq5_set", "PatchTable"]
+
+#: ε of the mean-filled range term: a prior pseudo-offset of this weight (the
+#: Gaussian window sums to 1) whose discrepancy is the whole known span.
+_SUPPORT_PRIOR = 1e-4
 
 
 def eq5_set(distances: np.ndarray, epsilon: float) -> np.ndarray:
@@ -101,9 +107,11 @@ class PatchTable:
         Padding of the frame (at least ``n // 2``).
     range_weight : float
         λ of Eq. 2.
-    coverage_penalty : float, default 0
-        κ: the cost ``κ λ G_v`` of each offset where ``N_p`` has range and the
-        candidate has none (see :mod:`refsynth.similarity`).
+    missing_range : {"mean", "ignore"}
+        How the range term treats offsets where ``N_p`` has range and the
+        candidate has none: ``"mean"`` charges them the mean discrepancy of
+        the offsets both have (see :mod:`refsynth.similarity`); ``"ignore"``
+        is the literal Eq. 2.
     dtype : numpy dtype, default float64
         NP uses float32: half the memory traffic of the per-step gather; the
         expanded squares then carry errors of order 1e-6 λ, far below the
@@ -117,7 +125,7 @@ class PatchTable:
         n: int,
         pad: int,
         range_weight: float,
-        coverage_penalty: float = 0.0,
+        missing_range: str = "mean",
         dtype=np.float64,
     ) -> None:
         H, W, C = image.shape
@@ -132,8 +140,6 @@ class PatchTable:
         inner[:, :, : nn * C] = patches
         h = n // 2
         rpad = np.pad(range_norm, h, mode="constant", constant_values=np.nan)
-        from numpy.lib.stride_tricks import sliding_window_view
-
         rp = sliding_window_view(rpad, (n, n)).reshape(H, W, nn)
         has = np.isfinite(rp)
         base = nn * C
@@ -149,7 +155,7 @@ class PatchTable:
         r_cols = v_cols + nn
         r2_cols = r_cols + nn
         self.perm = np.concatenate([i_cols, r2_cols, r_cols, v_cols])
-        lam = range_weight
+        lam = float(range_weight)
         self.coef = np.concatenate([-2.0 * g_int, lam * g, -2.0 * lam * g, lam * g]).astype(dtype)
         dr, dc = window_offsets(n)
         offsets = dr * self.shape[1] + dc
@@ -158,21 +164,41 @@ class PatchTable:
         self.update_cols = np.concatenate([v_cols, r_cols, r2_cols])
         self.nn = nn
         self.v_cols = v_cols
-        self.v_block = slice(base, base + nn)  # where w multiplies the candidate's V
-        self.penalty = (coverage_penalty * lam * g).astype(dtype)
+        self.lam = lam
+        self.mean_fill = missing_range == "mean"
+        # three weight columns at once, W = table[p, perm3] * coef3: the intensity
+        # term, the range term over the shared support, and the shared support's
+        # weight Σ G V_p V_q (which multiplies the candidate's V columns)
+        perm3 = np.zeros((self.perm.size, 3), dtype=np.int64)
+        coef3 = np.zeros((self.perm.size, 3), dtype=dtype)
+        perm3[:, 0] = perm3[:, 1] = self.perm
+        coef3[:base, 0] = self.coef[:base]
+        coef3[base:, 1] = self.coef[base:]
+        perm3[base : base + nn, 2] = v_cols
+        coef3[base : base + nn, 2] = g
+        self.perm3, self.coef3 = perm3, coef3
+
+    def _combine(self, terms: np.ndarray, self_terms: np.ndarray, support) -> np.ndarray:
+        """Eq. 2 from the products: intensity + range (mean-filled or literal).
+
+        Mean-filled: ``(Σ_S G ΔR² + λε) Σ_A G / (Σ_S G + ε)`` with ε = 1e-4 of the
+        window's weight — the mean shared discrepancy charged to every offset the
+        target has; with nothing shared, the whole span (λ per unit weight).
+        """
+        d = terms[..., 0] + self_terms
+        range_sum = np.maximum(terms[..., 1], 0.0)
+        if self.mean_fill:
+            range_sum += self.lam * _SUPPORT_PRIOR
+            range_sum *= support / (terms[..., 2] + _SUPPORT_PRIOR)
+        d += range_sum
+        return np.maximum(d, 0.0, out=d)
 
     def distances(self, p: int, candidates: np.ndarray) -> np.ndarray:
-        """Eq. 2 between ``N_p`` and each candidate (flat padded indices), plus the
-        coverage penalty ``κ λ Σ_v G_v`` over the offsets where ``N_p`` has range
-        and the candidate has none."""
-        row = self.table[p]
-        w = row[self.perm] * self.coef
-        has = row[self.v_cols]
-        w[self.v_block] -= self.penalty * has
-        d = self.table[candidates] @ w
-        d += self.self_term[candidates]
-        d += self.self_term[p] + self.penalty @ has
-        return np.maximum(d, 0.0, out=d)
+        """Eq. 2 between ``N_p`` and each candidate (flat padded indices)."""
+        weights = self.table[p, self.perm3] * self.coef3
+        terms = self.table[candidates] @ weights
+        support = weights[:, 2].sum()
+        return self._combine(terms, self.self_term[candidates] + self.self_term[p], support)
 
     def batch_distances(self, targets: np.ndarray, candidates: np.ndarray) -> np.ndarray:
         """:meth:`distances` for many targets at once (BP's candidate search).
@@ -186,14 +212,10 @@ class PatchTable:
         -------
         ndarray of shape (B, M)
         """
-        rows = self.table[targets]
-        w = rows[:, self.perm] * self.coef
-        has = rows[:, self.v_cols]
-        w[:, self.v_block] -= self.penalty * has
-        d = np.matmul(self.table[candidates], w[:, :, None])[:, :, 0]
-        d += self.self_term[candidates]
-        d += (self.self_term[targets] + has @ self.penalty)[:, None]
-        return np.maximum(d, 0.0, out=d)
+        weights = self.table[targets[:, None, None], self.perm3] * self.coef3
+        terms = np.matmul(self.table[candidates], weights)
+        self_terms = self.self_term[candidates] + self.self_term[targets][:, None]
+        return self._combine(terms, self_terms, weights[:, :, 2].sum(axis=1)[:, None])
 
     def set_range(self, p: int, value: float) -> None:
         """Record normalised range ``value`` at flat padded index ``p``."""
@@ -222,7 +244,7 @@ def np_fill(
     use_isophotes: bool = True,
     ordering: str = "priority",
     range_weight: float = 16.0,
-    coverage_penalty: float = 0.003,
+    missing_range: str = "mean",
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fill the unknown range by NP sampling in the chosen order (§3.2.2, §3.2.4).
@@ -255,7 +277,7 @@ def np_fill(
     image = image / intensity_scale(image)
 
     pad = max(int(np.ceil(radius)), n // 2 + 1)
-    table = PatchTable(image, range_norm, n, pad, range_weight, coverage_penalty, np.float32)
+    table = PatchTable(image, range_norm, n, pad, range_weight, missing_range, np.float32)
     front = FillFront(
         known,
         range_norm,

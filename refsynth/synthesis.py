@@ -22,6 +22,7 @@ __all__ = ["SynthesisResult", "synthesize", "normalise_intensity"]
 
 METHODS = ("np", "bp")
 PRODUCTS = ("max", "sum")
+MISSING_RANGE = ("mean", "ignore")
 ORDERINGS = ("priority", "onion")
 
 
@@ -176,7 +177,7 @@ def synthesize(
     use_isophotes: bool = True,
     ordering: str = "priority",
     range_weight: float = 16.0,
-    coverage_penalty: float = 0.003,
+    missing_range: str = "mean",
     candidates: int = 8,
     proximity: float = 1.0,
     sigma_i: float = 0.1,
@@ -224,10 +225,11 @@ def synthesize(
     range_weight : float, default 16
         Weight λ of the range term of Eq. 2 against the intensity term,
         both normalised (see :mod:`refsynth.similarity`).
-    coverage_penalty : float, default 0.003
-        κ: the cost, in units of λ·(known range span)², of each window offset
-        (weighted by ``G``) where the target has range and a candidate has none. ``0`` is the
-        literal Eq. 2 (see :mod:`refsynth.similarity` for why refsynth
+    missing_range : {"mean", "ignore"}
+        How Eq. 2's range term treats window offsets where the target has range
+        and a candidate has none: ``"mean"`` charges them the mean discrepancy
+        of the offsets both have; ``"ignore"`` drops them, the literal Eq. 2
+        (see :mod:`refsynth.similarity` for why refsynth
         departs from it). BP ranks its candidates with the same distance.
     candidates : int, default 8
         BP: ``k``, the candidates (labels) per unknown pixel.
@@ -288,7 +290,10 @@ def synthesize(
     epsilon = _check_positive("epsilon", epsilon, allow_zero=True)
     canny_sigma = _check_positive("canny_sigma", canny_sigma, allow_zero=True)
     range_weight = _check_positive("range_weight", range_weight, allow_zero=True)
-    coverage_penalty = _check_positive("coverage_penalty", coverage_penalty, allow_zero=True)
+    if not isinstance(missing_range, str) or missing_range not in MISSING_RANGE:
+        raise ValueError(
+            f"The parameter `missing_range` must be one of {MISSING_RANGE}, got {missing_range!r}"
+        )
     for name, flag in (("use_edges", use_edges), ("use_isophotes", use_isophotes)):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"The parameter `{name}` must be a bool, got {type(flag).__name__}")
@@ -329,7 +334,7 @@ def synthesize(
         canny_sigma=canny_sigma,
         use_edges=bool(use_edges),
         range_weight=range_weight,
-        coverage_penalty=coverage_penalty,
+        missing_range=missing_range,
     )
     if method == "bp":
         from refsynth.bp import bp_fill
@@ -350,7 +355,7 @@ def synthesize(
             product=product,
             use_edges=bool(use_edges),
             range_weight=range_weight,
-            coverage_penalty=coverage_penalty,
+            missing_range=missing_range,
             proximity=proximity,
             progress=progress,
         )
@@ -378,7 +383,7 @@ def synthesize(
         use_isophotes=bool(use_isophotes),
         ordering=ordering,
         range_weight=range_weight,
-        coverage_penalty=coverage_penalty,
+        missing_range=missing_range,
         progress=progress,
     )
     return SynthesisResult(

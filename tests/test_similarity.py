@@ -147,18 +147,18 @@ def test_range_scale_of_a_constant_is_one():
     st.sampled_from([1, 3]),
     st.sampled_from([3, 5]),
     st.floats(0.0, 8.0),
-    st.sampled_from([0.0, 0.003, 1.0]),
+    st.sampled_from(["ignore", "mean"]),
     st.sampled_from([np.float64, np.float32]),
     st.integers(0, 2**32 - 1),
 )
-def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, kappa, dtype, seed):
-    """NP's one-matrix-product form of Eq. 2 equals the pair-by-pair definition,
-    plus κλΣG over the offsets where the target has range and the candidate has none."""
+def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, missing, dtype, seed):
+    """NP's matrix-product form of Eq. 2 equals the pair-by-pair definition, both
+    for the literal Eq. 2 and for the mean-filled range term."""
     rng = np.random.default_rng(seed)
     image = rng.random((h, w, c))
     rimg = np.where(rng.random((h, w)) < 0.5, rng.random((h, w)), np.nan)
     pad = n // 2 + 1
-    table = PatchTable(image, rimg, n, pad, lam, kappa, dtype)
+    table = PatchTable(image, rimg, n, pad, lam, missing, dtype)
     ip = intensity_patches(image, n)
     rp = range_patches(rimg, n)
     wp = w + 2 * pad
@@ -166,12 +166,48 @@ def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, kappa, dtyp
     qs = [(int(rng.integers(h)), int(rng.integers(w))) for _ in range(6)]
     flat = np.array([(q[0] + pad) * wp + q[1] + pad for q in qs])
     got = table.distances((p[0] + pad) * wp + p[1] + pad, flat)
-    g = gaussian_window(n)
     want = [
-        neighbourhood_distance(ip[p], rp[p], ip[q], rp[q], range_weight=lam)
-        + kappa * lam * g[np.isfinite(rp[p]) & ~np.isfinite(rp[q])].sum()
+        neighbourhood_distance(ip[p], rp[p], ip[q], rp[q], range_weight=lam,
+                               missing_range=missing)
         for q in qs
     ]
+    batch = table.batch_distances(np.array([(p[0] + pad) * wp + p[1] + pad]), flat[None, :])
     # float32 is what NP uses: the expanded squares lose a few digits to cancellation
     tol = dict(rtol=1e-9, atol=1e-12) if dtype == np.float64 else dict(rtol=1e-4, atol=1e-4)
     np.testing.assert_allclose(got, want, **tol)
+    np.testing.assert_allclose(batch[0], want, **tol)
+
+
+@given(neighbourhood_pair(), st.floats(0.1, 10.0))
+def test_mean_filled_range_term_equals_eq2_when_the_candidate_covers_the_target(pair, lam):
+    """Up to the prior pseudo-offset ε: (r + ε) t / (t + ε) with r the shared sum, t = Σ_A G."""
+    (ia, ra), (ib, rb) = pair
+    rb = np.where(np.isfinite(ra) & ~np.isfinite(rb), 0.5, rb)  # b has range wherever a has
+    intensity_only = neighbourhood_distance(ia, ra, ib, rb, range_weight=0.0)
+    r = (neighbourhood_distance(ia, ra, ib, rb, range_weight=lam) - intensity_only) / lam
+    t = gaussian_window(ra.shape[0])[np.isfinite(ra)].sum()
+    eps = 1e-4
+    filled = neighbourhood_distance(ia, ra, ib, rb, range_weight=lam, missing_range="mean")
+    assert filled == pytest.approx(intensity_only + lam * (r + eps) * t / (t + eps),
+                                   rel=1e-9, abs=1e-12)
+
+
+def test_mean_filled_range_term_charges_missing_offsets_the_mean_discrepancy():
+    """Two offsets in a, one shared with b: the missing one costs the shared one's error."""
+    g = gaussian_window(3)
+    zero = np.zeros((3, 3))
+    ra = np.full((3, 3), np.nan)
+    rb = np.full((3, 3), np.nan)
+    ra[0, 1], ra[1, 0] = 0.2, 0.4
+    rb[0, 1] = 0.5
+    eps = 1e-4  # the prior pseudo-offset
+    got = neighbourhood_distance(zero, ra, zero, rb, range_weight=1.0, missing_range="mean")
+    want = (0.3**2 * g[0, 1] + eps) * (g[0, 1] + g[1, 0]) / (g[0, 1] + eps)
+    assert got == pytest.approx(want, rel=1e-12)
+    assert got == pytest.approx(0.3**2 * (g[0, 1] + g[1, 0]), rel=0.02)
+    # nothing shared: every offset a has costs the whole span
+    rb[0, 1] = np.nan
+    got = neighbourhood_distance(zero, ra, zero, rb, range_weight=2.0, missing_range="mean")
+    assert got == pytest.approx(2.0 * (g[0, 1] + g[1, 0]), rel=1e-12)
+    with pytest.raises(ValueError, match="`missing_range`"):
+        neighbourhood_distance(zero, ra, zero, rb, missing_range="zero")

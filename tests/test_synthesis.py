@@ -57,7 +57,7 @@ def test_bad_arrays_are_rejected(intensity, partial, error, match):
         ({"epsilon": -0.1}, ValueError, "`epsilon`"),
         ({"canny_sigma": float("inf")}, ValueError, "`canny_sigma`"),
         ({"range_weight": -1.0}, ValueError, "`range_weight`"),
-        ({"coverage_penalty": -1.0}, ValueError, "`coverage_penalty`"),
+        ({"missing_range": "zero"}, ValueError, "`missing_range`"),
         ({"use_edges": "yes"}, TypeError, "`use_edges` must be a bool"),
         ({"use_isophotes": 1}, TypeError, "`use_isophotes` must be a bool"),
         ({"edges": np.zeros((5, 5), bool)}, ValueError, "`edges` must have shape"),
