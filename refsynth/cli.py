@@ -1,4 +1,4 @@
-"""The command line: ``python -m refsynth demo | synth | scan | register``.
+"""The command line: ``python -m refsynth demo | synth | scan | register | evaluate | figures``.
 
 Errors print one line on stderr and exit with status 2, without a traceback.
 Long runs report progress on stderr.
@@ -262,11 +262,15 @@ def build_parser() -> argparse.ArgumentParser:
     synth.add_argument("--no-isophotes", action="store_true")
     synth.set_defaults(func=_cmd_synth)
 
+    from refsynth.evaluation import add_evaluate_parser
+    from refsynth.figures import add_figures_parser
     from refsynth.laser_camera import add_register_parser
     from refsynth.rig.cli import add_scan_parser
 
     add_scan_parser(sub)
     add_register_parser(sub)
+    add_evaluate_parser(sub)
+    add_figures_parser(sub)
     return parser
 
 

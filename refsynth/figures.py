@@ -1,0 +1,522 @@
+"""``python -m refsynth figures``: regenerate every PNG in ``figures/``.
+
+The analogues of the paper's figures on refsynth's scenes, and the demo's:
+
+========================================  ===============================================
+file                                      what
+========================================  ===============================================
+``demo_result.png``,                      :func:`refsynth.cli.run_demo` (exactly what
+``demo_np_bp.png``,                       ``python -m refsynth demo --out figures``
+``demo_comparison.png``                   writes)
+``fig07_ordering.png``                    Fig. 7: priority (Eqs. 10–12) against onion-peel
+                                          order: fill order, result, residual
+``fig11_samplings_room.png``              Figs. 11/Table 1: the grid samplings × NP × BP
+                                          on the synthetic room
+``fig13_edges.png``                       Fig. 13/Table 3: no edges / NP / BP on four rooms
+``fig16_isophotes.png``                   Fig. 16: NP without and with isophotes
+``fig17_samplings_motorcycle.png``        Fig. 17/Table 4: x-stripes × NP × BP on the
+                                          Motorcycle
+``mar_vs_unknown.png``                    MAR against the unknown fraction, every method
+``bp_confidence.png``                     BP's confidence map against its absolute error
+========================================  ===============================================
+
+Scenes: the synthetic room 128×128 (metres) and the Middlebury 2014
+Motorcycle at 225×188 (disparity in pixels of that size) for the heavier
+panels (Figs. 16, 17 and the confidence map). ``--quick`` shrinks everything
+(rooms 32×32, Motorcycle 64×40, two fractions and one seed) for tests.
+Every random choice flows from fixed seeds and no figure shows a time, so the
+command writes byte-identical PNGs on every run (with the same matplotlib).
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.2.4 (Fig. 7), §3.3 (Figs. 11, 13, 16, 17,
+Tables 1–4), doi:10.1007/s11263-007-0108-2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+__all__ = [
+    "FIGURES",
+    "fill_order_image",
+    "ordering_figure",
+    "scenes_figure",
+    "mar_curve_figure",
+    "confidence_figure",
+    "make_figures",
+    "add_figures_parser",
+]
+
+#: Every file the command writes, in order.
+FIGURES = (
+    "demo_result.png",
+    "demo_np_bp.png",
+    "demo_comparison.png",
+    "fig07_ordering.png",
+    "fig11_samplings_room.png",
+    "fig13_edges.png",
+    "fig16_isophotes.png",
+    "fig17_samplings_motorcycle.png",
+    "mar_vs_unknown.png",
+    "bp_confidence.png",
+)
+
+DPI = 110
+
+
+@dataclass(frozen=True)
+class _Settings:
+    room: int  # side of the synthetic rooms
+    moto: tuple[int, int]  # (width, height) of the Motorcycle
+    demo: int  # size for run_demo
+    fractions: tuple[int, ...]  # x-stripe unknown percentages of mar_vs_unknown
+    curve_size: str  # size spec of mar_vs_unknown's scenes
+    seeds: int  # NP seeds of mar_vs_unknown
+
+
+FULL = _Settings(room=128, moto=(225, 188), demo=128, fractions=(40, 50, 63, 70, 78, 85),
+                 curve_size="128", seeds=3)
+QUICK = _Settings(room=32, moto=(64, 40), demo=32, fractions=(50, 78), curve_size="32", seeds=1)
+
+
+# ----------------------------------------------------------------------------- figures
+
+
+def _show(ax, image, title, **kwargs):
+    image = np.asarray(image)
+    if image.ndim == 2 and "cmap" not in kwargs:
+        kwargs["cmap"] = "gray"
+    handle = ax.imshow(image, interpolation="nearest", **kwargs)
+    ax.set_title(title, fontsize=8)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    return handle
+
+
+def _mar(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray) -> float:
+    evaluated = ~known & np.isfinite(truth)
+    return float(np.mean(np.abs(estimate - truth)[evaluated]))
+
+
+def fill_order_image(shape: tuple[int, int], order: np.ndarray) -> np.ndarray:
+    """When each pixel was synthesized, in [0, 1] (NaN where the range was known).
+
+    Parameters
+    ----------
+    shape : pair of int
+        ``(H, W)``.
+    order : ndarray of shape (N, 2), int
+        Synthesized pixels ``(row, col)`` in fill order
+        (:attr:`refsynth.SynthesisResult.order`).
+
+    Returns
+    -------
+    ndarray of shape (H, W), float64
+
+    Examples
+    --------
+    >>> fill_order_image((1, 3), np.array([[0, 2], [0, 0]])).tolist()
+    [[1.0, nan, 0.0]]
+    """
+    when = np.full(shape, np.nan)
+    if len(order):
+        when[order[:, 0], order[:, 1]] = np.arange(len(order)) / max(len(order) - 1, 1)
+    return when
+
+
+def ordering_figure(
+    truth: np.ndarray,
+    cases: Sequence[tuple[str, np.ndarray, Mapping[str, object]]],
+    *,
+    units: str = "",
+    title: str | None = None,
+) -> Figure:
+    """Fig. 7's comparison: per sampling and order, the fill order, the result and the residual.
+
+    Parameters
+    ----------
+    truth : ndarray of shape (H, W)
+    cases : sequence of (sampling name, partial range, {order name: SynthesisResult})
+    units : str
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One row per sampling × order: fill order (blue = early, red = late), synthesized
+        range, absolute residual (one colour scale per sampling).
+    """
+    rows = sum(len(results) for _, _, results in cases)
+    fig = Figure(figsize=(3.0 * 3 + 0.6, 2.6 * rows))
+    axes = np.atleast_2d(fig.subplots(rows, 3))
+    finite = truth[np.isfinite(truth)]
+    kw = dict(cmap="viridis", vmin=float(finite.min()), vmax=float(finite.max()))
+    row = 0
+    for sampling, partial, results in cases:
+        known = np.isfinite(partial)
+        errors = {name: np.where(~known & np.isfinite(truth), np.abs(r.range - truth), np.nan)
+                  for name, r in results.items()}
+        top = max(float(np.nanpercentile(e, 99)) for e in errors.values()) or 1.0
+        for name, result in results.items():
+            _show(axes[row, 0], fill_order_image(truth.shape, result.order),
+                  f"{sampling}, {name}: fill order", cmap="turbo", vmin=0, vmax=1)
+            h = _show(axes[row, 1], result.range, "synthesized range", **kw)
+            fig.colorbar(h, ax=axes[row, 1], fraction=0.046, pad=0.04)
+            mar = _mar(result.range, truth, known)
+            h = _show(axes[row, 2], errors[name], f"|residual|, MAR {mar:.3g} {units}".strip(),
+                      cmap="magma", vmin=0, vmax=top)
+            fig.colorbar(h, ax=axes[row, 2], fraction=0.046, pad=0.04)
+            row += 1
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def scenes_figure(
+    rows: Sequence[tuple[str, np.ndarray, np.ndarray, Mapping[str, np.ndarray]]],
+    *,
+    units: str = "",
+    title: str | None = None,
+) -> Figure:
+    """One row per scene: partial range, each method's result (with its MAR), ground truth.
+
+    Parameters
+    ----------
+    rows : sequence of (row name, truth, partial range, {method: synthesized range})
+    units : str
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Each row has its own colour scale (the scenes differ).
+    """
+    methods = list(dict.fromkeys(m for *_, results in rows for m in results))
+    cols = len(methods) + 2
+    fig = Figure(figsize=(2.6 * cols, 2.5 * len(rows)))
+    axes = np.atleast_2d(fig.subplots(len(rows), cols))
+    for i, (name, truth, partial, results) in enumerate(rows):
+        known = np.isfinite(partial)
+        finite = truth[np.isfinite(truth)]
+        kw = dict(cmap="viridis", vmin=float(finite.min()), vmax=float(finite.max()))
+        _show(axes[i, 0], partial, f"{name}: {100 * (1 - known.mean()):.0f} % unknown", **kw)
+        for j, method in enumerate(methods, start=1):
+            if method not in results:
+                axes[i, j].axis("off")
+                continue
+            mar = _mar(results[method], truth, known)
+            _show(axes[i, j], results[method], f"{method}: MAR {mar:.3g} {units}".strip(), **kw)
+        _show(axes[i, -1], truth, "ground truth", **kw)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def mar_curve_figure(rows: Sequence[dict], *, title: str | None = None) -> Figure:
+    """MAR against the unknown fraction, one line per method, one panel per scene.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Aggregated rows of :func:`refsynth.evaluation.aggregate` (x-stripe
+        samplings); NP variants over several seeds get error bars (± one
+        standard deviation).
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    fig = Figure(figsize=(6.0 * len(scenes), 4.6))
+    axes = np.atleast_1d(fig.subplots(1, len(scenes)))
+    styles = {m: ("-" if m.startswith(("np", "bp")) else "--") for m in methods}
+    markers = "os^vD<>ph*x"
+    for ax, scene in zip(axes, scenes):
+        units = ""
+        for k, method in enumerate(methods):
+            series = sorted((r for r in rows if r["scene"] == scene and r["method"] == method),
+                            key=lambda r: r["unknown_percent"])
+            if not series:
+                continue
+            units = series[0]["units"]
+            x = [r["unknown_percent"] for r in series]
+            y = [r["mar"] for r in series]
+            err = [r["mar_sd"] or 0.0 for r in series]
+            ax.errorbar(x, y, yerr=err, label=method, linestyle=styles[method],
+                        marker=markers[k % len(markers)], markersize=4, capsize=2)
+        ax.set_xlabel("unknown range (% of the image), x-stripes")
+        ax.set_ylabel(f"MAR (Eq. 13), {units}")
+        ax.set_title(scene, fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[-1].legend(fontsize=7, ncol=2)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def confidence_figure(
+    cases: Sequence[tuple[str, np.ndarray, np.ndarray, object]],
+    *,
+    bins: int = 10,
+    title: str | None = None,
+) -> Figure:
+    """BP's confidence against its absolute error: maps, and MAR per confidence decile.
+
+    Parameters
+    ----------
+    cases : sequence of (name, truth, partial range, BP SynthesisResult)
+    bins : int, default 10
+        Quantile bins of the synthesized pixels' confidence.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Per case: the BP result, its absolute error, its confidence, and the
+        MAR of the synthesized pixels in each confidence bin (a confidence
+        that means something falls from left to right).
+    """
+    fig = Figure(figsize=(3.0 * 4 + 0.8, 2.8 * len(cases)))
+    axes = np.atleast_2d(fig.subplots(len(cases), 4))
+    for i, (name, truth, partial, result) in enumerate(cases):
+        known = np.isfinite(partial)
+        scored = ~known & np.isfinite(truth)
+        error = np.where(scored, np.abs(result.range - truth), np.nan)
+        finite = truth[np.isfinite(truth)]
+        h = _show(axes[i, 0], result.range, f"{name}: BP", cmap="viridis",
+                  vmin=float(finite.min()), vmax=float(finite.max()))
+        fig.colorbar(h, ax=axes[i, 0], fraction=0.046, pad=0.04)
+        h = _show(axes[i, 1], error, "|error|", cmap="magma", vmin=0,
+                  vmax=float(np.nanpercentile(error, 99)) or 1.0)
+        fig.colorbar(h, ax=axes[i, 1], fraction=0.046, pad=0.04)
+        h = _show(axes[i, 2], np.where(known, np.nan, result.confidence), "confidence (belief)",
+                  cmap="viridis", vmin=0, vmax=1)
+        fig.colorbar(h, ax=axes[i, 2], fraction=0.046, pad=0.04)
+        conf, err = result.confidence[scored], error[scored]
+        order = np.argsort(conf, kind="stable")
+        chunks = np.array_split(order, bins)
+        centres = [float(np.mean(conf[c])) for c in chunks if len(c)]
+        mars = [float(np.mean(err[c])) for c in chunks if len(c)]
+        ax = axes[i, 3]
+        ax.plot(centres, mars, marker="o")
+        ax.axhline(float(np.mean(err)), color="grey", linestyle=":", label="all")
+        ax.set_xlabel("confidence (mean of the decile)", fontsize=8)
+        ax.set_ylabel("MAR of the decile", fontsize=8)
+        ax.set_title("error against confidence", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+# ----------------------------------------------------------------------------- the command
+
+
+def _save(fig: Figure, out: Path, name: str, written: list[Path]) -> None:
+    path = out / name
+    fig.savefig(path, dpi=DPI)
+    written.append(path)
+
+
+def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
+                 log=None) -> list[Path]:
+    """Write every figure of :data:`FIGURES` into ``out``; return their paths.
+
+    Parameters
+    ----------
+    out : Path
+        The folder (created if missing).
+    quick : bool, default False
+        Small scenes, for tests (see the module docstring).
+    jobs : int, default 1
+        Local processes for the MAR-against-unknown-fraction grid
+        (:func:`refsynth.evaluation.run_cases`); the figures do not depend on it.
+    log : callable, optional
+        Called with a line of progress text.
+
+    Returns
+    -------
+    list of Path
+    """
+    from refsynth import synthesize
+    from refsynth.cli import run_demo
+    from refsynth.datasets import motorcycle, synthetic_room
+    from refsynth.evaluation import aggregate, grid_cases, known_mask, run_cases
+
+    say = log or (lambda text: None)
+    settings = QUICK if quick else FULL
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+
+    say("demo figures (refsynth.cli.run_demo)")
+    run_demo(out, size=settings.demo)
+    written += [out / name for name in FIGURES[:3]]
+
+    room = synthetic_room((settings.room, settings.room), seed=0)
+    moto = motorcycle(settings.moto)
+    grids = ("g24_80", "g10_20", "g5_25", "g3_28") if not quick else ("g3_8", "g5_25")
+
+    def partial_of(scene, sampling):
+        known = known_mask(scene, sampling)
+        return np.where(known, scene.range, np.nan)
+
+    say("Fig. 7: priority against onion order")
+    cases = []
+    for sampling in ("g5_25", "x78"):
+        partial = partial_of(room, sampling)
+        cases.append((sampling, partial, {
+            "priority": synthesize(room.intensity, partial, seed=0),
+            "onion": synthesize(room.intensity, partial, seed=0, ordering="onion"),
+        }))
+    _save(ordering_figure(room.range, cases, units=room.units,
+                          title=f"Fig. 7 analogue, {room.name}: fill order "
+                          "(blue = early, red = late)"),
+          out, "fig07_ordering.png", written)
+
+    say("Fig. 11: grid samplings × NP × BP on the room")
+    rows, bp_room = [], None
+    for sampling in grids:
+        partial = partial_of(room, sampling)
+        bp = synthesize(room.intensity, partial, method="bp")
+        if sampling == "g5_25":
+            bp_room = (f"{room.name}, g5_25", room.range, partial, bp)
+        rows.append((sampling, room.range, partial, {
+            "NP": synthesize(room.intensity, partial, seed=0).range, "BP": bp.range}))
+    _save(scenes_figure(rows, units=room.units,
+                        title=f"Fig. 11 / Table 1 analogue: {room.name}, grid stripes rw/xw"),
+          out, "fig11_samplings_room.png", written)
+
+    say("Fig. 13: no edges / NP / BP on four rooms")
+    rows = []
+    for seed in range(4):
+        scene = room if seed == 0 else synthetic_room((settings.room, settings.room), seed=seed)
+        partial = partial_of(scene, "g5_25")
+        rows.append((scene.name, scene.range, partial, {
+            "NP, no edges": synthesize(scene.intensity, partial, seed=0, use_edges=False).range,
+            "NP": synthesize(scene.intensity, partial, seed=0).range,
+            "BP": synthesize(scene.intensity, partial, method="bp").range,
+        }))
+    _save(scenes_figure(rows, units=room.units,
+                        title="Fig. 13 / Table 3 analogue: grid stripes 5/25"),
+          out, "fig13_edges.png", written)
+
+    say("Fig. 16: isophotes off and on, Motorcycle")
+    rows = []
+    for sampling in ("x63", "x78"):
+        partial = partial_of(moto, sampling)
+        rows.append((sampling, moto.range, partial, {
+            "NP, no isophotes": synthesize(moto.intensity, partial, seed=0,
+                                           use_isophotes=False).range,
+            "NP": synthesize(moto.intensity, partial, seed=0).range,
+        }))
+    _save(scenes_figure(rows, units=moto.units,
+                        title=f"Fig. 16 analogue: {moto.name}, NP without and with isophotes"),
+          out, "fig16_isophotes.png", written)
+
+    say("Fig. 17: x-stripes × NP × BP, Motorcycle")
+    rows, bp_moto = [], None
+    for sampling in ("x63", "x78", "x85"):
+        partial = partial_of(moto, sampling)
+        bp = synthesize(moto.intensity, partial, method="bp")
+        if sampling == "x78":
+            bp_moto = (f"{moto.name}, x78", moto.range, partial, bp)
+        rows.append((sampling, moto.range, partial, {
+            "NP": synthesize(moto.intensity, partial, seed=0).range, "BP": bp.range}))
+    _save(scenes_figure(rows, units=moto.units,
+                        title=f"Fig. 17 / Table 4 analogue: {moto.name}, x-stripes"),
+          out, "fig17_samplings_motorcycle.png", written)
+
+    say("MAR against the unknown fraction (every method)")
+    samplings = ",".join(f"x{f}" for f in settings.fractions)
+    cases = grid_cases([("synthetic,motorcycle", settings.curve_size, samplings, None)],
+                       seeds=settings.seeds)
+    curve_rows = aggregate(run_cases(cases, jobs=jobs))
+    spread = (f"NP variants: mean ± sd over {settings.seeds} seeds" if settings.seeds > 1
+              else "NP variants: one seed")
+    _save(mar_curve_figure(curve_rows, title=f"MAR against the unknown fraction, x-stripes "
+                           f"({spread})"),
+          out, "mar_vs_unknown.png", written)
+
+    say("BP confidence against error")
+    _save(confidence_figure([bp_room, bp_moto],
+                            title="BP: confidence (Eq. 8 belief) against absolute error"),
+          out, "bp_confidence.png", written)
+    assert [p.name for p in written] == list(FIGURES)
+    return written
+
+
+def _cmd_figures(args) -> int:
+    if args.jobs < 1:
+        raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"--out must be a folder, got the file {out}")
+    start = time.perf_counter()
+
+    def log(text: str) -> None:
+        print(f"[{time.perf_counter() - start:5.0f} s] {text}", file=sys.stderr, flush=True)
+
+    written = make_figures(out, quick=args.quick, jobs=args.jobs, log=log)
+    for path in written:
+        print(f"wrote {path}")
+    print(f"refsynth figures: {len(written)} figures in {time.perf_counter() - start:.0f} s",
+          file=sys.stderr)
+    return 0
+
+
+def add_figures_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``figures`` subcommand to an argparse subparsers object.
+
+    The handler (``args.func``) returns 0; user errors raise ``ValueError`` or
+    ``OSError`` with a one-line message.
+    """
+    parser = subparsers.add_parser(
+        "figures", help="regenerate figures/ (the paper's figure analogues and the demo's)",
+        description="Write every figure of figures/: the demo's three, the analogues of the "
+        "paper's Figs. 7, 11, 13, 16 and 17, MAR against the unknown fraction, and BP's "
+        "confidence against its error. Deterministic: the same PNG bytes on every run.",
+    )
+    parser.add_argument("--out", default="figures", help="output folder (default figures)")
+    parser.add_argument("--quick", action="store_true",
+                        help="small scenes, for a smoke test (not the committed figures)")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="local processes for the MAR-against-fraction grid (default 1)")
+    parser.set_defaults(func=_cmd_figures)
+    return parser
+
+
+def _main(argv: list[str] | None = None) -> int:
+    """``python -m refsynth.figures figures ...`` until the CLI wires it in."""
+    parser = argparse.ArgumentParser(prog="python -m refsynth.figures")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_figures_parser(sub)
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, TypeError, OSError, ImportError) as exc:
+        print(f"refsynth {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    from refsynth.figures import _main as main
+
+    sys.exit(main())
