@@ -194,8 +194,8 @@ with RigSimulator(seed=SEED, camera_dir=WORK / "demo-images") as sim:
 def simulated_scan(folder, settings, faults=None, resume=False):
     with RigSimulator(seed=SEED, faults=faults, camera_dir=Path(folder) / "images",
                       reconnect_delay=0.05) as sim, \
-            PanUnit(sim.pan_port, timeout=0.1) as pan, \
-            Rangefinder(sim.laser_port, timeout=0.1) as laser:
+            PanUnit(sim.pan_port, timeout=0.5) as pan, \
+            Rangefinder(sim.laser_port, timeout=0.5) as laser:
         return run_scan(folder, pan, laser, settings, resume=resume,
                         source={"simulated": True, "seed": SEED})
 
@@ -234,8 +234,8 @@ def stop_at_30(done, total, index):
 
 try:
     with RigSimulator(seed=SEED, camera_dir=WORK / "resumed" / "images") as sim, \
-            PanUnit(sim.pan_port, timeout=0.1) as pan, \
-            Rangefinder(sim.laser_port, timeout=0.1) as laser:
+            PanUnit(sim.pan_port, timeout=0.5) as pan, \
+            Rangefinder(sim.laser_port, timeout=0.5) as laser:
         run_scan(WORK / "resumed", pan, laser, stripes, progress=stop_at_30)
 except Interrupted:
     print(f"interrupted with {len(list((WORK / 'resumed' / 'slices').iterdir()))} slices saved")
