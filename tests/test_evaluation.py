@@ -307,7 +307,17 @@ def test_paper_comparison_quotes_the_papers_numbers():
     rows = aggregate([_run(m, 0, v, scene="motorcycle-450x375", sampling=s)
                       for s in ("x63", "x78", "x85") for m, v in (("np", 1.0), ("bp", 0.5))])
     text = format_paper_comparison(rows)
-    assert "6.42" in text and "3.9" in text and "7.98" in text and "1.000" in text
+    assert "6.42" in text and "3.90" in text and "7.98" in text and "1.000" in text
+    assert "| 0.50 |" in text  # our BP/NP beside the paper's 0.61
+    rooms = aggregate([_run(m, 0, v * (1 + k), scene=f"synthetic-room-{k}", sampling="g5_25",
+                            scene_spec=f"synthetic-{k}",
+                            size="128x128")
+                       for k in range(2) for m, v in (("np", 0.1), ("np-noedges", 0.2),
+                                                      ("bp", 0.3))])
+    text = format_paper_comparison(rooms)
+    assert "| image 2 | 13.48 / 3.03 / 1.63 | synthetic-room-1 | 0.400 | 0.200 | 0.600 |" in text
+    assert "| Table 2: mean of 32 | – / 4.27 / 2.65 | mean of 2 rooms | 0.300 | 0.150 | 0.450 |" \
+        in text
 
 
 # ----------------------------------------------------------------------------- determinism
