@@ -133,9 +133,8 @@ class PatchTable:
         nn = n * n
         g = gaussian_window(n).ravel()
         rows = self.shape[0] * self.shape[1]
-        width = nn * C + 3 * nn + 2  # [I | V | R | R² | s | 1]
-        table = np.zeros((rows, width), dtype=dtype)
-        frame = table.reshape(self.shape + (width,))
+        table = np.zeros((rows, nn * C + 3 * nn), dtype=dtype)
+        frame = table.reshape(self.shape + (nn * C + 3 * nn,))
         inner = frame[pad : pad + H, pad : pad + W]
         patches = intensity_patches(image, n).reshape(H, W, nn * C)
         inner[:, :, : nn * C] = patches
@@ -146,13 +145,10 @@ class PatchTable:
         base = nn * C
         inner[:, :, base : base + nn] = has
         inner[:, :, base + nn : base + 2 * nn] = np.where(has, rp, 0.0)
-        inner[:, :, base + 2 * nn : base + 3 * nn] = np.where(has, rp, 0.0) ** 2
+        inner[:, :, base + 2 * nn :] = np.where(has, rp, 0.0) ** 2
         self.table = table
         g_int = np.repeat(g, C) / C  # intensity columns are (offset, channel) raveled
         self.self_term = (table[:, :base] ** 2) @ g_int.astype(dtype)
-        s_col, one_col = width - 2, width - 1
-        table[:, s_col] = self.self_term
-        table[:, one_col] = 1.0
         # weight vector of p = table[p, perm] * coef
         i_cols = np.arange(base)
         v_cols = base + np.arange(nn)
@@ -168,48 +164,41 @@ class PatchTable:
         self.update_cols = np.concatenate([v_cols, r_cols, r2_cols])
         self.nn = nn
         self.v_cols = v_cols
-        self.v_end = base + nn
         self.lam = lam
         self.mean_fill = missing_range == "mean"
         # three weight columns at once, W = table[p, perm3] * coef3: the intensity
         # term, the range term over the shared support, and the shared support's
-        # weight Σ G V_p V_q (which multiplies the candidate's V columns). The last
-        # two table columns fold in the self terms s_p + s_q (column 0) and the
-        # prior pseudo-offset of the mean-filled range term (columns 1 and 2).
-        perm3 = np.full((width, 3), one_col, dtype=np.int64)
-        coef3 = np.zeros((width, 3), dtype=dtype)
-        perm3[: width - 2, 0] = perm3[: width - 2, 1] = self.perm
+        # weight Σ G V_p V_q (which multiplies the candidate's V columns)
+        perm3 = np.zeros((self.perm.size, 3), dtype=np.int64)
+        coef3 = np.zeros((self.perm.size, 3), dtype=dtype)
+        perm3[:, 0] = perm3[:, 1] = self.perm
         coef3[:base, 0] = self.coef[:base]
-        coef3[base : width - 2, 1] = self.coef[base:]
+        coef3[base:, 1] = self.coef[base:]
         perm3[base : base + nn, 2] = v_cols
         coef3[base : base + nn, 2] = g
-        coef3[s_col, 0] = 1.0  # candidate's s_q times p's 1
-        perm3[one_col, 0] = s_col  # candidate's 1 times p's s_p
-        coef3[one_col, 0] = 1.0
-        if self.mean_fill:
-            coef3[one_col, 1] = lam * _SUPPORT_PRIOR
-            coef3[one_col, 2] = _SUPPORT_PRIOR
         self.perm3, self.coef3 = perm3, coef3
 
-    def _combine(self, terms: np.ndarray, support) -> np.ndarray:
-        """Eq. 2 from the three products: intensity + range (mean-filled or literal).
+    def _combine(self, terms: np.ndarray, self_terms: np.ndarray, support) -> np.ndarray:
+        """Eq. 2 from the products: intensity + range (mean-filled or literal).
 
         Mean-filled: ``(Σ_S G ΔR² + λε) Σ_A G / (Σ_S G + ε)`` with ε = 1e-4 of the
         window's weight — the mean shared discrepancy charged to every offset the
         target has; with nothing shared, the whole span (λ per unit weight).
         """
+        d = terms[..., 0] + self_terms
+        range_sum = np.maximum(terms[..., 1], 0.0)
         if self.mean_fill:
-            d = terms[..., 1] * (support / terms[..., 2])
-            d += terms[..., 0]
-        else:
-            d = terms[..., 0] + terms[..., 1]
+            range_sum += self.lam * _SUPPORT_PRIOR
+            range_sum *= support / (terms[..., 2] + _SUPPORT_PRIOR)
+        d += range_sum
         return np.maximum(d, 0.0, out=d)
 
     def distances(self, p: int, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2 between ``N_p`` and each candidate (flat padded indices)."""
         weights = self.table[p, self.perm3] * self.coef3
-        support = weights[: self.v_end, 2].sum()
-        return self._combine(self.table[candidates] @ weights, support)
+        terms = self.table[candidates] @ weights
+        support = weights[:, 2].sum()
+        return self._combine(terms, self.self_term[candidates] + self.self_term[p], support)
 
     def batch_distances(self, targets: np.ndarray, candidates: np.ndarray) -> np.ndarray:
         """:meth:`distances` for many targets at once (BP's candidate search).
@@ -225,7 +214,8 @@ class PatchTable:
         """
         weights = self.table[targets[:, None, None], self.perm3] * self.coef3
         terms = np.matmul(self.table[candidates], weights)
-        return self._combine(terms, weights[:, : self.v_end, 2].sum(axis=1)[:, None])
+        self_terms = self.self_term[candidates] + self.self_term[targets][:, None]
+        return self._combine(terms, self_terms, weights[:, :, 2].sum(axis=1)[:, None])
 
     def set_range(self, p: int, value: float) -> None:
         """Record normalised range ``value`` at flat padded index ``p``."""
