@@ -1273,23 +1273,3 @@ def add_evaluate_parser(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
     parser.set_defaults(func=_cmd_evaluate)
     return parser
-
-
-def _main(argv: list[str] | None = None) -> int:
-    """``python -m refsynth.evaluation evaluate ...`` until the CLI wires it in."""
-    parser = argparse.ArgumentParser(prog="python -m refsynth.evaluation")
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_evaluate_parser(sub)
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except (ValueError, TypeError, OSError, ImportError) as exc:
-        print(f"refsynth {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    # run the module's own objects (not __main__'s copies) so that workers can unpickle them
-    from refsynth.evaluation import _main as main
-
-    sys.exit(main())

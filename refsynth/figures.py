@@ -501,22 +501,3 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
                         help="local processes for the MAR-against-fraction grid (default 1)")
     parser.set_defaults(func=_cmd_figures)
     return parser
-
-
-def _main(argv: list[str] | None = None) -> int:
-    """``python -m refsynth.figures figures ...`` until the CLI wires it in."""
-    parser = argparse.ArgumentParser(prog="python -m refsynth.figures")
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_figures_parser(sub)
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except (ValueError, TypeError, OSError, ImportError) as exc:
-        print(f"refsynth {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    from refsynth.figures import _main as main
-
-    sys.exit(main())

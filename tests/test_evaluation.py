@@ -400,7 +400,7 @@ def test_cli_scheduler_without_dask_says_what_to_install(monkeypatch):
 
 def test_module_entry_point_exits_2_with_one_line(tmp_path):
     proc = subprocess.run(
-        [sys.executable, "-m", "refsynth.evaluation", "evaluate", "--sampling", "q1"],
+        [sys.executable, "-m", "refsynth", "evaluate", "--sampling", "q1"],
         capture_output=True, text=True, timeout=60, cwd=tmp_path,
     )
     assert proc.returncode == 2
