@@ -34,7 +34,7 @@ def main(argv=None) -> int:
         for run in range(args.runs):
             out = Path(folder) / f"run{run}.json"
             start = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "refsynth.evaluation", "evaluate",
+            subprocess.run([sys.executable, "-m", "refsynth", "evaluate",
                             "--grid", args.grid, "--jobs", str(args.jobs), "--json", str(out),
                             "--quiet"], check=True, stdout=subprocess.DEVNULL)
             walls.append(time.perf_counter() - start)
