@@ -40,13 +40,13 @@ def _rss_mb() -> float:
 
 
 def _scene(name, size):
-    from refsynth.datasets import motorcycle, synthetic_room
+    from refsynth.scenes.datasets import motorcycle, synthetic_room
 
     return synthetic_room((size, size), seed=0) if name == "room" else motorcycle(size)
 
 
 def _sampling(shape, spec):
-    from refsynth.sampling import stripes, x_stripes_for_fraction
+    from refsynth.acquisition.sampling import stripes, x_stripes_for_fraction
 
     if spec.startswith("g"):
         rw, xw = (int(v) for v in spec[1:].split("_"))
@@ -64,9 +64,9 @@ METHODS = {
 def _case(args):
     scene_name, size, spec, method, seed, extra = args
     import refsynth
-    from refsynth.baselines import BASELINES
-    from refsynth.metrics import evaluate
-    from refsynth.sampling import unknown_fraction
+    from refsynth.acquisition.sampling import unknown_fraction
+    from refsynth.evaluation.baselines import BASELINES
+    from refsynth.evaluation.metrics import evaluate
 
     scene = _scene(scene_name, size)
     known = _sampling(scene.range.shape, spec) & scene.has_truth

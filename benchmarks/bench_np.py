@@ -37,7 +37,7 @@ def _rss_mb() -> float:
 
 
 def _scene(name: str, size):
-    from refsynth.datasets import motorcycle, synthetic_room
+    from refsynth.scenes.datasets import motorcycle, synthetic_room
 
     if name == "room":
         return synthetic_room((size, size), seed=0)
@@ -45,7 +45,7 @@ def _scene(name: str, size):
 
 
 def _sampling(shape, spec: str):
-    from refsynth.sampling import stripes, x_stripes_for_fraction
+    from refsynth.acquisition.sampling import stripes, x_stripes_for_fraction
 
     if spec.startswith("g"):
         rw, xw = (int(v) for v in spec[1:].split("_"))
@@ -64,9 +64,9 @@ def _case(args):
     """One timed case, run in its own process."""
     scene_name, size, spec, method, seed = args
     import refsynth
-    from refsynth.baselines import nearest_fill
-    from refsynth.metrics import evaluate
-    from refsynth.sampling import unknown_fraction
+    from refsynth.acquisition.sampling import unknown_fraction
+    from refsynth.evaluation.baselines import nearest_fill
+    from refsynth.evaluation.metrics import evaluate
 
     scene = _scene(scene_name, size)
     known = _sampling(scene.range.shape, spec) & scene.has_truth

@@ -35,7 +35,7 @@ import time
 
 import numpy as np
 
-from refsynth.laser_camera import (
+from refsynth.registration.laser_camera import (
     Warp,
     _forward,
     fit_warp,
@@ -44,8 +44,8 @@ from refsynth.laser_camera import (
     range_edges,
     register,
 )
-from refsynth.panorama import align_translation, blend, cylindrical_warp, mosaic
-from refsynth.registration_scenes import (
+from refsynth.registration.panorama import align_translation, blend, cylindrical_warp, mosaic
+from refsynth.scenes.registration_rig import (
     FOCAL,
     laser_scan,
     registration_errors,

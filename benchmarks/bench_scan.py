@@ -1,6 +1,6 @@
 """Acquisition with the simulated rig: wall time, faults, SIGKILL and resume (issue 4).
 
-Runs the real command line (``python -m refsynth.rig.cli scan --simulate ...``,
+Runs the real command line (``python -m refsynth.cli.scan scan --simulate ...``,
 the same as ``python -m refsynth scan``) in fresh processes and prints, as
 Markdown tables:
 
@@ -40,7 +40,7 @@ SUMMARY = re.compile(r"(\d+)/(\d+) slices .*?; (\d+) acquired now, (\d+) already
 
 def scan(out: Path, *options: str, env=None) -> tuple[dict, float]:
     """Run one scan; returns its parsed summary and the process's wall time."""
-    command = [sys.executable, "-m", "refsynth.rig.cli", "scan", "--simulate", "--out", str(out),
+    command = [sys.executable, "-m", "refsynth.cli.scan", "scan", "--simulate", "--out", str(out),
                "--quiet", *options]
     start = time.perf_counter()
     done = subprocess.run(command, capture_output=True, text=True, env=env, timeout=600)
@@ -97,7 +97,7 @@ def main() -> None:
 
         print("\n## 3. SIGKILL mid-scan, then --resume\n")
         out = work / "killed"
-        command = [sys.executable, "-m", "refsynth.rig.cli", "scan", "--simulate", "--out",
+        command = [sys.executable, "-m", "refsynth.cli.scan", "scan", "--simulate", "--out",
                    str(out), "--quiet", "--strategy", "stripes", "--fraction", "0.4", *seed]
         slices = out / "slices"
         with subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL,

@@ -1,4 +1,4 @@
-"""``python -m refsynth``: see :mod:`refsynth.cli`."""
+"""``python -m refsynth``: see :mod:`refsynth.cli.main`."""
 
 import sys
 

@@ -6,7 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from strategies import small_scene
 
-from refsynth.baselines import (
+from refsynth.evaluation.baselines import (
     BASELINES,
     colorization_fill,
     harmonic_fill,

@@ -10,7 +10,8 @@ from hypothesis.extra import numpy as hnp
 from strategies import small_scene
 
 import refsynth
-from refsynth.bp import (
+from refsynth.scenes.datasets import synthetic_room
+from refsynth.synthesis.bp import (
     belief_propagation,
     fixed_neighbour_terms,
     grid_edges,
@@ -18,7 +19,6 @@ from refsynth.bp import (
     phi,
     psi,
 )
-from refsynth.datasets import synthetic_room
 
 UNIT = st.floats(0.0, 1.0, width=64)
 

@@ -6,8 +6,8 @@ import sys
 import numpy as np
 import pytest
 
-from refsynth.baselines import BASELINES
-from refsynth.cli import DEMO_METHODS, main, run_pipeline_demo
+from refsynth.cli.main import DEMO_METHODS, main, run_pipeline_demo
+from refsynth.evaluation.baselines import BASELINES
 from refsynth.io import write_pfm
 
 

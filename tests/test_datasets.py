@@ -1,4 +1,4 @@
-"""Tests of refsynth.datasets: scenes, area-averaging resizes, Middlebury loaders."""
+"""Tests of refsynth.scenes.datasets: scenes, area-averaging resizes, Middlebury loaders."""
 
 import time
 
@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from PIL import Image
 
-from refsynth.datasets import (
+from refsynth.io import write_pfm
+from refsynth.scenes.datasets import (
     RoomGeometry,
     Scene,
     cast_rays,
@@ -20,7 +21,6 @@ from refsynth.datasets import (
     room_geometry,
     synthetic_room,
 )
-from refsynth.io import write_pfm
 
 EPS = np.finfo(np.float64).eps
 

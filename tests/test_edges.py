@@ -1,4 +1,4 @@
-"""Tests for refsynth.edges: the Canny detector of §3.2 (σ = 0.8).
+"""Tests for refsynth.synthesis.canny: the Canny detector of §3.2 (σ = 0.8).
 
 Three layers:
 
@@ -28,7 +28,13 @@ from hypothesis.extra import numpy as hnp
 from scipy import ndimage as ndi
 from skimage import color, data, feature
 
-from refsynth.edges import canny, hysteresis, non_maximum_suppression, sobel_gradients, to_grey
+from refsynth.synthesis.canny import (
+    canny,
+    hysteresis,
+    non_maximum_suppression,
+    sobel_gradients,
+    to_grey,
+)
 
 SQUARE_3X3 = np.ones((3, 3), dtype=bool)
 

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from refsynth.datasets import Scene
-from refsynth.evaluation import (
+from refsynth.evaluation.experiments import (
     DEFAULT_GRID,
     Case,
     add_evaluate_parser,
@@ -38,6 +37,7 @@ from refsynth.evaluation import (
     without_timing,
 )
 from refsynth.io import write_pfm
+from refsynth.scenes.datasets import Scene
 
 #: A grid of a few seconds that still has every kind of method in it.
 SMALL = dict(scenes=["synthetic"], sizes=["32"], samplings=["g3_8", "x78"],
@@ -178,7 +178,7 @@ def test_score_counts_only_unknown_pixels_with_truth():
     assert result["unknown_percent"] == pytest.approx(100 * (1 - known.mean()))
     # nearest copies across the step only where a pixel is nearer the other side
     estimate = np.where(known, scene.range, np.nan)
-    from refsynth.baselines import nearest_fill
+    from refsynth.evaluation.baselines import nearest_fill
 
     filled = nearest_fill(scene.intensity, estimate)
     scored = ~known & np.isfinite(scene.range)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import refsynth
-from refsynth.evaluation import aggregate
-from refsynth.figures import (
+from refsynth.evaluation.experiments import aggregate
+from refsynth.plotting.figures import (
     FIGURES,
     add_figures_parser,
     confidence_figure,

@@ -1,4 +1,4 @@
-"""Tests of refsynth.laser_camera: laser–camera registration (Appendix A.2, Eqs. 19–21)."""
+"""Tests of refsynth.registration.laser_camera: laser–camera registration (Appendix A.2, Eqs. 19–21)."""
 
 import argparse
 import math
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from refsynth.laser_camera import (
+from refsynth.registration.laser_camera import (
     CylindricalRange,
     Warp,
     _forward,
@@ -30,7 +30,7 @@ from refsynth.laser_camera import (
     spherical_to_cartesian,
     spherical_to_cylindrical,
 )
-from refsynth.registration_scenes import (
+from refsynth.scenes.registration_rig import (
     laser_scan,
     registration_errors,
     render_views,
@@ -120,7 +120,7 @@ def test_scan_to_cylinder_accepts_flat_samples():
                             grid_phi.ravel()[order], 300.0)
     structured = scan_to_cylinder(r, theta, phi, 300.0)
     assert np.array_equal(flat.range, structured.range, equal_nan=True)
-    # per-sample angles of r's shape, as refsynth.rig writes scan.npz
+    # per-sample angles of r's shape, as refsynth.acquisition writes scan.npz
     gridded = scan_to_cylinder(r, grid_theta, grid_phi, 300.0)
     assert np.array_equal(gridded.range, structured.range, equal_nan=True)
 

@@ -1,4 +1,4 @@
-"""Tests of refsynth.metrics: MAR (Eq. 13), RMSE and bad-pixel rates."""
+"""Tests of refsynth.evaluation.metrics: MAR (Eq. 13), RMSE and bad-pixel rates."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from refsynth.metrics import bad_pixel_rate, evaluate, evaluated_pixels, mar, rmse
+from refsynth.evaluation.metrics import bad_pixel_rate, evaluate, evaluated_pixels, mar, rmse
 
 EPS = np.finfo(np.float64).eps
 

@@ -8,8 +8,8 @@ from hypothesis.extra import numpy as hnp
 from strategies import small_scene
 
 import refsynth
-from refsynth.np_sampling import eq5_set
-from refsynth.priority import fill_front
+from refsynth.synthesis.nonparametric import eq5_set
+from refsynth.synthesis.priority import fill_front
 
 distances = hnp.arrays(
     np.float64, st.integers(1, 30), elements=st.floats(0.0, 100.0, allow_subnormal=False)

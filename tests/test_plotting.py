@@ -3,7 +3,7 @@
 import numpy as np
 from matplotlib.figure import Figure
 
-from refsynth.plotting import comparison_figure, methods_figure, result_figure
+from refsynth.plotting.layouts import comparison_figure, methods_figure, result_figure
 
 
 def _arrays():

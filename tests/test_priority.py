@@ -6,7 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from refsynth.priority import (
+from refsynth.synthesis.priority import (
     FillFront,
     confidence_term,
     data_term,

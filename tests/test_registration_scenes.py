@@ -1,4 +1,4 @@
-"""Tests of refsynth.registration_scenes: the synthetic rig and the real-texture views."""
+"""Tests of refsynth.scenes.registration_rig: the synthetic rig and the real-texture views."""
 
 import math
 
@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage as ndi
 
-from refsynth.laser_camera import cartesian_to_spherical
-from refsynth.panorama import cylindrical_warp
-from refsynth.registration_scenes import (
+from refsynth.registration.laser_camera import cartesian_to_spherical
+from refsynth.registration.panorama import cylindrical_warp
+from refsynth.scenes.registration_rig import (
     cast_rays,
     laser_scan,
     render_views,

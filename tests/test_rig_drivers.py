@@ -5,7 +5,7 @@ import time
 import numpy as np
 import pytest
 
-from refsynth.rig import (
+from refsynth.acquisition import (
     DeviceError,
     DeviceTimeout,
     PanUnit,
@@ -17,7 +17,7 @@ from refsynth.rig import (
     RigSimulator,
     RoomRig,
 )
-from refsynth.rig.protocol import (
+from refsynth.acquisition.protocol import (
     encode_rangefinder_reply,
     encode_samples,
     format_pan_error,

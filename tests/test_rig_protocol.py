@@ -7,7 +7,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from refsynth.rig.protocol import (
+from refsynth.acquisition.protocol import (
     LINE_WIDTH,
     STATUS,
     PanReply,

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from refsynth.rig import (
+from refsynth.acquisition import (
     PanUnit,
     Rangefinder,
     RigSimulator,
@@ -24,9 +24,9 @@ from refsynth.rig import (
     read_slice,
     run_scan,
 )
-from refsynth.rig.cli import add_scan_parser, main
-from refsynth.rig.geometry import SLICE_COUNT, SLICE_START, pan_angle, polar_angle
-from refsynth.rig.scan import SliceRecord, coarse_slices, slice_bytes
+from refsynth.acquisition.geometry import SLICE_COUNT, SLICE_START, pan_angle, polar_angle
+from refsynth.acquisition.scan import SliceRecord, coarse_slices, slice_bytes
+from refsynth.cli.scan import add_scan_parser, main
 
 # ----------------------------------------------------------------------------- plans
 
@@ -237,7 +237,7 @@ def test_resume_refuses_what_would_mix_two_scans(ptys, tmp_path):
 def test_sigkill_mid_scan_then_resume(ptys, tmp_path):
     out = tmp_path / "scan"
     env = dict(os.environ, TMPDIR=str(tmp_path))  # the killed simulator's links stay in here
-    command = [sys.executable, "-m", "refsynth.rig.cli", "scan", "--simulate", "--out", str(out),
+    command = [sys.executable, "-m", "refsynth.cli.scan", "scan", "--simulate", "--out", str(out),
                "--strategy", "every", "--step", "5", "--quiet"]
     slices = out / "slices"
     with subprocess.Popen([*command, "--faults", "delay=0.003"], env=env,

@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from refsynth.datasets import cast_rays, room_geometry, synthetic_room
-from refsynth.rig.geometry import (
+from refsynth.acquisition.geometry import (
     ENCODER_HORIZON,
     IMAGE_HEIGHT,
     IMAGE_WIDTH,
@@ -23,8 +22,9 @@ from refsynth.rig.geometry import (
     pan_angle,
     polar_angle,
 )
-from refsynth.rig.protocol import decode_samples, parse_rangefinder_reply
-from refsynth.rig.simulator import Faults, RigSimulator, RoomRig
+from refsynth.acquisition.protocol import decode_samples, parse_rangefinder_reply
+from refsynth.acquisition.simulator import Faults, RigSimulator, RoomRig
+from refsynth.scenes.datasets import cast_rays, room_geometry, synthetic_room
 
 # ----------------------------------------------------------------------------- geometry
 

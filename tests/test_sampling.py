@@ -1,11 +1,11 @@
-"""Tests of refsynth.sampling: stripe masks (§3.3), Fig. 2 sampling (§3.1.1)."""
+"""Tests of refsynth.acquisition.sampling: stripe masks (§3.3), Fig. 2 sampling (§3.1.1)."""
 
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from refsynth.sampling import (
+from refsynth.acquisition.sampling import (
     column_range_profile,
     distance_driven,
     stripe_gap_for_fraction,

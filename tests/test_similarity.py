@@ -6,9 +6,14 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 from strategies import UNIT, neighbourhood_pair, partial_neighbourhood
 
-from refsynth.mrf import disc_offsets, gaussian_window, intensity_patches, range_patches
-from refsynth.np_sampling import PatchTable
-from refsynth.similarity import neighbourhood_distance, range_scale
+from refsynth.synthesis.neighbourhood import (
+    disc_offsets,
+    gaussian_window,
+    intensity_patches,
+    range_patches,
+)
+from refsynth.synthesis.nonparametric import PatchTable
+from refsynth.synthesis.similarity import neighbourhood_distance, range_scale
 
 EPS = np.finfo(np.float64).eps
 

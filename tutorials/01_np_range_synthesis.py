@@ -40,15 +40,15 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import refsynth
-from refsynth.baselines import nearest_fill
-from refsynth.datasets import synthetic_room
-from refsynth.edges import canny
-from refsynth.metrics import mar
-from refsynth.mrf import gaussian_window
-from refsynth.plotting import result_figure
-from refsynth.priority import confidence_term, data_term, edge_count, fill_front, priority
-from refsynth.sampling import stripes, unknown_fraction
-from refsynth.similarity import neighbourhood_distance
+from refsynth.acquisition.sampling import stripes, unknown_fraction
+from refsynth.evaluation.baselines import nearest_fill
+from refsynth.evaluation.metrics import mar
+from refsynth.plotting.layouts import result_figure
+from refsynth.scenes.datasets import synthetic_room
+from refsynth.synthesis.canny import canny
+from refsynth.synthesis.neighbourhood import gaussian_window
+from refsynth.synthesis.priority import confidence_term, data_term, edge_count, fill_front, priority
+from refsynth.synthesis.similarity import neighbourhood_distance
 
 OUT = Path(os.environ.get("REFSYNTH_TUTORIAL_OUT", "tutorial-output"))
 OUT.mkdir(parents=True, exist_ok=True)

@@ -38,11 +38,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import refsynth
-from refsynth.bp import belief_propagation, pair_compatibilities, phi, psi
-from refsynth.datasets import synthetic_room
-from refsynth.metrics import mar
-from refsynth.plotting import methods_figure
-from refsynth.sampling import stripes
+from refsynth.acquisition.sampling import stripes
+from refsynth.evaluation.metrics import mar
+from refsynth.plotting.layouts import methods_figure
+from refsynth.scenes.datasets import synthetic_room
+from refsynth.synthesis.bp import belief_propagation, pair_compatibilities, phi, psi
 
 OUT = Path(os.environ.get("REFSYNTH_TUTORIAL_OUT", "tutorial-output"))
 OUT.mkdir(parents=True, exist_ok=True)

@@ -33,7 +33,7 @@
 #    depth edges lie on the intensity edges.
 #
 # Everything runs on a synthetic rig with ground truth
-# (`refsynth.registration_scenes`): f = 300 px, ΔY = 5 cm, walls 5–8 m away.
+# (`refsynth.scenes.registration_rig`): f = 300 px, ΔY = 5 cm, walls 5–8 m away.
 #
 # This file is a Jupytext "percent" script: open it as a notebook in Jupyter
 # (with jupytext) or VS Code, or run it as plain Python
@@ -52,7 +52,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import refsynth
-from refsynth.laser_camera import (
+from refsynth.registration.laser_camera import (
     Warp,
     _forward,
     align_global,
@@ -63,14 +63,14 @@ from refsynth.laser_camera import (
     resample_range,
     scan_to_cylinder,
 )
-from refsynth.panorama import (
+from refsynth.registration.panorama import (
     align_translation,
     cylindrical_warp,
     gauss_newton_step,
     hat_weights,
     mosaic,
 )
-from refsynth.registration_scenes import (
+from refsynth.scenes.registration_rig import (
     laser_scan,
     mosaic_position,
     registration_errors,

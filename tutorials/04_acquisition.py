@@ -23,7 +23,7 @@
 # took about 20 minutes, so the robot measures only **30–50 % of the slices**,
 # chosen by a sampling strategy (§3.1.1, Fig. 2), and synthesizes the rest.
 #
-# `refsynth.rig` holds a serial driver for both devices, a simulator that
+# `refsynth.acquisition` holds a serial driver for both devices, a simulator that
 # speaks the same protocols on pseudo-terminals, and scans that survive
 # corrupted replies, lost replies and unplugged cables. This tutorial shows
 # the protocol on the wire, runs a simulated scan with faults, and looks at
@@ -47,7 +47,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import serial
 
-from refsynth.rig import (
+from refsynth.acquisition import (
     PanUnit,
     Rangefinder,
     RigSimulator,
@@ -56,7 +56,7 @@ from refsynth.rig import (
     load_scan,
     run_scan,
 )
-from refsynth.rig.geometry import (
+from refsynth.acquisition.geometry import (
     FOCAL_PX,
     IMAGE_HEIGHT,
     IMAGE_WIDTH,
@@ -67,7 +67,7 @@ from refsynth.rig.geometry import (
     pan_angle,
     polar_angle,
 )
-from refsynth.rig.protocol import (
+from refsynth.acquisition.protocol import (
     ProtocolError,
     crc16,
     encode_rangefinder_command,

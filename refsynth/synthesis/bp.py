@@ -11,7 +11,7 @@ The algorithm of Fig. 6, step by step:
 2. For each ``y_i``, find the ``k`` closest patches among the local training
    set — the patches centred on measured pixels within ``r`` of ``i`` — by the
    distance of Eq. 2 (intensity, plus the range known in ``y_i``, with NP's
-   mean-filled range term; :mod:`refsynth.similarity`). Their range patches are the
+   mean-filled range term; :mod:`refsynth.synthesis.similarity`). Their range patches are the
    ``k`` labels of node ``i``. When fewer than ``k`` training patches lie
    within ``r`` (a gap wider than ``r``), the search radius doubles until ``k``
    are found or the whole image is searched.
@@ -64,9 +64,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from refsynth.mrf import disc_offsets
-from refsynth.np_sampling import PatchTable
-from refsynth.similarity import intensity_scale, range_scale
+from refsynth.synthesis.neighbourhood import disc_offsets
+from refsynth.synthesis.nonparametric import PatchTable
+from refsynth.synthesis.similarity import intensity_scale, range_scale
 
 __all__ = [
     "BPResult",

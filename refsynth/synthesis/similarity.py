@@ -51,11 +51,11 @@ candidates with the same *pattern* of missing range — the pixel just above,
 in the same gap — and so copied values down narrow gaps in long streaks.)
 ``missing_range="ignore"`` gives the literal Eq. 2.
 :func:`neighbourhood_distance` computes either, one pair at a time; NP and BP
-use :class:`refsynth.np_sampling.PatchTable`, which computes the same for a
+use :class:`refsynth.synthesis.nonparametric.PatchTable`, which computes the same for a
 whole candidate set at once.
 
 :func:`neighbourhood_distance` is the literal reading of Eq. 2, one pair at a
-time. :mod:`refsynth.np_sampling` evaluates the same sum for a whole candidate
+time. :mod:`refsynth.synthesis.nonparametric` evaluates the same sum for a whole candidate
 set at once by expanding the squares into one matrix–vector product; the tests
 check that the two agree.
 
@@ -68,7 +68,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsynth.mrf import gaussian_window
+from refsynth.synthesis.neighbourhood import gaussian_window
 
 __all__ = ["neighbourhood_distance", "intensity_scale", "range_scale"]
 
@@ -108,7 +108,7 @@ def neighbourhood_distance(
     range_weight : float, default 16
         The weight λ of the range term.
     window : ndarray of shape (n, n), optional
-        The Gaussian window ``G``; default :func:`refsynth.mrf.gaussian_window`.
+        The Gaussian window ``G``; default :func:`refsynth.synthesis.neighbourhood.gaussian_window`.
     missing_range : {"ignore", "mean"}
         ``"ignore"`` (default here): the literal Eq. 2. ``"mean"``: offsets
         where ``a`` has range and ``b`` has none cost the mean discrepancy of
@@ -148,7 +148,7 @@ def neighbourhood_distance(
     if missing_range == "mean":
         target = float(np.sum(g[np.isfinite(ra)]))
         support = float(np.sum(g[shared]))
-        prior = 1e-4  # as refsynth.np_sampling._SUPPORT_PRIOR
+        prior = 1e-4  # as refsynth.synthesis.nonparametric._SUPPORT_PRIOR
         range_term = (range_term + prior) * target / (support + prior)
     elif missing_range != "ignore":
         raise ValueError(

@@ -1,6 +1,6 @@
 """The acquisition rig (§3.1, §4): serial drivers, a simulated rig, scans that lose nothing.
 
-- :mod:`refsynth.rig.protocol`: both wire protocols as pure functions on
+- :mod:`refsynth.acquisition.protocol`: both wire protocols as pure functions on
   bytes (``refsynth/rig/PROTOCOL.md`` is the adapter writer's page).
 - :class:`PanUnit`, :class:`Rangefinder`: pyserial drivers with deadlines,
   validation, retries and reconnection.
@@ -10,7 +10,7 @@
 - :func:`run_scan`, :func:`plan_slices`, :func:`load_scan`: partial scans
   (all / every n-th / stripes / distance-driven, Fig. 2), saved slice by
   slice, resumable, assembled as spherical samples (r, θ, φ).
-- :mod:`refsynth.rig.geometry`: pan and mirror angles, the camera model.
+- :mod:`refsynth.acquisition.geometry`: pan and mirror angles, the camera model.
 
 References
 ----------
@@ -18,7 +18,7 @@ L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
 Modeling", IJCV 79:137–158 (2008), §3.1 and §4, doi:10.1007/s11263-007-0108-2.
 """
 
-from refsynth.rig.errors import (
+from refsynth.acquisition.errors import (
     DeviceError,
     DeviceTimeout,
     PortLost,
@@ -26,9 +26,9 @@ from refsynth.rig.errors import (
     RetriesExhausted,
     RigError,
 )
-from refsynth.rig.pan_unit import PanInfo, PanUnit
-from refsynth.rig.rangefinder import Rangefinder
-from refsynth.rig.scan import (
+from refsynth.acquisition.pan_unit import PanInfo, PanUnit
+from refsynth.acquisition.rangefinder import Rangefinder
+from refsynth.acquisition.scan import (
     STRATEGIES,
     CameraImage,
     Scan,
@@ -39,7 +39,7 @@ from refsynth.rig.scan import (
     read_slice,
     run_scan,
 )
-from refsynth.rig.simulator import Faults, RigSimulator, RoomRig
+from refsynth.acquisition.simulator import Faults, RigSimulator, RoomRig
 
 __all__ = [
     "PanUnit",

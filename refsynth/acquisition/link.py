@@ -6,8 +6,8 @@ pyserial URL handler): it reads a line up to a terminator, or an exact
 number of bytes, each within the time left before the command's deadline.
 Before each request it discards whatever is in the input buffer.
 
-:class:`Device` is the base of :class:`~refsynth.rig.pan_unit.PanUnit` and
-:class:`~refsynth.rig.rangefinder.Rangefinder`: it runs an operation again
+:class:`Device` is the base of :class:`~refsynth.acquisition.pan_unit.PanUnit` and
+:class:`~refsynth.acquisition.rangefinder.Rangefinder`: it runs an operation again
 (up to ``retries`` times) after a rejected reply, a timeout or a transient
 device error, and after a lost port it reopens the port with exponential
 backoff, re-initialises the device and tries again. Only idempotent
@@ -24,7 +24,7 @@ from typing import TypeVar
 
 import serial
 
-from refsynth.rig.errors import (
+from refsynth.acquisition.errors import (
     DeviceError,
     DeviceTimeout,
     PortLost,

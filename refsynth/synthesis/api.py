@@ -37,9 +37,9 @@ class SynthesisResult:
     confidence : ndarray of shape (H, W), float64
         In [0, 1]: 1 where the range was measured; for NP the confidence the
         pixel received when it was synthesized (Eq. 11, see
-        :mod:`refsynth.priority`); for BP the normalised belief (Eq. 8) of the
+        :mod:`refsynth.synthesis.priority`); for BP the normalised belief (Eq. 8) of the
         chosen range, pooled over the candidates that propose it (see
-        :mod:`refsynth.bp`).
+        :mod:`refsynth.synthesis.bp`).
     order : ndarray of shape (N, 2), int64
         The synthesized pixels as (row, col): NP's fill order; for BP, which
         decides all pixels together, raster order.
@@ -224,19 +224,19 @@ def synthesize(
         onion-peel order it compares against (Fig. 7).
     range_weight : float, default 16
         Weight λ of the range term of Eq. 2 against the intensity term,
-        both normalised (see :mod:`refsynth.similarity`).
+        both normalised (see :mod:`refsynth.synthesis.similarity`).
     missing_range : {"mean", "ignore"}
         How Eq. 2's range term treats window offsets where the target has range
         and a candidate has none: ``"mean"`` charges them the mean discrepancy
         of the offsets both have; ``"ignore"`` drops them, the literal Eq. 2
-        (see :mod:`refsynth.similarity` for why refsynth
+        (see :mod:`refsynth.synthesis.similarity` for why refsynth
         departs from it). BP ranks its candidates with the same distance.
     candidates : int, default 8
         BP: ``k``, the candidates (labels) per unknown pixel.
     proximity : float, default 1
         BP: μ, the weight of the spatial prior ``μ (|p − q| / r)²`` added to
         Eq. 2 when ranking candidates and in Φ (a departure from the paper,
-        see :mod:`refsynth.bp`); 0 ranks by Eq. 2 alone.
+        see :mod:`refsynth.synthesis.bp`); 0 ranks by Eq. 2 alone.
     sigma_i : float, default 0.1
         BP: σ_i of Eq. 7, in units of the Eq. 2 distance's square root.
     sigma_s : float, default 0.2
@@ -317,8 +317,8 @@ def synthesize(
             f"got {type(seed).__name__}"
         )
 
-    from refsynth.edges import canny, to_grey
-    from refsynth.np_sampling import np_fill
+    from refsynth.synthesis.canny import canny, to_grey
+    from refsynth.synthesis.nonparametric import np_fill
 
     if edges is None:
         edge_map = canny(to_grey(image), sigma=canny_sigma) if use_edges else None
@@ -337,7 +337,7 @@ def synthesize(
         missing_range=missing_range,
     )
     if method == "bp":
-        from refsynth.bp import bp_fill
+        from refsynth.synthesis.bp import bp_fill
 
         params.update(candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
                       iterations=iterations, tolerance=tolerance, product=product)

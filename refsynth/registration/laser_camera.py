@@ -2,7 +2,7 @@ r"""Laser–camera registration: panorama with depth (Appendix A.2, Eqs. 19–21
 
 The laser's spherical samples ``(r, θ, φ)`` are mapped onto a cylinder of
 radius ``f``, the camera's focal length (Eq. 19), so that range and the
-panorama mosaic (:mod:`refsynth.panorama`) are both cylindrical images. A
+panorama mosaic (:mod:`refsynth.registration.panorama`) are both cylindrical images. A
 global warp from the range image's ``(φ, h)`` to the mosaic's ``(u, v)``
 
 .. math:: u = a\phi + \alpha, \qquad v = b h + \beta \qquad \text{(Eq. 21)}
@@ -67,14 +67,14 @@ import numpy as np
 from scipy import interpolate
 from scipy import ndimage as ndi
 
-from refsynth.edges import canny, sobel_gradients
-from refsynth.panorama import (
+from refsynth.registration.panorama import (
     Mosaic,
     _check_focal,
     _check_real,
     _grey,
     mosaic,
 )
+from refsynth.synthesis.canny import canny, sobel_gradients
 
 __all__ = [
     "spherical_to_cartesian",
@@ -280,7 +280,7 @@ def scan_to_cylinder(
     ----------
     r : ndarray of shape (n_phi, n_theta), or any shape shared with ``theta`` and ``phi``
         Ranges; NaN = not measured. Per-sample angles (``theta`` and ``phi``
-        of ``r``'s shape, e.g. flat, or ``refsynth.rig``'s ``scan.npz``)
+        of ``r``'s shape, e.g. flat, or ``refsynth.acquisition``'s ``scan.npz``)
         must lie on a grid of slices × mirror positions.
     theta : ndarray of shape (n_theta,), or ``r``'s shape
         Mirror angles from the vertical axis, in (0, π).
@@ -1229,7 +1229,7 @@ def register(
 ) -> Registration:
     """Camera views + a partial spherical scan → registered intensity and range (App. A).
 
-    1. The cylindrical mosaic of the views (Eqs. 14–18, :func:`refsynth.panorama.mosaic`),
+    1. The cylindrical mosaic of the views (Eqs. 14–18, :func:`refsynth.registration.panorama.mosaic`),
        started from the known pan angles.
     2. The scan on the cylinder of radius ``f`` (Eq. 19, :func:`scan_to_cylinder`).
     3. The global warp (Eq. 21) from the rig's nominal geometry (``a = f``,
@@ -1324,7 +1324,7 @@ def register_scan(images, pan_angles, focal: float, scan, **options):
 
     Examples
     --------
-    >>> from refsynth.registration_scenes import rig_room, render_views, laser_scan
+    >>> from refsynth.scenes.registration_rig import rig_room, render_views, laser_scan
     >>> room = rig_room(0)
     >>> views = render_views(room, n_views=3, start_angle=-0.3, height=96, supersample=1)
     >>> scan = laser_scan(room, phi_range=(-0.5, 0.5), stripes=None)

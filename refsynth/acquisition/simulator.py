@@ -1,9 +1,9 @@
 """A simulated rig on pseudo-terminals, speaking the drivers' protocols (§3.1, §4).
 
 - :class:`RoomRig`: the physics, with no port: what the rangefinder measures
-  and the camera sees from the centre of :func:`refsynth.datasets.synthetic_room`'s
+  and the camera sees from the centre of :func:`refsynth.scenes.datasets.synthetic_room`'s
   room (the same seed gives the same room), by ray casting
-  (:func:`refsynth.datasets.cast_rays`).
+  (:func:`refsynth.scenes.datasets.cast_rays`).
 - :class:`Faults`: what goes wrong on the wire, parsed from
   ``"corrupt=0.05,drop=0.02,disconnect=1,delay=0.01"``.
 - :class:`RigSimulator`: both devices, each on its own pseudo-terminal
@@ -28,7 +28,7 @@ The measurement model (documented choices, not the paper's):
   whatever faults it met;
 - pictures: ``albedo · shading`` plus Gaussian noise of 0.01 (seeded by
   ``(seed, pan index)``), 8-bit grey PNG, perspective (see
-  :mod:`refsynth.rig.geometry`);
+  :mod:`refsynth.acquisition.geometry`);
 - the pan unit moves instantly, at any speed setting; the camera writes
   ``pan-<index>.png`` into ``camera_dir`` (temporary file, then
   ``os.replace``).
@@ -51,8 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from refsynth.datasets import RoomGeometry, cast_rays, room_geometry
-from refsynth.rig.geometry import (
+from refsynth.acquisition.geometry import (
     ENCODER_POSITIONS,
     IMAGE_HEIGHT,
     IMAGE_WIDTH,
@@ -63,7 +62,7 @@ from refsynth.rig.geometry import (
     pan_angle,
     polar_angle,
 )
-from refsynth.rig.protocol import (
+from refsynth.acquisition.protocol import (
     PAN_RESOLUTION,
     ProtocolError,
     encode_rangefinder_reply,
@@ -73,6 +72,7 @@ from refsynth.rig.protocol import (
     parse_pan_command,
     parse_rangefinder_command,
 )
+from refsynth.scenes.datasets import RoomGeometry, cast_rays, room_geometry
 
 __all__ = ["RoomRig", "Faults", "RigSimulator", "MAX_RANGE_M"]
 
@@ -99,7 +99,7 @@ class RoomRig:
     Parameters
     ----------
     seed : int, default 0
-        The room (:func:`refsynth.datasets.room_geometry`) and every noise
+        The room (:func:`refsynth.scenes.datasets.room_geometry`) and every noise
         draw.
 
     Examples

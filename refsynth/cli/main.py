@@ -63,11 +63,11 @@ def run_demo(out: Path, size: int = 128, seed: int = 0) -> list[dict]:
     × method) into ``out``.
     """
     from refsynth import synthesize
-    from refsynth.baselines import BASELINES
-    from refsynth.datasets import synthetic_room
-    from refsynth.metrics import evaluate
-    from refsynth.plotting import comparison_figure, methods_figure, result_figure
-    from refsynth.sampling import stripes, unknown_fraction, x_stripes_for_fraction
+    from refsynth.acquisition.sampling import stripes, unknown_fraction, x_stripes_for_fraction
+    from refsynth.evaluation.baselines import BASELINES
+    from refsynth.evaluation.metrics import evaluate
+    from refsynth.plotting.layouts import comparison_figure, methods_figure, result_figure
+    from refsynth.scenes.datasets import synthetic_room
 
     scene = synthetic_room((size, size), seed=seed)
     shape = scene.range.shape
@@ -124,10 +124,7 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods=("np", "bp")) -> dict:
     summary dict.
     """
     from refsynth import synthesize
-    from refsynth.io import read_array
-    from refsynth.laser_camera import register_scan
-    from refsynth.plotting import result_figure
-    from refsynth.rig import (
+    from refsynth.acquisition import (
         PanUnit,
         Rangefinder,
         RigSimulator,
@@ -135,6 +132,9 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods=("np", "bp")) -> dict:
         load_scan,
         run_scan,
     )
+    from refsynth.io import read_array
+    from refsynth.plotting.layouts import result_figure
+    from refsynth.registration.laser_camera import register_scan
 
     scan_dir = out / "scan"
     if not (scan_dir / "scan.npz").is_file():
@@ -220,7 +220,7 @@ def _cmd_synth(args) -> int:
     print(f"wrote {out}: {result.range.shape[0]}x{result.range.shape[1]} range, "
           f"{len(result.order)} pixels synthesized")
     if args.figure:
-        from refsynth.plotting import result_figure
+        from refsynth.plotting.layouts import result_figure
 
         fig = result_figure(intensity, result.edges, partial, result.range,
                             title=f"{Path(args.image).name}: {args.method.upper()}")
@@ -262,10 +262,10 @@ def build_parser() -> argparse.ArgumentParser:
     synth.add_argument("--no-isophotes", action="store_true")
     synth.set_defaults(func=_cmd_synth)
 
-    from refsynth.evaluation import add_evaluate_parser
-    from refsynth.figures import add_figures_parser
-    from refsynth.laser_camera import add_register_parser
-    from refsynth.rig.cli import add_scan_parser
+    from refsynth.cli.evaluate import add_evaluate_parser
+    from refsynth.cli.figures import add_figures_parser
+    from refsynth.cli.register import add_register_parser
+    from refsynth.cli.scan import add_scan_parser
 
     add_scan_parser(sub)
     add_register_parser(sub)

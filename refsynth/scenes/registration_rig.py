@@ -22,7 +22,7 @@ can be scored in pixels:
   cylinder, with known pan angles and jitter (alignment on real image
   statistics).
 
-The rig room is not :func:`refsynth.datasets.synthetic_room`: that scene is
+The rig room is not :func:`refsynth.scenes.datasets.synthetic_room`: that scene is
 a single forward view with side walls 2.6–3.4 m away and no wall behind the
 camera; a panning rig needs a room that is textured all round at the
 paper's 5–8 m.
@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage as ndi
 
-from refsynth.panorama import (
+from refsynth.registration.panorama import (
     Mosaic,
     _check_focal,
     _check_int,
@@ -531,7 +531,7 @@ def texture_views(
 
     .. math:: (c, r) = (c_0 + f\,\psi_k + x_c,\; r_0 + y_c + J_k)
 
-    with ``(x_c, y_c)`` from Eq. 14 (:func:`~refsynth.panorama.cylinder_coordinates`),
+    with ``(x_c, y_c)`` from Eq. 14 (:func:`~refsynth.registration.panorama.cylinder_coordinates`),
     by cubic B-spline interpolation (the aligner interpolates bilinearly, so
     the views are not made with the aligner's own interpolator).
 
@@ -563,7 +563,7 @@ def texture_views(
     >>> views.images.shape
     (7, 50, 64)
     """
-    from refsynth.panorama import _check_image, _grey
+    from refsynth.registration.panorama import _check_image, _grey
 
     grey = _grey(_check_image("texture", texture, allow_nan=False))
     focal = _check_focal(focal)
@@ -760,7 +760,7 @@ def registration_errors(
     """Laser–camera registration error against the rig's ground truth, in mosaic pixels.
 
     For each depth edge of the registered range image
-    (:func:`refsynth.laser_camera.range_edges`), the sample on its near
+    (:func:`refsynth.registration.laser_camera.range_edges`), the sample on its near
     side (the occluding surface the edge belongs to) is mapped onto the
     mosaic by each stage of the registration and compared with where its
     3-D point truly appears (:func:`mosaic_position`). The *edge
@@ -770,7 +770,7 @@ def registration_errors(
 
     Parameters
     ----------
-    registration : refsynth.laser_camera.Registration
+    registration : refsynth.registration.laser_camera.Registration
     scan : LaserScan
         The scan that was registered (its true points).
     views : RigViews
@@ -789,7 +789,7 @@ def registration_errors(
         edges, and ``samples`` (mean 2-D error over every scanned sample
         inside the mosaic, edges or not); plus ``n_u`` and ``n_v``.
     """
-    from refsynth.laser_camera import _forward, range_edges
+    from refsynth.registration.laser_camera import _forward, range_edges
 
     cylinder = registration.cylinder
     found = range_edges(cylinder)

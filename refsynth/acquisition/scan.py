@@ -8,9 +8,9 @@ strategies on the 500-slice pan axis:
 - ``"all"``: every slice (the paper's complete scans, for ground truth);
 - ``"every"``: every ``step``-th slice;
 - ``"stripes"``: stripes of ``stripe_width`` consecutive slices with gaps
-  sized for the requested fraction (:func:`refsynth.sampling.x_stripes_for_fraction`);
+  sized for the requested fraction (:func:`refsynth.acquisition.sampling.x_stripes_for_fraction`);
 - ``"distance"``: a coarse first pass (every ``coarse_step``-th slice),
-  then :func:`refsynth.sampling.distance_driven` on its per-slice median
+  then :func:`refsynth.acquisition.sampling.distance_driven` on its per-slice median
   range, the union sized to the requested fraction.
 
 :func:`run_scan` acquires a plan with the drivers. Each validated slice is
@@ -49,8 +49,8 @@ from pathlib import Path
 
 import numpy as np
 
-from refsynth.rig.errors import RigError
-from refsynth.rig.geometry import (
+from refsynth.acquisition.errors import RigError
+from refsynth.acquisition.geometry import (
     CAMERA_EVERY,
     CAMERA_FIRST,
     ENCODER_POSITIONS,
@@ -69,7 +69,7 @@ from refsynth.rig.geometry import (
     pan_angle,
     polar_angle,
 )
-from refsynth.rig.protocol import (
+from refsynth.acquisition.protocol import (
     LINE_WIDTH,
     PAN_RESOLUTION,
     ProtocolError,
@@ -77,7 +77,7 @@ from refsynth.rig.protocol import (
     decode_samples,
     encode_samples,
 )
-from refsynth.sampling import distance_driven, x_stripes_for_fraction
+from refsynth.acquisition.sampling import distance_driven, x_stripes_for_fraction
 
 __all__ = [
     "STRATEGIES",
@@ -125,7 +125,7 @@ class ScanSettings:
         ``"distance"``: the first pass scans every ``coarse_step``-th slice.
     seq, count, average : int
         The GS window: first encoder position, positions per slice, samples
-        averaged (defaults: 379, 243 and 10, see :mod:`refsynth.rig.geometry`).
+        averaged (defaults: 379, 243 and 10, see :mod:`refsynth.acquisition.geometry`).
     camera : bool, default True
         Take the ten pictures (``C`` at pan indices 25, 75, …, 475).
     """
@@ -195,7 +195,7 @@ def plan_slices(settings: ScanSettings, coarse_range: np.ndarray | None = None) 
     coarse_range : ndarray of shape (500,), optional
         ``"distance"`` only (and required there): a representative range
         (metres) per slice, NaN where the first pass did not scan; in
-        between it is interpolated (:func:`refsynth.sampling.column_range_profile`).
+        between it is interpolated (:func:`refsynth.acquisition.sampling.column_range_profile`).
 
     Returns
     -------
@@ -387,7 +387,7 @@ class ScanSummary:
     images : int
         Pictures taken in this session.
     retries, faults, reconnects : int
-        Summed over both devices (see :class:`refsynth.rig.link.DeviceStats`);
+        Summed over both devices (see :class:`refsynth.acquisition.link.DeviceStats`);
         ``faults`` counts every failure met and recovered from.
     seconds : float
     complete : bool
@@ -481,9 +481,9 @@ def run_scan(
     folder : str or Path
         The output folder (created if needed).
     pan : PanUnit
-        An initialisable pan-unit driver (:class:`refsynth.rig.PanUnit`).
+        An initialisable pan-unit driver (:class:`refsynth.acquisition.PanUnit`).
     laser : Rangefinder
-        A rangefinder driver (:class:`refsynth.rig.Rangefinder`).
+        A rangefinder driver (:class:`refsynth.acquisition.Rangefinder`).
     settings : ScanSettings, optional
         Default ``ScanSettings()`` (stripes, 40 %). When resuming, the
         folder's own settings are used; passing different ones is an error.

@@ -164,7 +164,7 @@ def _is_real_sequence(value) -> bool:
 
 
 def _grey(image: np.ndarray) -> np.ndarray:
-    """Luminance of a float (H, W, 3) image (BT.709, as refsynth.edges.to_grey); grey as is."""
+    """Luminance of a float (H, W, 3) image (BT.709, as refsynth.synthesis.canny.to_grey); grey as is."""
     if image.ndim == 2:
         return image
     if image.shape[2] == 3:

@@ -2,7 +2,7 @@
 
 The paper's pan unit turns the rangefinder and the camera through 180° in
 0.36° steps (500 positions). Commands and replies are specified in
-:mod:`refsynth.rig.protocol` and ``refsynth/rig/PROTOCOL.md``.
+:mod:`refsynth.acquisition.protocol` and ``refsynth/rig/PROTOCOL.md``.
 
 Every move is absolute (``PP<n>``), so sending it again after a lost or
 garbled reply is safe; a move counts as done only when the unit, asked
@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from refsynth.rig.errors import DeviceError, DeviceTimeout, ReplyError
-from refsynth.rig.link import Device
-from refsynth.rig.protocol import (
+from refsynth.acquisition.errors import DeviceError, DeviceTimeout, ReplyError
+from refsynth.acquisition.link import Device
+from refsynth.acquisition.protocol import (
     ProtocolError,
     encode_pan_command,
     pan_reply_kind,
@@ -86,7 +86,7 @@ class PanUnit(Device):
 
     Examples
     --------
-    >>> from refsynth.rig import RigSimulator        # doctest: +SKIP
+    >>> from refsynth.acquisition import RigSimulator        # doctest: +SKIP
     >>> with RigSimulator(seed=0) as rig, PanUnit(rig.pan_port) as pan:  # doctest: +SKIP
     ...     pan.initialise().maximum
     ...     pan.move_to(250)

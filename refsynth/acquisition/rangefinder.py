@@ -3,7 +3,7 @@
 The paper's AccuRange 4000 sweeps a vertical plane with a 45° mirror on a
 2000-position encoder; one *slice* is a run of encoder positions, each the
 mean of several samples (§4: 10). Commands and replies are specified in
-:mod:`refsynth.rig.protocol` and ``refsynth/rig/PROTOCOL.md``.
+:mod:`refsynth.acquisition.protocol` and ``refsynth/rig/PROTOCOL.md``.
 
 Each request carries a fresh tag (``;<4 hex digits>``) that the device
 echoes, so a late reply to an earlier request is never taken for the
@@ -22,9 +22,9 @@ import time
 
 import numpy as np
 
-from refsynth.rig.errors import DeviceError, DeviceTimeout, ReplyError
-from refsynth.rig.link import Device
-from refsynth.rig.protocol import (
+from refsynth.acquisition.errors import DeviceError, DeviceTimeout, ReplyError
+from refsynth.acquisition.link import Device
+from refsynth.acquisition.protocol import (
     STATUS,
     TRANSIENT_STATUS,
     ProtocolError,

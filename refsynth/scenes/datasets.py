@@ -4,7 +4,7 @@
   for the USF range database and the authors' own lab scans (§3.3, §4.2).
 - :func:`room_geometry` / :func:`cast_rays`: that room's layout for a seed,
   and any set of rays from its centre cast into it (what the simulated rig
-  of :mod:`refsynth.rig` measures and photographs).
+  of :mod:`refsynth.acquisition` measures and photographs).
 - :func:`motorcycle`: scikit-image's copy of the Middlebury 2014
   *Motorcycle* pair, resized to the paper's 450 × 375 (§3.3, Table 4).
 - :func:`load_middlebury`: any Middlebury image + disparity from disk.
@@ -659,7 +659,7 @@ def synthetic_room(shape: tuple[int, int] = (128, 128), seed=0) -> Scene:
     the room box) and with every box (slab method) as array operations over
     all pixels; the nearest hit wins. The layout is :func:`room_geometry`'s
     for the same seed and the rays go through :func:`cast_rays`, so other
-    sensors (the simulated rig of :mod:`refsynth.rig`) can see the same room
+    sensors (the simulated rig of :mod:`refsynth.acquisition`) can see the same room
     from the same centre.
 
     Examples

@@ -1,6 +1,6 @@
 r"""Non-parametric sampling (NP) range synthesis (§3.2.2, Eqs. 2–5).
 
-For the voxel ``V_p`` chosen next by the fill order (:mod:`refsynth.priority`):
+For the voxel ``V_p`` chosen next by the fill order (:mod:`refsynth.synthesis.priority`):
 
 .. math::
 
@@ -18,7 +18,7 @@ that the set always holds the best match, even when its distance is 0.
 
 How each step stays a few numpy calls
 -------------------------------------
-Expanding the squares of Eq. 2 (:mod:`refsynth.similarity`) separates what
+Expanding the squares of Eq. 2 (:mod:`refsynth.synthesis.similarity`) separates what
 belongs to the target ``p`` from what belongs to a candidate ``q``:
 
 .. math::
@@ -33,7 +33,7 @@ windows around each newly filled voxel) is multiplied by one weight vector
 built from ``p``'s row: the whole candidate set costs one gather and one
 matrix–vector product (three columns: the intensity term, the range term over
 the shared support, and the shared support's weight, which the mean-filled
-range term of :mod:`refsynth.similarity` needs).
+range term of :mod:`refsynth.synthesis.similarity` needs).
 
 A gap wider than ``r``
 ----------------------
@@ -58,9 +58,14 @@ from collections.abc import Callable
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from refsynth.mrf import disc_offsets, gaussian_window, intensity_patches, window_offsets
-from refsynth.priority import FillFront, onion_order
-from refsynth.similarity import intensity_scale, range_scale
+from refsynth.synthesis.neighbourhood import (
+    disc_offsets,
+    gaussian_window,
+    intensity_patches,
+    window_offsets,
+)
+from refsynth.synthesis.priority import FillFront, onion_order
+from refsynth.synthesis.similarity import intensity_scale, range_scale
 
 __all__ = ["np_fill", "eq5_set", "PatchTable"]
 
@@ -110,7 +115,7 @@ class PatchTable:
     missing_range : {"mean", "ignore"}
         How the range term treats offsets where ``N_p`` has range and the
         candidate has none: ``"mean"`` charges them the mean discrepancy of
-        the offsets both have (see :mod:`refsynth.similarity`); ``"ignore"``
+        the offsets both have (see :mod:`refsynth.synthesis.similarity`); ``"ignore"``
         is the literal Eq. 2.
     dtype : numpy dtype, default float64
         NP uses float32: half the memory traffic of the per-step gather; the

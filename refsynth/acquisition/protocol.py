@@ -68,7 +68,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from refsynth.rig.geometry import ENCODER_POSITIONS
+from refsynth.acquisition.geometry import ENCODER_POSITIONS
 
 __all__ = [
     "ProtocolError",

@@ -2,7 +2,7 @@
 
 ``python -m refsynth evaluate`` runs a grid of *cases* — a scene at a size,
 a sampling of its range, a method, and (for NP, which draws at random) a
-seed — scores each with the measures of :mod:`refsynth.metrics` (MAR of
+seed — scores each with the measures of :mod:`refsynth.evaluation.metrics` (MAR of
 Eq. 13, RMSE, bad > 1, bad > 3) over the pixels that were unknown and have
 ground truth, and aggregates the seeds of each scene × sampling × method
 into one row (mean and spread). Cases are independent, so the grid runs in
@@ -17,7 +17,7 @@ Cases are named compactly, as on the command line:
 - scenes: ``synthetic`` (the synthetic room of seed 0; ``synthetic-N`` for
   seed N), ``motorcycle`` (the Middlebury 2014 pair of scikit-image), or a
   path pair ``IMAGE:DISPARITY`` (PNG/PFM/NPY, see
-  :func:`refsynth.datasets.load_middlebury`);
+  :func:`refsynth.scenes.datasets.load_middlebury`);
 - sizes: ``128`` (square), ``450x375`` (width × height, as the paper
   writes it), or ``native`` (a path pair or the Motorcycle as stored);
 - samplings: ``gRW_XW`` (the paper's grid stripes, known width RW, unknown
@@ -25,7 +25,7 @@ Cases are named compactly, as on the command line:
   ``distance`` or ``distanceNN`` (Fig. 2's distance-driven columns, 60 % or
   NN % unknown);
 - methods: ``np``, ``np-noedges``, ``np-noisophotes``, ``np-onion``, ``bp``,
-  ``bp-noedges``, and the baselines of :mod:`refsynth.baselines` by name
+  ``bp-noedges``, and the baselines of :mod:`refsynth.evaluation.baselines` by name
   (``nearest``, ``linear``, ``harmonic``, ``colorization``,
   ``joint-bilateral``).
 
@@ -115,7 +115,7 @@ TIMING_FIELDS = ("seconds",)
 
 def method_names() -> tuple[str, ...]:
     """Every method name: the synthesis variants, then the baselines."""
-    from refsynth.baselines import BASELINES
+    from refsynth.evaluation.baselines import BASELINES
 
     return (*SYNTHESIS_METHODS, *BASELINES)
 
@@ -426,9 +426,9 @@ def load_scene(scene: str, size: str):
 
     Returns
     -------
-    refsynth.datasets.Scene
+    refsynth.scenes.datasets.Scene
     """
-    from refsynth.datasets import load_middlebury, motorcycle, synthetic_room
+    from refsynth.scenes.datasets import load_middlebury, motorcycle, synthetic_room
 
     dims = _size_tuple(size)
     if scene.startswith("synthetic-"):
@@ -445,12 +445,12 @@ def known_mask(scene, sampling: str) -> np.ndarray:
     """The known-range mask of a sampling spec on a scene, without pixels that lack truth.
 
     Pixels without ground truth are never given to the synthesis (there is
-    no range to give) and never scored (:func:`refsynth.metrics.evaluate`
+    no range to give) and never scored (:func:`refsynth.evaluation.metrics.evaluate`
     skips them).
 
     Parameters
     ----------
-    scene : refsynth.datasets.Scene
+    scene : refsynth.scenes.datasets.Scene
     sampling : str
         A spec of :func:`parse_sampling`.
 
@@ -465,7 +465,7 @@ def known_mask(scene, sampling: str) -> np.ndarray:
     range of Fig. 2 (for disparity, its inverse, which grows with
     distance), standing in for the rig's coarse pass.
     """
-    from refsynth.sampling import distance_driven, stripes, x_stripes_for_fraction
+    from refsynth.acquisition.sampling import distance_driven, stripes, x_stripes_for_fraction
 
     sampling = parse_sampling(sampling)
     shape = scene.range.shape
@@ -490,7 +490,7 @@ def score(scene, known: np.ndarray, method: str, seed: int = 0) -> dict:
 
     Parameters
     ----------
-    scene : refsynth.datasets.Scene
+    scene : refsynth.scenes.datasets.Scene
     known : ndarray of shape (H, W), bool
         The pixels whose range the method is given.
     method : str
@@ -507,9 +507,9 @@ def score(scene, known: np.ndarray, method: str, seed: int = 0) -> dict:
         time of the fill alone).
     """
     from refsynth import synthesize
-    from refsynth.baselines import BASELINES
-    from refsynth.metrics import evaluate
-    from refsynth.sampling import unknown_fraction
+    from refsynth.acquisition.sampling import unknown_fraction
+    from refsynth.evaluation.baselines import BASELINES
+    from refsynth.evaluation.metrics import evaluate
 
     method = parse_method(method)
     partial = np.where(known, scene.range, np.nan)
@@ -946,7 +946,7 @@ def format_winners(rows: Sequence[dict]) -> str:
     """Markdown: per scene × sampling, the best method by mean MAR, NP and BP with the
     paper's defaults, the best of refsynth's variants, the best baseline and the nearest
     fill — where refsynth wins and where it loses."""
-    from refsynth.baselines import BASELINES
+    from refsynth.evaluation.baselines import BASELINES
 
     lines = ["| scene | sampling | best | np | bp | best refsynth variant | best baseline "
              "| nearest |", "|---|---|---|---|---|---|---|---|"]

@@ -5,7 +5,7 @@ The analogues of the paper's figures on refsynth's scenes, and the demo's:
 ========================================  ===============================================
 file                                      what
 ========================================  ===============================================
-``demo_result.png``,                      :func:`refsynth.cli.run_demo` (exactly what
+``demo_result.png``,                      :func:`refsynth.cli.main.run_demo` (exactly what
 ``demo_np_bp.png``,                       ``python -m refsynth demo --out figures``
 ``demo_comparison.png``                   writes)
 ``fig07_ordering.png``                    Fig. 7: priority (Eqs. 10–12) against onion-peel
@@ -229,7 +229,7 @@ def mar_curve_figure(rows: Sequence[dict], *, title: str | None = None) -> Figur
     Parameters
     ----------
     rows : sequence of dict
-        Aggregated rows of :func:`refsynth.evaluation.aggregate` (x-stripe
+        Aggregated rows of :func:`refsynth.evaluation.experiments.aggregate` (x-stripe
         samplings); NP variants over several seeds get error bars (± one
         standard deviation).
     title : str, optional
@@ -347,7 +347,7 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
         Small scenes, for tests (see the module docstring).
     jobs : int, default 1
         Local processes for the MAR-against-unknown-fraction grid
-        (:func:`refsynth.evaluation.run_cases`); the figures do not depend on it.
+        (:func:`refsynth.evaluation.experiments.run_cases`); the figures do not depend on it.
     log : callable, optional
         Called with a line of progress text.
 
@@ -356,9 +356,9 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     list of Path
     """
     from refsynth import synthesize
-    from refsynth.cli import run_demo
-    from refsynth.datasets import motorcycle, synthetic_room
-    from refsynth.evaluation import aggregate, grid_cases, known_mask, run_cases
+    from refsynth.cli.main import run_demo
+    from refsynth.evaluation.experiments import aggregate, grid_cases, known_mask, run_cases
+    from refsynth.scenes.datasets import motorcycle, synthetic_room
 
     say = log or (lambda text: None)
     settings = QUICK if quick else FULL
@@ -366,7 +366,7 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
 
-    say("demo figures (refsynth.cli.run_demo)")
+    say("demo figures (refsynth.cli.main.run_demo)")
     run_demo(out, size=settings.demo)
     written += [out / name for name in FIGURES[:3]]
 

@@ -41,7 +41,7 @@ import numpy as np
 from scipy import interpolate, ndimage, sparse
 from scipy.sparse import linalg as sparse_linalg
 
-from refsynth.synthesis import validate_inputs
+from refsynth.synthesis.api import validate_inputs
 
 __all__ = [
     "nearest_fill",

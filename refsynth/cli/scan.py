@@ -1,7 +1,7 @@
 """``python -m refsynth scan``: acquire a partial range scan (§3.1, §4).
 
 :func:`add_scan_parser` adds the ``scan`` subcommand to the main parser of
-:mod:`refsynth.cli`; ``python -m refsynth.rig.cli scan ...`` runs it on its
+:mod:`refsynth.cli.main`; ``python -m refsynth.cli.scan scan ...`` runs it on its
 own. User errors are raised as ValueError / TypeError / OSError with a
 one-line message (the main entry point prints ``refsynth scan: error: ...``
 and exits with status 2).
@@ -23,11 +23,11 @@ from contextlib import ExitStack
 from dataclasses import replace
 from pathlib import Path
 
-from refsynth.rig.errors import RigError
-from refsynth.rig.pan_unit import PanUnit
-from refsynth.rig.rangefinder import Rangefinder
-from refsynth.rig.scan import STRATEGIES, ScanSettings, run_scan
-from refsynth.rig.simulator import Faults, RigSimulator
+from refsynth.acquisition.errors import RigError
+from refsynth.acquisition.pan_unit import PanUnit
+from refsynth.acquisition.rangefinder import Rangefinder
+from refsynth.acquisition.scan import STRATEGIES, ScanSettings, run_scan
+from refsynth.acquisition.simulator import Faults, RigSimulator
 
 __all__ = ["add_scan_parser", "run_scan_command", "main"]
 
@@ -206,7 +206,7 @@ def run_scan_command(args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the ``scan`` subcommand on its own (as the main CLI does): exit status."""
-    parser = argparse.ArgumentParser(prog="python -m refsynth.rig.cli")
+    parser = argparse.ArgumentParser(prog="python -m refsynth.cli.scan")
     subparsers = parser.add_subparsers(dest="command", required=True)
     add_scan_parser(subparsers)
     args = parser.parse_args(argv)
