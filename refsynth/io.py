@@ -5,6 +5,12 @@
 - :func:`read_image`: PNG, JPEG, TIFF, PGM/PPM … through Pillow (which
   matplotlib depends on), as float64 in [0, 1] or as the stored integers.
 - :func:`read_array`: any of the above, chosen by the file's suffix.
+- :func:`write_array`: ``.npy``, ``.pfm`` or a 16-bit ``.png``, chosen by the
+  suffix (:data:`WRITE_SUFFIXES`); anything else is refused before writing.
+
+Every reader rejects what it cannot read exactly — a truncated or padded
+file, a malformed header, an image too large to decode safely — with a
+``ValueError`` whose message names the file.
 
 The PFM format: a text header of three whitespace-separated tokens, ``PF``
 (3 channels) or ``Pf`` (1 channel), then ``W H``, then a scale whose sign
@@ -15,12 +21,34 @@ rows stored from the *bottom* of the image to the top.
 
 from __future__ import annotations
 
+import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
-__all__ = ["read_pfm", "write_pfm", "read_image", "read_array", "IMAGE_SUFFIXES"]
+__all__ = [
+    "read_pfm",
+    "write_pfm",
+    "read_image",
+    "read_array",
+    "read_npy",
+    "write_png16",
+    "write_array",
+    "check_write_suffix",
+    "IMAGE_SUFFIXES",
+    "WRITE_SUFFIXES",
+    "MAX_IMAGE_PIXELS",
+]
+
+#: The largest image (in pixels) :func:`read_image` decodes: 2^28, a 16384×16384
+#: picture. A file claiming more is refused before it is decompressed.
+MAX_IMAGE_PIXELS = 2**28
+#: The suffixes :func:`write_array` writes.
+WRITE_SUFFIXES = (".npy", ".pfm", ".png")
+_PFM_INT = re.compile(rb"[0-9]{1,9}")
+_PFM_REAL = re.compile(rb"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?")
 
 #: Suffixes :func:`read_array` hands to :func:`read_image` (read by Pillow).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm", ".ppm", ".pbm")
@@ -59,7 +87,9 @@ def _pfm_header(data: bytes, path: Path) -> tuple[list[bytes], int]:
                 f"Cannot read '{path}' as PFM: it must start with 'PF' or 'Pf', "
                 f"got {tokens[0][:10]!r}"
             )
-    # exactly one whitespace character separates the header from the data
+    # one whitespace character separates the header from the data ("\r\n" counts as one)
+    if data[position : position + 2] == b"\r\n":
+        return tokens, position + 2
     return tokens, position + 1
 
 
@@ -88,19 +118,22 @@ def read_pfm(path: str | Path) -> np.ndarray:
     path = _check_path(path)
     data = _read_bytes(path)
     (kind, width_token, height_token, scale_token), offset = _pfm_header(data, path)
-    try:
-        width, height, scale = int(width_token), int(height_token), float(scale_token)
-    except ValueError:
+    if not (
+        _PFM_INT.fullmatch(width_token)
+        and _PFM_INT.fullmatch(height_token)
+        and _PFM_REAL.fullmatch(scale_token)
+    ):
         raise ValueError(
             f"Cannot read '{path}' as PFM: bad header {width_token!r} {height_token!r} "
             f"{scale_token!r}"
-        ) from None
+        )
+    width, height, scale = int(width_token), int(height_token), float(scale_token)
     if width <= 0 or height <= 0 or scale == 0 or not np.isfinite(scale):
         raise ValueError(f"Cannot read '{path}' as PFM: bad size {width}x{height} or scale {scale}")
     channels = 3 if kind == b"PF" else 1
     dtype = np.dtype("<f4" if scale < 0 else ">f4")
     count = width * height * channels
-    if len(data) - offset < count * 4:
+    if len(data) - offset != count * 4:
         raise ValueError(
             f"Cannot read '{path}' as PFM: expected {count * 4} bytes of data for "
             f"{width}x{height}x{channels}, got {len(data) - offset}"
@@ -184,7 +217,16 @@ def read_image(path: str | Path, *, raw: bool = False) -> np.ndarray:
     if not path.is_file():
         raise FileNotFoundError(f"No such file: '{path}'")
     try:
-        with Image.open(path) as image:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            image_file = Image.open(path)
+        with image_file as image:
+            width, height = image.size
+            if width * height > MAX_IMAGE_PIXELS:
+                raise ValueError(
+                    f"Cannot read '{path}' as an image: {width}x{height} pixels is more than "
+                    f"refsynth decodes ({MAX_IMAGE_PIXELS})"
+                )
             image.load()
             mode = image.mode
             if mode in ("LA", "La"):
@@ -194,7 +236,13 @@ def read_image(path: str | Path, *, raw: bool = False) -> np.ndarray:
                 image = image.convert("RGB")
                 mode = "RGB"
             array = np.array(image)
-    except (UnidentifiedImageError, OSError, SyntaxError) as error:
+    except (
+        UnidentifiedImageError,
+        OSError,
+        SyntaxError,
+        Image.DecompressionBombError,
+        Image.DecompressionBombWarning,
+    ) as error:
         raise ValueError(f"Cannot read '{path}' as an image: {error}") from error
     if mode.startswith("I;16"):
         array = array.astype(np.uint16)
@@ -241,13 +289,145 @@ def read_array(path: str | Path, *, raw: bool = False) -> np.ndarray:
     if suffix in IMAGE_SUFFIXES:
         return read_image(path, raw=raw)
     if suffix == ".npy":
-        if not path.is_file():
-            raise FileNotFoundError(f"No such file: '{path}'")
-        try:
-            return np.load(path, allow_pickle=False)
-        except (ValueError, OSError, EOFError) as error:
-            raise ValueError(f"Cannot read '{path}' as .npy: {error}") from error
+        return read_npy(path)
     raise ValueError(
         f"Cannot read '{path}': the suffix must be .npy, .pfm or one of "
         f"{', '.join(IMAGE_SUFFIXES)}, got {path.suffix or 'none'!r}"
     )
+
+
+# ----------------------------------------------------------------------------- NPY
+
+
+def read_npy(path: str | Path) -> np.ndarray:
+    """Read a ``.npy`` file exactly: a numeric array, its header and data sizes consistent.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    ndarray
+        Of a bool, integer, floating or complex dtype (never objects: no pickles).
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        If the file is not a ``.npy`` file, its header is malformed, its data
+        is shorter or longer than the header says, or its dtype holds objects
+        or structured fields (the message names the path).
+    """
+    path = _check_path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"No such file: '{path}'")
+    try:
+        with path.open("rb") as stream:
+            version = np.lib.format.read_magic(stream)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(stream)
+            elif version in ((2, 0), (3, 0)):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(stream)
+            else:  # pragma: no cover - read_magic rejects other versions
+                raise ValueError(f"unsupported version {version}")
+            offset = stream.tell()
+    except Exception as error:  # numpy raises ValueError, SyntaxError, TokenError, ...
+        raise ValueError(f"Cannot read '{path}' as .npy: {error}") from None
+    if dtype.hasobject or dtype.fields is not None or dtype.kind not in "biufc":
+        raise ValueError(f"Cannot read '{path}' as .npy: unsupported dtype {dtype}")
+    expected = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    size = path.stat().st_size - offset
+    if size != expected:
+        raise ValueError(
+            f"Cannot read '{path}' as .npy: the header {tuple(shape)} {dtype} needs "
+            f"{expected} bytes of data, the file has {size}"
+        )
+    return np.load(path, allow_pickle=False)
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+def write_png16(path: str | Path, array: np.ndarray, scale: float = 1.0) -> None:
+    """Write a range image as a 16-bit grey PNG: ``round(value · scale)``, 0 = unknown.
+
+    Parameters
+    ----------
+    path : str or Path
+    array : ndarray of shape (H, W), real
+        NaN (and non-finite values) mark unknown pixels and are stored as 0.
+    scale : float, default 1
+        Stored integer per unit of range; read back with
+        ``read_array(path, raw=True) / scale`` (0 = unknown).
+
+    Raises
+    ------
+    ValueError
+        If a finite value, scaled and rounded, falls outside 1…65535 (0 is
+        reserved for "unknown"), or the shape is not (H, W).
+    """
+    path = _check_path(path)
+    if not isinstance(array, np.ndarray) or array.ndim != 2 or 0 in array.shape:
+        shape = getattr(array, "shape", type(array).__name__)
+        raise ValueError(f"The parameter `array` must be a non-empty 2-D array, got {shape}")
+    if not (np.isfinite(scale) and scale > 0):
+        raise ValueError(f"The parameter `scale` must be finite and > 0, got {scale}")
+    values = np.asarray(array, dtype=np.float64)
+    known = np.isfinite(values)
+    stored = np.zeros(values.shape, dtype=np.uint16)
+    scaled = np.rint(values[known] * scale)
+    if scaled.size and (scaled.min() < 1 or scaled.max() > 65535):
+        raise ValueError(
+            f"Cannot write '{path}' as a 16-bit PNG: value x {scale} spans "
+            f"{scaled.min():g}..{scaled.max():g}, outside 1..65535 (0 = unknown); "
+            "choose another --png-scale"
+        )
+    stored[known] = scaled.astype(np.uint16)
+    Image.fromarray(stored).save(path, format="PNG")
+
+
+def write_array(path: str | Path, array: np.ndarray, *, png_scale: float = 1.0) -> Path:
+    """Write ``array`` in the format its suffix names: ``.npy``, ``.pfm`` or 16-bit ``.png``.
+
+    Parameters
+    ----------
+    path : str or Path
+        Its suffix (case-insensitive) must be one of :data:`WRITE_SUFFIXES`.
+    array : ndarray
+    png_scale : float, default 1
+        For ``.png`` only (see :func:`write_png16`).
+
+    Returns
+    -------
+    Path
+        The path written (exactly ``path``: no suffix is added).
+
+    Raises
+    ------
+    ValueError
+        If the suffix is not one of :data:`WRITE_SUFFIXES`.
+    """
+    path = _check_path(path)
+    suffix = check_write_suffix(path)
+    if suffix == ".npy":
+        with path.open("wb") as stream:
+            np.save(stream, array, allow_pickle=False)
+    elif suffix == ".pfm":
+        write_pfm(path, array)
+    else:
+        write_png16(path, array, png_scale)
+    return path
+
+
+def check_write_suffix(path: str | Path, name: str = "path") -> str:
+    """The lower-case suffix of ``path`` if :func:`write_array` writes it, or ``ValueError``."""
+    path = _check_path(path)
+    suffix = path.suffix.lower()
+    if not path.name or suffix not in WRITE_SUFFIXES:
+        raise ValueError(
+            f"The parameter `{name}` must end in one of {', '.join(WRITE_SUFFIXES)}, "
+            f"got {str(path)!r}"
+        )
+    return suffix

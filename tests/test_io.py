@@ -184,3 +184,111 @@ def test_read_array_errors(tmp_path):
         read_array(tmp_path / "missing.npy")
     with pytest.raises(FileNotFoundError, match="missing.pfm"):
         read_array(tmp_path / "missing.pfm")
+
+
+# ----------------------------------------------------------------------------- strict readers (#14)
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [
+        (b"Pf\n1_0 1\n-1\n" + bytes(40), "bad header"),  # int("1_0") == 10 in Python
+        (b"Pf\n1 1\n-1_0\n" + bytes(4), "bad header"),
+        (b"Pf\n+1 1\n-1\n" + bytes(4), "bad header"),
+        (b"Pf\n1 1\n-1\n" + bytes(4) + b"junk", "expected 4 bytes"),
+    ],
+)
+def test_read_pfm_rejects_what_it_cannot_read_exactly(tmp_path, content, match):
+    path = tmp_path / "bad.pfm"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=match) as info:
+        read_pfm(path)
+    assert str(path) in str(info.value)
+
+
+def test_read_pfm_crlf_header(tmp_path):
+    # a header written on Windows: every line ends in "\r\n", the data follows the last one
+    array = np.array([[13.0, -2.5, 7.0]], dtype=np.float32)
+    path = tmp_path / "crlf.pfm"
+    path.write_bytes(b"Pf\r\n3 1\r\n-1.0\r\n" + array.astype("<f4").tobytes())
+    np.testing.assert_array_equal(read_pfm(path), array)
+
+
+@pytest.mark.parametrize(
+    "content",
+    [
+        b"\x93NUMPY\x01\x00v\x00{'descr'",  # 15 bytes: numpy's parser raises TokenError
+        b"\x93NUMPY\x01\x00\x10\x00{'descr': '<f8'}",
+        b"not a numpy file at all",
+        b"",
+    ],
+)
+def test_read_array_rejects_malformed_npy(tmp_path, content):
+    path = tmp_path / "bad.npy"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match="bad.npy.* as .npy") as info:
+        read_array(path)
+    assert "\n" not in str(info.value)
+
+
+def test_read_array_rejects_npy_with_wrong_data_length(tmp_path):
+    path = tmp_path / "short.npy"
+    np.save(path, np.arange(6.0))
+    data = path.read_bytes()
+    path.write_bytes(data[:-8])
+    with pytest.raises(ValueError, match="needs 48 bytes of data, the file has 40"):
+        read_array(path)
+    path.write_bytes(data + b"\x00" * 8)
+    with pytest.raises(ValueError, match="the file has 56"):
+        read_array(path)
+
+
+def test_read_array_rejects_object_and_structured_npy(tmp_path):
+    path = tmp_path / "fields.npy"
+    np.save(path, np.zeros(3, dtype=[("a", "<f8"), ("b", "<i4")]))
+    with pytest.raises(ValueError, match="unsupported dtype"):
+        read_array(path)
+
+
+def test_read_image_refuses_a_decompression_bomb(tmp_path, monkeypatch):
+    import refsynth.io as rio
+
+    path = tmp_path / "big.png"
+    Image.fromarray(np.zeros((64, 64), np.uint8)).save(path)
+    monkeypatch.setattr(rio, "MAX_IMAGE_PIXELS", 1000)
+    with pytest.raises(ValueError, match=r"big.png.*64x64 pixels is more than"):
+        read_image(path)
+
+
+def test_write_array_writes_the_format_its_suffix_names(tmp_path):
+    from refsynth.io import write_array
+
+    values = np.array([[1.25, np.nan], [3.0, 250.5]])
+    assert write_array(tmp_path / "r.npy", values) == tmp_path / "r.npy"
+    np.testing.assert_array_equal(read_array(tmp_path / "r.npy"), values)
+    write_array(tmp_path / "r.pfm", values)
+    np.testing.assert_array_equal(read_array(tmp_path / "r.pfm"), values.astype(np.float32))
+    write_array(tmp_path / "r.PNG", values, png_scale=4.0)
+    stored = read_array(tmp_path / "r.PNG", raw=True)
+    assert stored.dtype == np.uint16
+    np.testing.assert_array_equal(stored, [[5, 0], [12, 1002]])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.PNG", "r.npy", "r.pfm"]
+
+
+@pytest.mark.parametrize("name", ["r.pfm.npy.txt", "r", "", "r.tif"])
+def test_write_array_refuses_unknown_suffixes_before_writing(tmp_path, name):
+    from refsynth.io import write_array
+
+    with pytest.raises(ValueError, match="`path` must end in one of .npy, .pfm, .png"):
+        write_array(tmp_path / name if name else "", np.ones((2, 2)))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_png16_refuses_values_it_cannot_store(tmp_path):
+    from refsynth.io import write_png16
+
+    with pytest.raises(ValueError, match="outside 1..65535"):
+        write_png16(tmp_path / "r.png", np.array([[0.1, 2.0]]))
+    with pytest.raises(ValueError, match="outside 1..65535"):
+        write_png16(tmp_path / "r.png", np.array([[70000.0, 2.0]]))
+    assert not (tmp_path / "r.png").exists()
