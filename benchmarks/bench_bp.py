@@ -40,7 +40,7 @@ def _rss_mb() -> float:
 
 
 def _scene(name, size):
-    from refsynth.scenes.datasets import motorcycle, synthetic_room
+    from refsynth.scenes import motorcycle, synthetic_room
 
     return synthetic_room((size, size), seed=0) if name == "room" else motorcycle(size)
 

@@ -37,7 +37,7 @@ def _rss_mb() -> float:
 
 
 def _scene(name: str, size):
-    from refsynth.scenes.datasets import motorcycle, synthetic_room
+    from refsynth.scenes import motorcycle, synthetic_room
 
     if name == "room":
         return synthetic_room((size, size), seed=0)

@@ -35,24 +35,21 @@ import time
 
 import numpy as np
 
-from refsynth.registration.laser_camera import (
+from refsynth.registration import (
     Warp,
-    _forward,
+    align_translation,
+    blend,
+    cylindrical_warp,
     fit_warp,
     intensity_edges,
     match_edges,
+    mosaic,
     range_edges,
     register,
 )
-from refsynth.registration.panorama import align_translation, blend, cylindrical_warp, mosaic
-from refsynth.scenes.registration_rig import (
-    FOCAL,
-    laser_scan,
-    registration_errors,
-    render_views,
-    rig_room,
-    texture_views,
-)
+from refsynth.registration import warp_forward as _forward
+from refsynth.registration.scoring import registration_errors
+from refsynth.scenes import FOCAL, laser_scan, render_views, rig_room, texture_views
 
 TEXTURES = ("stereo_motorcycle", "coffee", "rocket", "astronaut", "camera", "chelsea")
 

@@ -5,7 +5,7 @@ A reference implementation of L. A. Torres-Méndez and G. Dudek,
 doi:10.1007/s11263-007-0108-2.
 """
 
-from refsynth.synthesis.api import SynthesisResult, synthesize
+from refsynth.synthesis import SynthesisResult, synthesize
 
 __all__ = ["SynthesisResult", "synthesize", "__version__"]
 __version__ = "0.1.0"

@@ -2,7 +2,7 @@
 
 import sys
 
-from refsynth.cli import main
+from refsynth.cli.main import main
 
 if __name__ == "__main__":
     sys.exit(main())

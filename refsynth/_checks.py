@@ -252,3 +252,21 @@ def grey(image: np.ndarray, weights: np.ndarray = BT709) -> np.ndarray:
     if image.shape[2] == 3:
         return image @ weights
     return image.mean(axis=2)
+
+
+def check_bool(name: str, value) -> bool:
+    """``value`` as a ``bool`` if it is a Python or numpy bool, or raise ``TypeError``.
+
+    Examples
+    --------
+    >>> check_bool("use_edges", "yes")
+    Traceback (most recent call last):
+    ...
+    TypeError: The parameter `use_edges` must be a bool, got str
+    """
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"The parameter `{name}` must be a bool, got {type(value).__name__}")
+    return bool(value)
+
+
+__all__.append("check_bool")

@@ -198,7 +198,7 @@ def read_image(path: str | Path, *, raw: bool = False) -> np.ndarray:
         65535); float images (TIFF mode ``F``) are returned as they are.
         True: return the stored values unchanged (uint8, uint16, int32 or
         float32) — what a disparity PNG needs (see
-        :func:`refsynth.scenes.datasets.load_middlebury`).
+        :func:`refsynth.scenes.load_middlebury`).
 
     Returns
     -------

@@ -10,7 +10,7 @@ from hypothesis.extra import numpy as hnp
 from strategies import small_scene
 
 import refsynth
-from refsynth.scenes.datasets import synthetic_room
+from refsynth.scenes import synthetic_room
 from refsynth.synthesis.bp import (
     belief_propagation,
     fixed_neighbour_terms,

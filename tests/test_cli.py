@@ -6,9 +6,10 @@ import sys
 import numpy as np
 import pytest
 
-from refsynth.cli.main import DEMO_METHODS, main, run_pipeline_demo
+from refsynth.cli.main import main
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.io import write_pfm
+from refsynth.plotting.demo import DEMO_METHODS, run_pipeline_demo
 
 
 def test_demo_prints_the_table_and_writes_figures(tmp_path, capsys):

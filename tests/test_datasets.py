@@ -1,4 +1,4 @@
-"""Tests of refsynth.scenes.datasets: scenes, area-averaging resizes, Middlebury loaders."""
+"""Tests of refsynth.scenes: scenes, area-averaging resizes, Middlebury loaders."""
 
 import time
 
@@ -10,7 +10,7 @@ from hypothesis.extra.numpy import arrays
 from PIL import Image
 
 from refsynth.io import write_pfm
-from refsynth.scenes.datasets import (
+from refsynth.scenes import (
     RoomGeometry,
     Scene,
     cast_rays,

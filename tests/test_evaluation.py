@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from refsynth.evaluation.experiments import (
+from refsynth.cli.evaluate import add_evaluate_parser
+from refsynth.evaluation import (
     DEFAULT_GRID,
     Case,
-    add_evaluate_parser,
     aggregate,
     build_cases,
     findings,
@@ -37,7 +37,7 @@ from refsynth.evaluation.experiments import (
     without_timing,
 )
 from refsynth.io import write_pfm
-from refsynth.scenes.datasets import Scene
+from refsynth.scenes import Scene
 
 #: A grid of a few seconds that still has every kind of method in it.
 SMALL = dict(scenes=["synthetic"], sizes=["32"], samplings=["g3_8", "x78"],

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import refsynth
-from refsynth.evaluation.experiments import aggregate
+from refsynth.cli.figures import add_figures_parser
+from refsynth.evaluation import aggregate
 from refsynth.plotting.figures import (
     FIGURES,
-    add_figures_parser,
     confidence_figure,
     fill_order_image,
     mar_curve_figure,

@@ -1,4 +1,4 @@
-"""Tests of refsynth.registration.laser_camera: laser–camera registration (Appendix A.2, Eqs. 19–21)."""
+"""Tests of laser–camera registration (Appendix A.2, Eqs. 19–21) in refsynth.registration."""
 
 import argparse
 import math
@@ -8,11 +8,10 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from refsynth.registration.laser_camera import (
+from refsynth.cli.register import add_register_parser
+from refsynth.registration import (
     CylindricalRange,
     Warp,
-    _forward,
-    add_register_parser,
     align_global,
     cartesian_to_spherical,
     eq20_warp,
@@ -30,12 +29,9 @@ from refsynth.registration.laser_camera import (
     spherical_to_cartesian,
     spherical_to_cylindrical,
 )
-from refsynth.scenes.registration_rig import (
-    laser_scan,
-    registration_errors,
-    render_views,
-    rig_room,
-)
+from refsynth.registration import warp_forward as _forward
+from refsynth.registration.scoring import registration_errors
+from refsynth.scenes import laser_scan, render_views, rig_room
 
 EPS = np.finfo(np.float64).eps
 

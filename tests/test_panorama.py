@@ -1,4 +1,4 @@
-"""Tests of refsynth.registration.panorama: the cylindrical panorama mosaic (Appendix A.1, Eqs. 14–18)."""
+"""Tests of the cylindrical panorama mosaic (Appendix A.1, Eqs. 14–18) in refsynth.registration."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage as ndi
 
-from refsynth.registration.panorama import (
+from refsynth.registration import (
     align_translation,
     blend,
     cylinder_coordinates,
@@ -19,7 +19,7 @@ from refsynth.registration.panorama import (
     perspective_coordinates,
     project_to_cylinder,
 )
-from refsynth.scenes.registration_rig import render_views, rig_room, texture_views
+from refsynth.scenes import render_views, rig_room, texture_views
 
 EPS = np.finfo(np.float64).eps
 

@@ -1,4 +1,4 @@
-"""Tests of refsynth.scenes.registration_rig: the synthetic rig and the real-texture views."""
+"""Tests of refsynth.scenes (rig, rig_views): the synthetic rig and the real-texture views."""
 
 import math
 
@@ -8,10 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage as ndi
 
-from refsynth.registration.laser_camera import cartesian_to_spherical
-from refsynth.registration.panorama import cylindrical_warp
-from refsynth.scenes.registration_rig import (
-    cast_rays,
+from refsynth.registration import cartesian_to_spherical, cylindrical_warp
+from refsynth.scenes import cast_rig_rays as cast_rays
+from refsynth.scenes import (
     laser_scan,
     render_views,
     rig_room,

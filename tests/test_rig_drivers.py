@@ -17,12 +17,8 @@ from refsynth.acquisition import (
     RigSimulator,
     RoomRig,
 )
-from refsynth.acquisition.protocol import (
-    encode_rangefinder_reply,
-    encode_samples,
-    format_pan_error,
-    format_pan_reply,
-)
+from refsynth.acquisition.pan_protocol import format_pan_error, format_pan_reply
+from refsynth.acquisition.rangefinder_protocol import encode_rangefinder_reply, encode_samples
 
 # ----------------------------------------------------------------------------- a scripted port
 

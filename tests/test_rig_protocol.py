@@ -7,22 +7,24 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from refsynth.acquisition.protocol import (
-    LINE_WIDTH,
-    STATUS,
+from refsynth.acquisition.errors import ProtocolError
+from refsynth.acquisition.pan_protocol import (
     PanReply,
-    ProtocolError,
-    crc16,
-    decode_samples,
     encode_pan_command,
-    encode_rangefinder_command,
-    encode_rangefinder_reply,
-    encode_samples,
     format_pan_error,
     format_pan_reply,
     pan_reply_kind,
     parse_pan_command,
     parse_pan_reply,
+)
+from refsynth.acquisition.rangefinder_protocol import (
+    LINE_WIDTH,
+    STATUS,
+    crc16,
+    decode_samples,
+    encode_rangefinder_command,
+    encode_rangefinder_reply,
+    encode_samples,
     parse_rangefinder_command,
     parse_rangefinder_reply,
     rangefinder_reply_length,

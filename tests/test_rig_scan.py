@@ -25,7 +25,8 @@ from refsynth.acquisition import (
     run_scan,
 )
 from refsynth.acquisition.geometry import SLICE_COUNT, SLICE_START, pan_angle, polar_angle
-from refsynth.acquisition.scan import SliceRecord, coarse_slices, slice_bytes
+from refsynth.acquisition.scan_folder import SliceRecord, slice_bytes
+from refsynth.acquisition.slice_plan import coarse_slices
 from refsynth.cli.scan import add_scan_parser, main
 
 # ----------------------------------------------------------------------------- plans

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from refsynth.acquisition.faults import Faults
 from refsynth.acquisition.geometry import (
     ENCODER_HORIZON,
     IMAGE_HEIGHT,
@@ -22,9 +23,9 @@ from refsynth.acquisition.geometry import (
     pan_angle,
     polar_angle,
 )
-from refsynth.acquisition.protocol import decode_samples, parse_rangefinder_reply
-from refsynth.acquisition.simulator import Faults, RigSimulator, RoomRig
-from refsynth.scenes.datasets import cast_rays, room_geometry, synthetic_room
+from refsynth.acquisition.rangefinder_protocol import decode_samples, parse_rangefinder_reply
+from refsynth.acquisition.simulator import RigSimulator, RoomRig
+from refsynth.scenes import cast_rays, room_geometry, synthetic_room
 
 # ----------------------------------------------------------------------------- geometry
 

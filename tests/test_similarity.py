@@ -12,8 +12,7 @@ from refsynth.synthesis.neighbourhood import (
     intensity_patches,
     range_patches,
 )
-from refsynth.synthesis.nonparametric import PatchTable
-from refsynth.synthesis.similarity import neighbourhood_distance, range_scale
+from refsynth.synthesis.similarity import PatchTable, neighbourhood_distance, range_scale
 
 EPS = np.finfo(np.float64).eps
 

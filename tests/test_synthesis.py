@@ -96,3 +96,78 @@ def test_integer_seed_types():
     a = refsynth.synthesize(IMAGE, PARTIAL, seed=np.int64(5))
     b = refsynth.synthesize(IMAGE, PARTIAL, seed=5)
     np.testing.assert_array_equal(a.order, b.order)
+
+
+# --------------------------------------------------------------------------- the options split
+
+NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion"}
+BP_ONLY = {"candidates": 4, "proximity": 0.0, "sigma_i": 0.3, "sigma_s": 0.1,
+           "iterations": 3, "tolerance": 0.0, "product": "sum"}
+
+
+def test_options_after_the_arrays_are_keyword_only():
+    with pytest.raises(TypeError):
+        refsynth.synthesize(IMAGE, PARTIAL, "bp")
+    with pytest.raises(TypeError):
+        refsynth.synthesize(IMAGE, PARTIAL, "np", 0)
+
+
+@pytest.mark.parametrize(("name", "value"), NP_ONLY.items())
+def test_an_np_option_given_to_bp_is_rejected(name, value):
+    match = rf"`{name}` applies to method='np' only; method='bp' does not use it"
+    with pytest.raises(ValueError, match=match):
+        refsynth.synthesize(IMAGE, PARTIAL, method="bp", **{name: value})
+
+
+@pytest.mark.parametrize(("name", "value"), BP_ONLY.items())
+def test_a_bp_option_given_to_np_is_rejected(name, value):
+    match = rf"`{name}` applies to method='bp' only; method='np' does not use it"
+    with pytest.raises(ValueError, match=match):
+        refsynth.synthesize(IMAGE, PARTIAL, method="np", **{name: value})
+
+
+def test_the_paper_example_of_an_ignored_option_is_now_an_error():
+    with pytest.raises(ValueError, match="The parameter `ordering` applies to method='np' only; "
+                                         "method='bp' does not use it"):
+        refsynth.synthesize(IMAGE, PARTIAL, method="bp", ordering="onion")
+
+
+def test_a_bad_value_is_reported_as_such_even_for_the_other_method():
+    with pytest.raises(ValueError, match="`ordering` must be one of"):
+        refsynth.synthesize(IMAGE, PARTIAL, method="bp", ordering="spiral")
+    with pytest.raises(ValueError, match="`candidates` must be >= 1"):
+        refsynth.synthesize(IMAGE, PARTIAL, method="np", candidates=0)
+
+
+def test_the_other_methods_defaults_and_none_are_accepted_silently():
+    np_defaults = {"epsilon": 0.1, "use_isophotes": True, "ordering": "priority"}
+    bp_defaults = {"candidates": 8, "proximity": 1.0, "sigma_i": 0.1, "sigma_s": 0.2,
+                   "iterations": 50, "tolerance": 1e-4, "product": "max"}
+    plain_np = refsynth.synthesize(IMAGE, PARTIAL, method="np", seed=0)
+    plain_bp = refsynth.synthesize(IMAGE, PARTIAL, method="bp")
+    for extra in (bp_defaults, dict.fromkeys(bp_defaults), {**np_defaults, **bp_defaults}):
+        other = refsynth.synthesize(IMAGE, PARTIAL, method="np", seed=0, **extra)
+        np.testing.assert_array_equal(other.range, plain_np.range)
+        np.testing.assert_array_equal(other.order, plain_np.order)
+        assert other.params == plain_np.params
+    for extra in (np_defaults, dict.fromkeys(np_defaults), {**np_defaults, **bp_defaults}):
+        other = refsynth.synthesize(IMAGE, PARTIAL, method="bp", **extra)
+        np.testing.assert_array_equal(other.range, plain_bp.range)
+        np.testing.assert_array_equal(other.confidence, plain_bp.confidence)
+        assert other.params == plain_bp.params
+
+
+def test_none_means_the_methods_default_and_params_hold_only_its_options():
+    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", candidates=None, product=None)
+    assert result.params["candidates"] == 8 and result.params["product"] == "max"
+    assert not {"epsilon", "use_isophotes", "ordering"} & result.params.keys()
+    result = refsynth.synthesize(IMAGE, PARTIAL, seed=0, ordering=None, epsilon=None)
+    assert result.params["ordering"] == "priority" and result.params["epsilon"] == 0.1
+    assert not set(BP_ONLY) & result.params.keys()
+
+
+def test_the_options_tables_name_every_method_specific_option():
+    from refsynth.synthesis import BP_OPTIONS, NP_OPTIONS
+
+    assert set(NP_OPTIONS) == set(NP_ONLY) and set(BP_OPTIONS) == set(BP_ONLY)
+    assert not set(NP_OPTIONS) & set(BP_OPTIONS)

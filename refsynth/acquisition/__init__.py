@@ -1,47 +1,74 @@
-"""The acquisition rig (§3.1, §4): serial drivers, a simulated rig, scans that lose nothing.
+"""Acquisition (§3.1, §4): which range to measure, and the rig that measures it.
 
-- :mod:`refsynth.acquisition.protocol`: both wire protocols as pure functions on
-  bytes (``refsynth/rig/PROTOCOL.md`` is the adapter writer's page).
-- :class:`PanUnit`, :class:`Rangefinder`: pyserial drivers with deadlines,
-  validation, retries and reconnection.
-- :class:`RigSimulator`: both devices on pseudo-terminals, backed by a
-  ray-cast of the synthetic room, with fault injection; :class:`RoomRig`
-  is its physics without ports.
-- :func:`run_scan`, :func:`plan_slices`, :func:`load_scan`: partial scans
-  (all / every n-th / stripes / distance-driven, Fig. 2), saved slice by
-  slice, resumable, assembled as spherical samples (r, θ, φ).
-- :mod:`refsynth.acquisition.geometry`: pan and mirror angles, the camera model.
+**Sampling strategies** (§3.1, §3.1.1, Fig. 2; the experiments' masks, §3.3):
+:mod:`refsynth.acquisition.sampling` gives the known-range masks: stripes of
+known and unknown range (:func:`stripes`, :func:`x_stripes_for_fraction`),
+Fig. 2's distance-driven slices (:func:`distance_driven`), and the unknown
+fraction of the tables (:func:`unknown_fraction`).
+
+**The rig** (§4): a rangefinder sweeping vertical slices, turned through
+180° by a pan unit that also carries the camera.
+
+- :mod:`~refsynth.acquisition.geometry`: pan and mirror angles, the camera model.
+- The protocols, as pure functions on bytes:
+  :mod:`~refsynth.acquisition.pan_protocol`,
+  :mod:`~refsynth.acquisition.rangefinder_protocol`
+  (``refsynth/acquisition/PROTOCOL.md`` is the adapter writer's page).
+- The drivers: :class:`PanUnit`, :class:`Rangefinder` on pyserial, with
+  deadlines, validation, retries and reconnection
+  (:mod:`~refsynth.acquisition.link`); their exceptions
+  (:mod:`~refsynth.acquisition.errors`).
+- The simulator: :class:`RigSimulator`, both devices on pseudo-terminals,
+  backed by a ray-cast of the synthetic room, with :class:`Faults`
+  injected; :class:`RoomRig` is its physics without ports.
+- Scans: :func:`plan_slices` (the strategies on the pan axis: all / every
+  n-th / stripes / distance-driven, Fig. 2), :func:`run_scan` (saved slice
+  by slice, resumable, :mod:`~refsynth.acquisition.scan_folder`),
+  :func:`load_scan` (spherical samples (r, θ, φ),
+  :mod:`~refsynth.acquisition.assembly`).
 
 References
 ----------
 L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
-Modeling", IJCV 79:137–158 (2008), §3.1 and §4, doi:10.1007/s11263-007-0108-2.
+Modeling", IJCV 79:137–158 (2008), §3.1 (§3.1.1, Fig. 2) and §4,
+doi:10.1007/s11263-007-0108-2.
 """
 
+from refsynth.acquisition.assembly import CameraImage, Scan, load_scan
 from refsynth.acquisition.errors import (
     DeviceError,
     DeviceTimeout,
     PortLost,
+    ProtocolError,
     ReplyError,
     RetriesExhausted,
     RigError,
 )
+from refsynth.acquisition.faults import Faults
 from refsynth.acquisition.pan_unit import PanInfo, PanUnit
 from refsynth.acquisition.rangefinder import Rangefinder
-from refsynth.acquisition.scan import (
-    STRATEGIES,
-    CameraImage,
-    Scan,
-    ScanSettings,
-    ScanSummary,
-    load_scan,
-    plan_slices,
-    read_slice,
-    run_scan,
+from refsynth.acquisition.sampling import (
+    column_range_profile,
+    distance_driven,
+    stripe_gap_for_fraction,
+    stripes,
+    unknown_fraction,
+    x_stripes_for_fraction,
 )
-from refsynth.acquisition.simulator import Faults, RigSimulator, RoomRig
+from refsynth.acquisition.scan import ScanSummary, run_scan
+from refsynth.acquisition.scan_folder import read_slice
+from refsynth.acquisition.simulator import RigSimulator, RoomRig
+from refsynth.acquisition.slice_plan import STRATEGIES, ScanSettings, plan_slices
 
 __all__ = [
+    # sampling strategies (§3.1.1, Fig. 2; §3.3)
+    "stripes",
+    "stripe_gap_for_fraction",
+    "x_stripes_for_fraction",
+    "distance_driven",
+    "column_range_profile",
+    "unknown_fraction",
+    # the rig (§4): drivers, simulator, scans
     "PanUnit",
     "PanInfo",
     "Rangefinder",
@@ -57,6 +84,8 @@ __all__ = [
     "run_scan",
     "load_scan",
     "read_slice",
+    # errors
+    "ProtocolError",
     "RigError",
     "DeviceError",
     "ReplyError",

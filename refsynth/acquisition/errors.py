@@ -1,18 +1,31 @@
-"""The exceptions of the rig's drivers (§3.1, §4).
+"""The exceptions of the rig (§3.1, §4): bytes that break a protocol, devices that fail.
 
-Every one names the device (``"pan unit"`` or ``"rangefinder"``) and the
-command, so that a message reads on its own::
+:class:`ProtocolError` is what the pure protocol functions
+(:mod:`refsynth.acquisition.pan_protocol`,
+:mod:`refsynth.acquisition.rangefinder_protocol`) raise on bytes that do not
+follow the protocol; it is a :class:`ValueError` (bad input), and the drivers
+turn it into a :class:`ReplyError`.
+
+The drivers' exceptions derive from :class:`RigError`. Every one names the
+device (``"pan unit"`` or ``"rangefinder"``) and the command, so that a
+message reads on its own::
 
     rangefinder: GS0379024310;0007: status 02 (laser off)
     pan unit: PP600: ! Maximum allowable pan position exceeded
 
-They derive from :class:`OSError` (a device failing is an input/output
-error), which the command line reports as one line with exit status 2.
+:class:`RigError` derives from :class:`OSError` (a device failing is an
+input/output error), which the command line reports as one line with exit
+status 2.
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.1 and §4, doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations
 
 __all__ = [
+    "ProtocolError",
     "RigError",
     "DeviceError",
     "ReplyError",
@@ -20,6 +33,10 @@ __all__ = [
     "PortLost",
     "RetriesExhausted",
 ]
+
+
+class ProtocolError(ValueError):
+    """A reply (or command) that does not follow the protocol: reject it."""
 
 
 class RigError(OSError):

@@ -5,10 +5,10 @@ horizontal shaft with a 2000-position encoder, sweeping one vertical plane
 (a *slice*); a pan unit that turns it through 180° in 0.36° steps (500
 slices); and a camera on the same pan unit taking a picture every 18°. The
 centres of the camera, the mirror and the pan axis are aligned (§3.1); the
-simulator puts all three at the origin of :func:`refsynth.scenes.datasets.room_geometry`'s
+simulator puts all three at the origin of :func:`refsynth.scenes.room_geometry`'s
 frame (x right, y up, z forward), i.e. ``ΔY = 0`` in Eq. 20.
 
-Conventions (the driver protocol page, ``refsynth/rig/PROTOCOL.md``, repeats them):
+Conventions (the driver protocol page, ``refsynth/acquisition/PROTOCOL.md``, repeats them):
 
 - pan index ``i`` in ``0 … 499`` (the pan unit's position), pan angle
   ``φ = (i − 250) · 0.36°`` (so ``φ`` runs from −90° to +89.64°; positive

@@ -24,6 +24,7 @@ from typing import TypeVar
 
 import serial
 
+from refsynth._checks import check_int, check_real
 from refsynth.acquisition.errors import (
     DeviceError,
     DeviceTimeout,
@@ -232,14 +233,9 @@ class Device:
 
     def __init__(self, port, *, baudrate: int, timeout: float, retries: int,
                  reconnect_timeout: float) -> None:
-        for label, value in (("timeout", timeout), ("reconnect_timeout", reconnect_timeout)):
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-                raise ValueError(f"The parameter `{label}` must be a number > 0, got {value!r}")
-        if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
-            raise ValueError(f"The parameter `retries` must be an integer >= 0, got {retries!r}")
-        self.timeout = float(timeout)
-        self.retries = retries
-        self.reconnect_timeout = float(reconnect_timeout)
+        self.timeout = check_real("timeout", timeout, positive=True)
+        self.reconnect_timeout = check_real("reconnect_timeout", reconnect_timeout, positive=True)
+        self.retries = check_int("retries", retries, minimum=0)
         self.stats = DeviceStats()
         self._link = Link(port, self.name, baudrate=baudrate, timeout=self.timeout)
 

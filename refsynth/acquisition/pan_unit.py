@@ -2,7 +2,7 @@
 
 The paper's pan unit turns the rangefinder and the camera through 180° in
 0.36° steps (500 positions). Commands and replies are specified in
-:mod:`refsynth.acquisition.protocol` and ``refsynth/rig/PROTOCOL.md``.
+:mod:`refsynth.acquisition.pan_protocol` and ``refsynth/acquisition/PROTOCOL.md``.
 
 Every move is absolute (``PP<n>``), so sending it again after a lost or
 garbled reply is safe; a move counts as done only when the unit, asked
@@ -20,16 +20,10 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-import numpy as np
-
-from refsynth.acquisition.errors import DeviceError, DeviceTimeout, ReplyError
+from refsynth._checks import check_int
+from refsynth.acquisition.errors import DeviceError, DeviceTimeout, ProtocolError, ReplyError
 from refsynth.acquisition.link import Device
-from refsynth.acquisition.protocol import (
-    ProtocolError,
-    encode_pan_command,
-    pan_reply_kind,
-    parse_pan_reply,
-)
+from refsynth.acquisition.pan_protocol import encode_pan_command, pan_reply_kind, parse_pan_reply
 
 __all__ = ["PanUnit", "PanInfo", "TRANSIENT_MESSAGES"]
 
@@ -203,12 +197,12 @@ class PanUnit(Device):
         return self.info
 
     def _check_index(self, index) -> int:
-        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
-            raise TypeError(f"The parameter `index` must be an integer, got {index!r}")
+        """``index`` as an int within the unit's limits (before ``initialise``: 0–499)."""
+        index = check_int("index", index)
         low, high = (self.info.minimum, self.info.maximum) if self.info else (0, 499)
         if not low <= index <= high:
             raise ValueError(f"The parameter `index` must be in [{low}, {high}], got {index}")
-        return int(index)
+        return index
 
     def move_to(self, index: int) -> None:
         """Move to an absolute position and wait until the unit is there.

@@ -3,7 +3,7 @@
 The paper's AccuRange 4000 sweeps a vertical plane with a 45° mirror on a
 2000-position encoder; one *slice* is a run of encoder positions, each the
 mean of several samples (§4: 10). Commands and replies are specified in
-:mod:`refsynth.acquisition.protocol` and ``refsynth/rig/PROTOCOL.md``.
+:mod:`refsynth.acquisition.rangefinder_protocol` and ``refsynth/acquisition/PROTOCOL.md``.
 
 Each request carries a fresh tag (``;<4 hex digits>``) that the device
 echoes, so a late reply to an earlier request is never taken for the
@@ -22,12 +22,12 @@ import time
 
 import numpy as np
 
-from refsynth.acquisition.errors import DeviceError, DeviceTimeout, ReplyError
+from refsynth._checks import check_real
+from refsynth.acquisition.errors import DeviceError, DeviceTimeout, ProtocolError, ReplyError
 from refsynth.acquisition.link import Device
-from refsynth.acquisition.protocol import (
+from refsynth.acquisition.rangefinder_protocol import (
     STATUS,
     TRANSIENT_STATUS,
-    ProtocolError,
     RangefinderReply,
     decode_samples,
     encode_rangefinder_command,
@@ -71,15 +71,10 @@ class Rangefinder(Device):
 
     def __init__(self, port, *, baudrate: int = 115200, timeout: float = 0.5, retries: int = 8,
                  reconnect_timeout: float = 10.0, sweep_time: float = 0.0) -> None:
-        if isinstance(sweep_time, bool) or not isinstance(sweep_time, (int, float)) or not (
-            sweep_time >= 0
-        ):
-            raise ValueError(
-                f"The parameter `sweep_time` must be a number >= 0, got {sweep_time!r}"
-            )
+        sweep_time = check_real("sweep_time", sweep_time, minimum=0)
         super().__init__(port, baudrate=baudrate, timeout=timeout, retries=retries,
                          reconnect_timeout=reconnect_timeout)
-        self.sweep_time = float(sweep_time)
+        self.sweep_time = sweep_time
         self.info: dict[str, str] = {}
         self._tag = 0
 

@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from refsynth._checks import check_fraction, check_int, check_real, is_int
+
 __all__ = [
     "stripes",
     "stripe_gap_for_fraction",
@@ -42,23 +44,12 @@ AXES = ("x", "y", "xy")
 # ----------------------------------------------------------------------------- validation
 
 
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
-
-
-def _check_int(name: str, value, minimum: int | None = None) -> int:
-    if not _is_int(value):
-        raise TypeError(f"The parameter `{name}` must be an integer, got {value!r}")
-    if minimum is not None and value < minimum:
-        raise ValueError(f"The parameter `{name}` must be an integer >= {minimum}, got {value}")
-    return int(value)
-
-
 def _check_shape(shape) -> tuple[int, int]:
+    """``(H, W)`` from a pair of positive integers (a mask's shape, rows first)."""
     if (
         not isinstance(shape, (tuple, list))
         or len(shape) != 2
-        or not all(_is_int(n) and n > 0 for n in shape)
+        or not all(is_int(n) and n > 0 for n in shape)
     ):
         raise ValueError(
             f"The parameter `shape` must be a pair of positive integers, got {shape!r}"
@@ -68,9 +59,9 @@ def _check_shape(shape) -> tuple[int, int]:
 
 def _check_phase(phase) -> tuple[int, int]:
     """Return ``(row_phase, col_phase)`` from an int or a pair of ints."""
-    if _is_int(phase):
+    if is_int(phase):
         return int(phase), int(phase)
-    if isinstance(phase, (tuple, list)) and len(phase) == 2 and all(_is_int(p) for p in phase):
+    if isinstance(phase, (tuple, list)) and len(phase) == 2 and all(is_int(p) for p in phase):
         return int(phase[0]), int(phase[1])
     raise ValueError(
         "The parameter `phase` must be an integer or a pair of integers (row_phase, col_phase), "
@@ -79,6 +70,7 @@ def _check_phase(phase) -> tuple[int, int]:
 
 
 def _check_mask(name: str, mask) -> np.ndarray:
+    """``mask`` itself if it is a non-empty boolean ndarray (``True`` = known)."""
     if not isinstance(mask, np.ndarray):
         raise TypeError(f"The parameter `{name}` must be a numpy array, got {type(mask).__name__}")
     if mask.dtype != bool:
@@ -179,8 +171,8 @@ def stripes(
            [1, 0, 1, 0]])
     """
     height, width = _check_shape(shape)
-    rw = _check_int("rw", rw, 1)
-    xw = _check_int("xw", xw, 1)
+    rw = check_int("rw", rw, minimum=1)
+    xw = check_int("xw", xw, minimum=1)
     if not isinstance(axes, str) or axes not in AXES:
         raise ValueError(f"The parameter `axes` must be one of {AXES}, got {axes!r}")
     row_phase, col_phase = _check_phase(phase)
@@ -222,10 +214,10 @@ def stripe_gap_for_fraction(
     ValueError
         If ``width``, ``rw`` or ``unknown_fraction`` is out of range.
     """
-    width = _check_int("width", width, 1)
-    rw = _check_int("rw", rw, 1)
-    phase = _check_int("phase", phase)
-    target = _check_fraction("unknown_fraction", unknown_fraction)
+    width = check_int("width", width, minimum=1)
+    rw = check_int("rw", rw, minimum=1)
+    phase = check_int("phase", phase)
+    target = check_fraction("unknown_fraction", unknown_fraction)
     xw = np.arange(1, width + 1)  # candidates; xw >= width leaves at most rw known columns
     known = (np.arange(width)[None, :] - phase) % (rw + xw[:, None]) < rw
     achieved = 1.0 - known.mean(axis=1)
@@ -279,16 +271,6 @@ def x_stripes_for_fraction(
 
 
 # ----------------------------------------------------------------------------- Fig. 2
-
-
-def _check_fraction(name: str, value) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(
-        value, (int, float, np.integer, np.floating)
-    ):
-        raise TypeError(f"The parameter `{name}` must be a real number, got {value!r}")
-    if not 0.0 < float(value) < 1.0:
-        raise ValueError(f"The parameter `{name}` must be strictly between 0 and 1, got {value}")
-    return float(value)
 
 
 def column_range_profile(coarse_range: np.ndarray) -> np.ndarray:
@@ -446,16 +428,16 @@ def distance_driven(
         raise ValueError(
             "The parameter `height` is required for a 1-D `coarse_range` profile, got None"
         )
-    height = _check_int("height", height, 1)
+    height = check_int("height", height, minimum=1)
     width = profile.size
-    known_fraction = _check_fraction("known_fraction", known_fraction)
-    min_step = _check_step("min_step", min_step)
-    max_step = float(width) if max_step is None else _check_step("max_step", max_step)
+    known_fraction = check_fraction("known_fraction", known_fraction)
+    min_step = check_real("min_step", min_step, minimum=1)
+    max_step = float(width) if max_step is None else check_real("max_step", max_step, minimum=1)
     if max_step < min_step:
         raise ValueError(
             f"The parameter `max_step` must be >= `min_step` ({min_step}), got {max_step}"
         )
-    phase = _check_int("phase", phase, 0)
+    phase = check_int("phase", phase, minimum=0)
     if phase >= width:
         raise ValueError(f"The parameter `phase` must be a column index < {width}, got {phase}")
 
@@ -488,16 +470,6 @@ def distance_driven(
     previous = np.concatenate([[running[0] - density[0]], running[:-1]])
     known_cols = np.floor(running) > np.floor(previous)
     return np.broadcast_to(known_cols[None, :], (height, width)).copy()
-
-
-def _check_step(name: str, value) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(
-        value, (int, float, np.integer, np.floating)
-    ):
-        raise TypeError(f"The parameter `{name}` must be a real number, got {value!r}")
-    if not (np.isfinite(value) and value >= 1):
-        raise ValueError(f"The parameter `{name}` must be a finite number >= 1, got {value}")
-    return float(value)
 
 
 # ----------------------------------------------------------------------------- fractions

@@ -1,11 +1,12 @@
 """A simulated rig on pseudo-terminals, speaking the drivers' protocols (§3.1, §4).
 
 - :class:`RoomRig`: the physics, with no port: what the rangefinder measures
-  and the camera sees from the centre of :func:`refsynth.scenes.datasets.synthetic_room`'s
+  and the camera sees from the centre of :func:`refsynth.scenes.synthetic_room`'s
   room (the same seed gives the same room), by ray casting
-  (:func:`refsynth.scenes.datasets.cast_rays`).
-- :class:`Faults`: what goes wrong on the wire, parsed from
-  ``"corrupt=0.05,drop=0.02,disconnect=1,delay=0.01"``.
+  (:func:`refsynth.scenes.cast_rays`).
+- :class:`~refsynth.acquisition.faults.Faults` (its own module): what goes
+  wrong on the wire, parsed from ``"corrupt=0.05,drop=0.02,disconnect=1,delay=0.01"``;
+  the servers below inject it.
 - :class:`RigSimulator`: both devices, each on its own pseudo-terminal
   (``pty.openpty()``, raw mode) served by a background thread, reachable
   through stable symbolic links (``rig.pan_port``, ``rig.laser_port``) that
@@ -51,6 +52,9 @@ from pathlib import Path
 
 import numpy as np
 
+from refsynth._checks import is_int
+from refsynth.acquisition.errors import ProtocolError
+from refsynth.acquisition.faults import Faults
 from refsynth.acquisition.geometry import (
     ENCODER_POSITIONS,
     IMAGE_HEIGHT,
@@ -62,19 +66,20 @@ from refsynth.acquisition.geometry import (
     pan_angle,
     polar_angle,
 )
-from refsynth.acquisition.protocol import (
+from refsynth.acquisition.pan_protocol import (
     PAN_RESOLUTION,
-    ProtocolError,
-    encode_rangefinder_reply,
-    encode_samples,
     format_pan_error,
     format_pan_reply,
     parse_pan_command,
+)
+from refsynth.acquisition.rangefinder_protocol import (
+    encode_rangefinder_reply,
+    encode_samples,
     parse_rangefinder_command,
 )
-from refsynth.scenes.datasets import RoomGeometry, cast_rays, room_geometry
+from refsynth.scenes import RoomGeometry, cast_rays, room_geometry
 
-__all__ = ["RoomRig", "Faults", "RigSimulator", "MAX_RANGE_M"]
+__all__ = ["RoomRig", "RigSimulator", "MAX_RANGE_M"]
 
 #: The rangefinder's span, metres (AccuRange 4000: 0–15 m).
 MAX_RANGE_M = 15.0
@@ -99,7 +104,7 @@ class RoomRig:
     Parameters
     ----------
     seed : int, default 0
-        The room (:func:`refsynth.scenes.datasets.room_geometry`) and every noise
+        The room (:func:`refsynth.scenes.room_geometry`) and every noise
         draw.
 
     Examples
@@ -111,7 +116,7 @@ class RoomRig:
     """
 
     def __init__(self, seed: int = 0) -> None:
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        if not is_int(seed) or seed < 0:
             raise TypeError(f"The parameter `seed` must be a non-negative integer, got {seed!r}")
         self.seed = int(seed)
         self.room: RoomGeometry = room_geometry(self.seed)
@@ -186,107 +191,6 @@ class RoomRig:
             Image.fromarray(self.picture(pan_index), mode="L").save(buffer, format="PNG")
             self._png[pan_index] = buffer.getvalue()
         return self._png[pan_index]
-
-
-# ----------------------------------------------------------------------------- faults
-
-
-@dataclass(frozen=True)
-class Faults:
-    """What goes wrong on the simulated wire (only replies are affected).
-
-    Parameters
-    ----------
-    corrupt : float
-        Fraction of replies corrupted, each in one of three ways with equal
-        chance: one byte XOR-ed with a random non-zero value; 1–8 random
-        bytes sent before the reply; the reply cut short.
-    drop : float
-        Fraction of replies not sent at all (the command was carried out).
-    error : float
-        Fraction of requests refused with a transient error, not carried
-        out: ``! Busy`` from the pan unit, status 04 (busy) or 03 (encoder
-        fault) from the rangefinder.
-    delay : float
-        Seconds before every reply.
-    disconnect : int
-        Number of disconnects: the devices take turns, the rangefinder
-        first; a device's k-th disconnect (k = 1, 2, …) happens instead of
-        the reply to its ``k · disconnect_after``-th request. The device
-        "reboots" (laser off; pan position 0) and comes back on a new
-        pseudo-terminal after ``RigSimulator(reconnect_delay=...)``.
-    disconnect_after : int, default 40
-        See ``disconnect``.
-
-    Examples
-    --------
-    >>> Faults.parse("corrupt=0.05,drop=0.02,disconnect=1")
-    Faults(corrupt=0.05, drop=0.02, error=0.0, delay=0.0, disconnect=1, disconnect_after=40)
-    """
-
-    corrupt: float = 0.0
-    drop: float = 0.0
-    error: float = 0.0
-    delay: float = 0.0
-    disconnect: int = 0
-    disconnect_after: int = 40
-
-    def __post_init__(self) -> None:
-        for name in ("corrupt", "drop", "error"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-                0.0 <= value <= 1.0
-            ):
-                raise ValueError(f"The fault `{name}` must be a fraction in [0, 1], got {value!r}")
-        if self.corrupt + self.drop + self.error > 1.0:
-            raise ValueError("The faults `corrupt` + `drop` + `error` must add up to at most 1, "
-                             f"got {self.corrupt + self.drop + self.error:g}")
-        if isinstance(self.delay, bool) or not isinstance(self.delay, (int, float)) or not (
-            0.0 <= self.delay <= 10.0
-        ):
-            raise ValueError(f"The fault `delay` must be in [0, 10] seconds, got {self.delay!r}")
-        for name, low in (("disconnect", 0), ("disconnect_after", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"The fault `{name}` must be an integer >= {low}, got {value!r}")
-
-    @classmethod
-    def parse(cls, spec: str | None) -> Faults:
-        """From ``"key=value,..."`` with keys corrupt, drop, error, delay, disconnect,
-        disconnect_after; ``""``, ``"none"`` or None give no faults.
-
-        Raises
-        ------
-        ValueError
-            On an unknown key or a bad value (the message names it).
-        """
-        if spec is None or spec.strip().lower() in ("", "none"):
-            return cls()
-        if not isinstance(spec, str):
-            raise TypeError(f"The fault specification must be a str, got {type(spec).__name__}")
-        values: dict = {}
-        names = {f: t for f, t in cls.__annotations__.items()}
-        for item in spec.split(","):
-            key, sep, text = item.partition("=")
-            key = key.strip()
-            if not sep or key not in names:
-                raise ValueError(f"unknown fault {item.strip()!r}: expected key=value with key in "
-                                 f"{', '.join(names)}")
-            try:
-                values[key] = int(text) if key.startswith("disconnect") else float(text)
-            except ValueError:
-                raise ValueError(f"bad value for fault {key!r}: {text.strip()!r}") from None
-        return cls(**values)
-
-    def __str__(self) -> str:
-        default = Faults()
-        items = [f"{k}={v:g}" for k, v in asdict(self).items() if v != getattr(default, k)]
-        return ",".join(items) or "none"
-
-    @property
-    def any(self) -> bool:
-        """Whether any fault is set."""
-        return self != Faults()
 
 
 # ----------------------------------------------------------------------------- device models

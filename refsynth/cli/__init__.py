@@ -1,8 +1,5 @@
-"""The command line: ``python -m refsynth demo | synth | scan | register | evaluate | figures``.
+"""The command line: every `python -m refsynth` subcommand, one module each.
 
-Every argparse parser lives in this subpackage; library code never imports it.
+Every argparse parser lives in this subpackage, one module per subcommand;
+:mod:`refsynth.cli.main` gathers them. Library code never imports it.
 """
-
-from refsynth.cli.main import main
-
-__all__ = ["main"]

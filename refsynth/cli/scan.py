@@ -17,17 +17,22 @@ Examples::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from contextlib import ExitStack
 from dataclasses import replace
 from pathlib import Path
 
-from refsynth.acquisition.errors import RigError
-from refsynth.acquisition.pan_unit import PanUnit
-from refsynth.acquisition.rangefinder import Rangefinder
-from refsynth.acquisition.scan import STRATEGIES, ScanSettings, run_scan
-from refsynth.acquisition.simulator import Faults, RigSimulator
+from refsynth.acquisition import (
+    STRATEGIES,
+    Faults,
+    PanUnit,
+    Rangefinder,
+    RigError,
+    RigSimulator,
+    ScanSettings,
+    run_scan,
+)
+from refsynth.acquisition.scan_folder import saved_manifest
 
 __all__ = ["add_scan_parser", "run_scan_command", "main"]
 
@@ -108,14 +113,6 @@ def add_scan_parser(subparsers) -> None:
     scan.set_defaults(func=run_scan_command)
 
 
-def _saved(out: Path) -> dict:
-    """The manifest of the scan in ``out`` ({} if there is none or it is unreadable)."""
-    try:
-        return json.loads((out / "manifest.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-
-
 def _settings(args, out: Path) -> ScanSettings | None:
     given = {
         "strategy": args.strategy, "fraction": args.fraction, "step": args.step,
@@ -125,7 +122,7 @@ def _settings(args, out: Path) -> ScanSettings | None:
     given = {key: value for key, value in given.items() if value is not None}
     if args.resume and not given:
         return None  # the folder's own settings
-    saved = _saved(out).get("settings") if args.resume else None
+    saved = saved_manifest(out).get("settings") if args.resume else None
     if isinstance(saved, dict):
         try:  # only what was given on the command line is compared with the saved scan
             return replace(ScanSettings.from_dict(saved), **given)
@@ -177,7 +174,7 @@ def run_scan_command(args) -> int:
             faults = Faults.parse(args.faults)
             seed = 0 if args.seed is None else args.seed
             if args.resume and args.seed is None:
-                seed = _saved(out).get("source", {}).get("seed", seed)
+                seed = saved_manifest(out).get("source", {}).get("seed", seed)
             simulator = stack.enter_context(
                 RigSimulator(seed=seed, faults=faults, camera_dir=out / "images"))
             pan_port, laser_port = simulator.pan_port, simulator.laser_port

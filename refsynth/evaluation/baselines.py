@@ -41,20 +41,18 @@ import numpy as np
 from scipy import interpolate, ndimage, sparse
 from scipy.sparse import linalg as sparse_linalg
 
+from refsynth._checks import BT601, check_int, check_real, grey
 from refsynth.synthesis.api import validate_inputs
 
 __all__ = [
     "nearest_fill",
     "linear_fill",
     "harmonic_fill",
+    "colorization_affinities",
     "colorization_fill",
     "joint_bilateral_fill",
     "BASELINES",
 ]
-
-#: MATLAB's ``rgb2gray`` weights (ITU-R BT.601), which the NYU toolbox's
-#: ``fill_depth_colorization`` applies to its RGB frame.
-RGB2GRAY_BT601 = np.array([0.2989, 0.5870, 0.1140])
 
 
 def nearest_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarray:
@@ -184,23 +182,6 @@ def harmonic_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarra
     return out.reshape(H, W)
 
 
-def _check_real(name: str, value, *, positive: bool = True) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(
-        value, (int, float, np.integer, np.floating)
-    ):
-        raise TypeError(f"The parameter `{name}` must be a real number, got {value!r}")
-    value = float(value)
-    if not (np.isfinite(value) and (value > 0 if positive else value >= 0)):
-        bound = "> 0" if positive else ">= 0"
-        raise ValueError(f"The parameter `{name}` must be a finite number {bound}, got {value}")
-    return value
-
-
-def _grey(image: np.ndarray) -> np.ndarray:
-    """(H, W, C) float64 → (H, W): the channel itself, or MATLAB's ``rgb2gray``."""
-    return image[:, :, 0] if image.shape[2] == 1 else image @ RGB2GRAY_BT601
-
-
 #: The eight offsets of a 3×3 window around its centre, as (row, col).
 _WINDOW_3X3 = tuple((dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0))
 
@@ -319,12 +300,12 @@ def colorization_fill(
     [2.0, 2.0, 2.0, 5.0, 5.0, 5.0]
     """
     image, range_values = validate_inputs(intensity, partial_range)
-    alpha = _check_real("alpha", alpha)
-    grey = _grey(image)
-    H, W = grey.shape
+    alpha = check_real("alpha", alpha, positive=True)
+    guide = grey(image, BT601)  # MATLAB's rgb2gray, as the toolbox applies it
+    H, W = guide.shape
     n = H * W
     known = np.isfinite(range_values)
-    weights, offsets = colorization_affinities(grey)
+    weights, offsets = colorization_affinities(guide)
     index = np.arange(n).reshape(H, W)
     rows, cols, vals = [index.ravel()], [index.ravel()], [np.ones(n) + alpha * known.ravel()]
     for k, (dr, dc) in enumerate(offsets):
@@ -436,15 +417,11 @@ def joint_bilateral_fill(
     gap = _largest_gap(known)
     if sigma_spatial is None:
         sigma_spatial = max(1.0, gap / 2.0)
-    sigma_spatial = _check_real("sigma_spatial", sigma_spatial)
-    sigma_intensity = _check_real("sigma_intensity", sigma_intensity)
+    sigma_spatial = check_real("sigma_spatial", sigma_spatial, positive=True)
+    sigma_intensity = check_real("sigma_intensity", sigma_intensity, positive=True)
     if radius is None:
         radius = int(np.ceil(max(gap, 2.0 * sigma_spatial)))
-    if isinstance(radius, (bool, np.bool_)) or not isinstance(radius, (int, np.integer)):
-        raise TypeError(f"The parameter `radius` must be an integer, got {radius!r}")
-    if radius < 1:
-        raise ValueError(f"The parameter `radius` must be >= 1, got {radius}")
-    radius = int(radius)
+    radius = check_int("radius", radius, minimum=1)
 
     H, W = known.shape
     certainty = known.astype(np.float64)

@@ -27,24 +27,16 @@ Two-Frame Stereo Correspondence Algorithms", IJCV 47:7–42 (2002), §5.1
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["evaluated_pixels", "mar", "rmse", "bad_pixel_rate", "evaluate"]
+from refsynth._checks import check_real_array, is_real
+
+__all__ = ["BAD_THRESHOLDS", "evaluated_pixels", "mar", "rmse", "bad_pixel_rate", "evaluate"]
 
 #: The thresholds of :func:`evaluate`'s ``bad1`` and ``bad3``, in range units.
 BAD_THRESHOLDS = {"bad1": 1.0, "bad3": 3.0}
-
-
-def _as_real(name: str, array) -> np.ndarray:
-    if not isinstance(array, np.ndarray):
-        raise TypeError(f"The parameter `{name}` must be a numpy array, got {type(array).__name__}")
-    if (
-        array.dtype == bool
-        or not np.issubdtype(array.dtype, np.number)
-        or np.issubdtype(array.dtype, np.complexfloating)
-    ):
-        raise TypeError(f"The parameter `{name}` must be a real numeric array, got {array.dtype}")
-    return array.astype(np.float64, copy=False)
 
 
 def evaluated_pixels(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray) -> np.ndarray:
@@ -73,8 +65,8 @@ def evaluated_pixels(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray)
         If the shapes differ, ``estimate`` is not finite on an evaluated
         pixel, or there is no pixel to evaluate.
     """
-    estimate = _as_real("estimate", estimate)
-    truth = _as_real("truth", truth)
+    estimate = check_real_array("estimate", estimate).astype(np.float64, copy=False)
+    truth = check_real_array("truth", truth).astype(np.float64, copy=False)
     if not isinstance(known, np.ndarray):
         raise TypeError(f"The parameter `known` must be a numpy array, got {type(known).__name__}")
     if known.dtype != bool:
@@ -196,11 +188,9 @@ def bad_pixel_rate(
     float
         In [0, 1].
     """
-    if isinstance(threshold, (bool, np.bool_)) or not isinstance(
-        threshold, (int, float, np.integer, np.floating)
-    ):
+    if not is_real(threshold):
         raise TypeError(f"The parameter `threshold` must be a real number, got {threshold!r}")
-    if not (np.isfinite(threshold) and threshold >= 0):
+    if not (math.isfinite(threshold) and threshold >= 0):
         raise ValueError(f"The parameter `threshold` must be a finite number >= 0, got {threshold}")
     return float(np.mean(np.abs(_residuals(estimate, truth, known)) > threshold))
 

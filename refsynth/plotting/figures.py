@@ -1,12 +1,14 @@
-"""``python -m refsynth figures``: regenerate every PNG in ``figures/``.
+"""The figure builders: every PNG in ``figures/`` (``python -m refsynth figures``).
 
-The analogues of the paper's figures on refsynth's scenes, and the demo's:
+The analogues of the paper's figures on refsynth's scenes, and the demo's;
+:func:`make_figures` writes them all (the command line is
+:mod:`refsynth.cli.figures`):
 
 ========================================  ===============================================
 file                                      what
 ========================================  ===============================================
-``demo_result.png``,                      :func:`refsynth.cli.main.run_demo` (exactly what
-``demo_np_bp.png``,                       ``python -m refsynth demo --out figures``
+``demo_result.png``,                      :func:`refsynth.plotting.demo.run_demo` (exactly
+``demo_np_bp.png``,                       what ``python -m refsynth demo --out figures``
 ``demo_comparison.png``                   writes)
 ``fig07_ordering.png``                    Fig. 7: priority (Eqs. 10–12) against onion-peel
                                           order: fill order, result, residual
@@ -22,8 +24,9 @@ file                                      what
 
 Scenes: the synthetic room 128×128 (metres) and the Middlebury 2014
 Motorcycle at 225×188 (disparity in pixels of that size) for the heavier
-panels (Figs. 16, 17 and the confidence map). ``--quick`` shrinks everything
-(rooms 32×32, Motorcycle 64×40, two fractions and one seed) for tests.
+panels (Figs. 16, 17 and the confidence map). ``quick=True`` (``--quick``)
+shrinks everything (rooms 32×32, Motorcycle 64×40, two fractions and one
+seed) for tests.
 Every random choice flows from fixed seeds and no figure shows a time, so the
 command writes byte-identical PNGs on every run (with the same matplotlib).
 
@@ -35,15 +38,20 @@ Tables 1–4), doi:10.1007/s11263-007-0108-2.
 
 from __future__ import annotations
 
-import argparse
-import sys
-import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+
+from refsynth.evaluation.aggregation import aggregate
+from refsynth.evaluation.cases import grid_cases, known_mask
+from refsynth.evaluation.runner import run_cases
+from refsynth.plotting.demo import DEMO_FIGURES, ProgressFactory, run_demo
+from refsynth.plotting.layouts import panel
+from refsynth.scenes import motorcycle, synthetic_room
+from refsynth.synthesis.api import synthesize
 
 __all__ = [
     "FIGURES",
@@ -53,14 +61,11 @@ __all__ = [
     "mar_curve_figure",
     "confidence_figure",
     "make_figures",
-    "add_figures_parser",
 ]
 
-#: Every file the command writes, in order.
+#: Every file :func:`make_figures` writes, in order.
 FIGURES = (
-    "demo_result.png",
-    "demo_np_bp.png",
-    "demo_comparison.png",
+    *DEMO_FIGURES,
     "fig07_ordering.png",
     "fig11_samplings_room.png",
     "fig13_edges.png",
@@ -92,14 +97,7 @@ QUICK = _Settings(room=32, moto=(64, 40), demo=32, fractions=(50, 78), curve_siz
 
 
 def _show(ax, image, title, **kwargs):
-    image = np.asarray(image)
-    if image.ndim == 2 and "cmap" not in kwargs:
-        kwargs["cmap"] = "gray"
-    handle = ax.imshow(image, interpolation="nearest", **kwargs)
-    ax.set_title(title, fontsize=8)
-    ax.set_xticks([])
-    ax.set_yticks([])
-    return handle
+    return panel(ax, image, title, fontsize=8, **kwargs)
 
 
 def _mar(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray) -> float:
@@ -229,7 +227,7 @@ def mar_curve_figure(rows: Sequence[dict], *, title: str | None = None) -> Figur
     Parameters
     ----------
     rows : sequence of dict
-        Aggregated rows of :func:`refsynth.evaluation.experiments.aggregate` (x-stripe
+        Aggregated rows of :func:`refsynth.evaluation.aggregation.aggregate` (x-stripe
         samplings); NP variants over several seeds get error bars (± one
         standard deviation).
     title : str, optional
@@ -326,7 +324,7 @@ def confidence_figure(
     return fig
 
 
-# ----------------------------------------------------------------------------- the command
+# ----------------------------------------------------------------------------- every figure
 
 
 def _save(fig: Figure, out: Path, name: str, written: list[Path]) -> None:
@@ -336,7 +334,8 @@ def _save(fig: Figure, out: Path, name: str, written: list[Path]) -> None:
 
 
 def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
-                 log=None) -> list[Path]:
+                 log: Callable[[str], None] | None = None,
+                 progress: ProgressFactory | None = None) -> list[Path]:
     """Write every figure of :data:`FIGURES` into ``out``; return their paths.
 
     Parameters
@@ -347,28 +346,25 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
         Small scenes, for tests (see the module docstring).
     jobs : int, default 1
         Local processes for the MAR-against-unknown-fraction grid
-        (:func:`refsynth.evaluation.experiments.run_cases`); the figures do not depend on it.
+        (:func:`refsynth.evaluation.runner.run_cases`); the figures do not depend on it.
     log : callable, optional
         Called with a line of progress text.
+    progress : callable, optional
+        Passed to :func:`refsynth.plotting.demo.run_demo` (progress during its fills).
 
     Returns
     -------
     list of Path
     """
-    from refsynth import synthesize
-    from refsynth.cli.main import run_demo
-    from refsynth.evaluation.experiments import aggregate, grid_cases, known_mask, run_cases
-    from refsynth.scenes.datasets import motorcycle, synthetic_room
-
     say = log or (lambda text: None)
     settings = QUICK if quick else FULL
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
 
-    say("demo figures (refsynth.cli.main.run_demo)")
-    run_demo(out, size=settings.demo)
-    written += [out / name for name in FIGURES[:3]]
+    say("demo figures (refsynth.plotting.demo.run_demo)")
+    run_demo(out, size=settings.demo, progress=progress)
+    written += [out / name for name in DEMO_FIGURES]
 
     room = synthetic_room((settings.room, settings.room), seed=0)
     moto = motorcycle(settings.moto)
@@ -462,42 +458,3 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     assert [p.name for p in written] == list(FIGURES)
     return written
 
-
-def _cmd_figures(args) -> int:
-    if args.jobs < 1:
-        raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out must be a folder, got the file {out}")
-    start = time.perf_counter()
-
-    def log(text: str) -> None:
-        print(f"[{time.perf_counter() - start:5.0f} s] {text}", file=sys.stderr, flush=True)
-
-    written = make_figures(out, quick=args.quick, jobs=args.jobs, log=log)
-    for path in written:
-        print(f"wrote {path}")
-    print(f"refsynth figures: {len(written)} figures in {time.perf_counter() - start:.0f} s",
-          file=sys.stderr)
-    return 0
-
-
-def add_figures_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``figures`` subcommand to an argparse subparsers object.
-
-    The handler (``args.func``) returns 0; user errors raise ``ValueError`` or
-    ``OSError`` with a one-line message.
-    """
-    parser = subparsers.add_parser(
-        "figures", help="regenerate figures/ (the paper's figure analogues and the demo's)",
-        description="Write every figure of figures/: the demo's three, the analogues of the "
-        "paper's Figs. 7, 11, 13, 16 and 17, MAR against the unknown fraction, and BP's "
-        "confidence against its error. Deterministic: the same PNG bytes on every run.",
-    )
-    parser.add_argument("--out", default="figures", help="output folder (default figures)")
-    parser.add_argument("--quick", action="store_true",
-                        help="small scenes, for a smoke test (not the committed figures)")
-    parser.add_argument("--jobs", type=int, default=1,
-                        help="local processes for the MAR-against-fraction grid (default 1)")
-    parser.set_defaults(func=_cmd_figures)
-    return parser

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["result_figure", "comparison_figure", "methods_figure"]
+__all__ = ["panel", "result_figure", "comparison_figure", "methods_figure"]
 
 RANGE_CMAP = "viridis"
 ERROR_CMAP = "magma"
@@ -27,14 +27,20 @@ def _range_limits(*images: np.ndarray) -> tuple[float, float]:
     return float(values.min()), float(values.max())
 
 
-def _show(ax, image, title, **kwargs):
+def panel(ax, image, title: str, *, fontsize: float = 9, **kwargs):
+    """One panel of a figure: ``image`` on ``ax``, without interpolation or ticks, titled.
+
+    A 2-D image (or one channel, (H, W, 1)) is drawn in grey unless ``cmap``
+    is given; ``kwargs`` go to ``ax.imshow``. Returns its image handle (for a
+    colour bar).
+    """
     image = np.asarray(image)
     if image.ndim == 3 and image.shape[2] == 1:
         image = image[:, :, 0]
     if image.ndim == 2 and "cmap" not in kwargs:
         kwargs["cmap"] = "gray"
     handle = ax.imshow(image, interpolation="nearest", **kwargs)
-    ax.set_title(title, fontsize=9)
+    ax.set_title(title, fontsize=fontsize)
     ax.set_xticks([])
     ax.set_yticks([])
     return handle
@@ -79,18 +85,18 @@ def result_figure(
         fig = Figure(figsize=(3.2 * cols, 3.0 * 2))
         axes = fig.subplots(2, cols).ravel()
     vmin, vmax = _range_limits(partial_range, result, truth)
-    _show(axes[0], np.clip(intensity, 0, 1) if np.ndim(intensity) == 3 else intensity, "intensity")
-    _show(axes[1], edges, "Canny edges (σ = 0.8)")
+    panel(axes[0], np.clip(intensity, 0, 1) if np.ndim(intensity) == 3 else intensity, "intensity")
+    panel(axes[1], edges, "Canny edges (σ = 0.8)")
     cmap_kw = dict(cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
     known = np.isfinite(partial_range)
-    _show(axes[2], partial_range, f"partial range ({100 * (1 - known.mean()):.0f} % unknown)",
+    panel(axes[2], partial_range, f"partial range ({100 * (1 - known.mean()):.0f} % unknown)",
           **cmap_kw)
-    handle = _show(axes[3], result, "synthesized range", **cmap_kw)
+    handle = panel(axes[3], result, "synthesized range", **cmap_kw)
     if truth is not None:
-        _show(axes[4], truth, "ground truth", **cmap_kw)
+        panel(axes[4], truth, "ground truth", **cmap_kw)
         residual = np.where(known | ~np.isfinite(truth), np.nan, np.abs(result - truth))
         mar = np.nanmean(residual)
-        err = _show(axes[5], residual, f"|residual|, MAR {mar:.3g} {units}".strip(),
+        err = panel(axes[5], residual, f"|residual|, MAR {mar:.3g} {units}".strip(),
                     cmap=ERROR_CMAP)
         fig.colorbar(err, ax=axes[5], fraction=0.046, pad=0.04)
     fig.colorbar(handle, ax=axes[3], fraction=0.046, pad=0.04, label=units or None)
@@ -131,7 +137,7 @@ def comparison_figure(
     kw = dict(cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
     for row, (name, partial) in enumerate(partials.items()):
         known = np.isfinite(partial)
-        _show(axes[row, 0], partial, f"{name}: {100 * (1 - known.mean()):.0f} % unknown", **kw)
+        panel(axes[row, 0], partial, f"{name}: {100 * (1 - known.mean()):.0f} % unknown", **kw)
         evaluated = ~known & np.isfinite(truth)
         for col, method in enumerate(methods, start=1):
             est = results.get((name, method))
@@ -139,8 +145,8 @@ def comparison_figure(
                 axes[row, col].axis("off")
                 continue
             mar = float(np.mean(np.abs(est - truth)[evaluated]))
-            _show(axes[row, col], est, f"{method}: MAR {mar:.3g} {units}".strip(), **kw)
-        _show(axes[row, -1], truth, "ground truth", **kw)
+            panel(axes[row, col], est, f"{method}: MAR {mar:.3g} {units}".strip(), **kw)
+        panel(axes[row, -1], truth, "ground truth", **kw)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
@@ -178,14 +184,14 @@ def methods_figure(
     residuals = {m: np.where(unknown, np.abs(r - truth), np.nan) for m, (r, _) in results.items()}
     top = max(float(np.nanpercentile(e, 99)) for e in residuals.values()) or 1.0
     for row, (method, (estimate, confidence)) in enumerate(results.items()):
-        h = _show(axes[row, 0], estimate, f"{method}: synthesized range",
+        h = panel(axes[row, 0], estimate, f"{method}: synthesized range",
                   cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
         fig.colorbar(h, ax=axes[row, 0], fraction=0.046, pad=0.04)
         mar = float(np.nanmean(residuals[method]))
-        h = _show(axes[row, 1], residuals[method], f"|residual|, MAR {mar:.3g} {units}".strip(),
+        h = panel(axes[row, 1], residuals[method], f"|residual|, MAR {mar:.3g} {units}".strip(),
                   cmap=ERROR_CMAP, vmin=0, vmax=top)
         fig.colorbar(h, ax=axes[row, 1], fraction=0.046, pad=0.04)
-        h = _show(axes[row, 2], confidence, "confidence", cmap="viridis", vmin=0, vmax=1)
+        h = panel(axes[row, 2], confidence, "confidence", cmap="viridis", vmin=0, vmax=1)
         fig.colorbar(h, ax=axes[row, 2], fraction=0.046, pad=0.04)
     if title:
         fig.suptitle(title)

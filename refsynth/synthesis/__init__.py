@@ -1,1 +1,131 @@
-"""TODO"""
+"""Range synthesis (§3.2): the dense range from intensity and partial range.
+
+Read beside §3.2 of the paper, top to bottom:
+
+- :mod:`refsynth.synthesis.api`: :func:`synthesize`, the front door —
+  validation, edges, dispatch to NP or BP, and which options belong to which
+  method.
+- :mod:`refsynth.synthesis.neighbourhood` (§3.2.1, the MRF model): augmented
+  voxels, the n×n neighbourhood ``N_p`` and the Gaussian window ``G`` of Eq. 2.
+- :mod:`refsynth.synthesis.similarity` (§3.2.2, Eq. 2): the distance between
+  two partial neighbourhoods, literal (:func:`neighbourhood_distance`) and
+  expanded for a whole candidate set (:class:`PatchTable`).
+- :mod:`refsynth.synthesis.nonparametric` (§3.2.2, Eqs. 3–5): NP sampling,
+  :func:`np_fill` and the Eq. 5 set.
+- :mod:`refsynth.synthesis.priority` (§3.2.4, Eqs. 10–12): the synthesis
+  order — confidence, data term, edge count — and the onion-peel order of
+  Fig. 7.
+- :mod:`refsynth.synthesis.bp` (§3.2.3, Eqs. 6–9, Fig. 6): belief
+  propagation, :func:`bp_fill`.
+- :mod:`refsynth.synthesis.canny` (§3.2): the Canny edges (σ = 0.8) that
+  Eq. 10 and BP's edge-constraint rule use.
+
+References
+----------
+L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
+Modeling", IJCV 79:137–158 (2008), §3.2, doi:10.1007/s11263-007-0108-2.
+"""
+
+from refsynth.synthesis.api import (
+    BP_OPTIONS,
+    NP_OPTIONS,
+    SynthesisResult,
+    normalise_intensity,
+    synthesize,
+    validate_inputs,
+)
+from refsynth.synthesis.bp import (
+    BPResult,
+    belief_propagation,
+    bp_fill,
+    candidates,
+    fixed_neighbour_terms,
+    grid_edges,
+    pair_compatibilities,
+    phi,
+    psi,
+)
+from refsynth.synthesis.canny import (
+    canny,
+    hysteresis,
+    non_maximum_suppression,
+    sobel_gradients,
+    to_grey,
+)
+from refsynth.synthesis.neighbourhood import (
+    disc_offsets,
+    gaussian_window,
+    intensity_patches,
+    range_patches,
+    window_offsets,
+)
+from refsynth.synthesis.nonparametric import eq5_set, np_fill
+from refsynth.synthesis.priority import (
+    FillFront,
+    box_sum,
+    confidence_term,
+    data_term,
+    edge_count,
+    fill_front,
+    front_normals,
+    onion_order,
+    priority,
+    range_gradient,
+)
+from refsynth.synthesis.similarity import (
+    PatchTable,
+    intensity_scale,
+    neighbourhood_distance,
+    range_scale,
+)
+
+__all__ = [
+    # the front door
+    "synthesize",
+    "SynthesisResult",
+    "validate_inputs",
+    "normalise_intensity",
+    "NP_OPTIONS",
+    "BP_OPTIONS",
+    # §3.2.1: the MRF neighbourhood
+    "gaussian_window",
+    "window_offsets",
+    "disc_offsets",
+    "intensity_patches",
+    "range_patches",
+    # §3.2.2, Eq. 2: literal and expanded
+    "neighbourhood_distance",
+    "PatchTable",
+    "intensity_scale",
+    "range_scale",
+    # §3.2.2, Eqs. 3–5: NP
+    "eq5_set",
+    "np_fill",
+    # §3.2.3, Eqs. 6–9: BP
+    "bp_fill",
+    "BPResult",
+    "candidates",
+    "phi",
+    "psi",
+    "pair_compatibilities",
+    "fixed_neighbour_terms",
+    "grid_edges",
+    "belief_propagation",
+    # §3.2.4, Eqs. 10–12: the order
+    "priority",
+    "confidence_term",
+    "data_term",
+    "edge_count",
+    "range_gradient",
+    "front_normals",
+    "fill_front",
+    "box_sum",
+    "onion_order",
+    "FillFront",
+    # §3.2: Canny
+    "canny",
+    "to_grey",
+    "sobel_gradients",
+    "non_maximum_suppression",
+    "hysteresis",
+]

@@ -1,9 +1,15 @@
 """The front door: :func:`synthesize` (§3.2).
 
 Validates the inputs, normalises the intensity, detects intensity edges
-(Canny, σ = 0.8) and dispatches to the range-synthesis method. Every other
-part of refsynth (the command line, the tutorials, the benchmarks, a faster
-port checking itself against this one) calls this function.
+(Canny, σ = 0.8) and dispatches to the range-synthesis method: NP
+(:mod:`refsynth.synthesis.nonparametric`) or BP (:mod:`refsynth.synthesis.bp`).
+Every other part of refsynth (the command line, the tutorials, the
+benchmarks, a faster port checking itself against this one) calls this
+function.
+
+Each method has options of its own (:data:`NP_OPTIONS`, :data:`BP_OPTIONS`):
+they default to ``None``, which means the method's default, and giving one to
+the other method raises ``ValueError`` unless it is that option's default.
 
 References
 ----------
@@ -15,15 +21,51 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
+from types import MappingProxyType
 
 import numpy as np
 
-__all__ = ["SynthesisResult", "synthesize", "normalise_intensity"]
+from refsynth._checks import (
+    check_bool,
+    check_choice,
+    check_int,
+    check_real,
+    check_seed,
+    is_int,
+    to_float,
+)
+from refsynth.synthesis.bp import bp_fill
+from refsynth.synthesis.canny import canny, to_grey
+from refsynth.synthesis.nonparametric import np_fill
+from refsynth.synthesis.similarity import MISSING_RANGE
+
+__all__ = [
+    "SynthesisResult",
+    "synthesize",
+    "validate_inputs",
+    "normalise_intensity",
+    "NP_OPTIONS",
+    "BP_OPTIONS",
+]
 
 METHODS = ("np", "bp")
 PRODUCTS = ("max", "sum")
-MISSING_RANGE = ("mean", "ignore")
 ORDERINGS = ("priority", "onion")
+
+#: The options only NP uses, with NP's defaults (§3.2.2, §3.2.4); read-only.
+NP_OPTIONS = MappingProxyType({"epsilon": 0.1, "use_isophotes": True, "ordering": "priority"})
+#: The options only BP uses, with BP's defaults (§3.2.3); read-only.
+BP_OPTIONS = MappingProxyType({
+    "candidates": 8,
+    "proximity": 1.0,
+    "sigma_i": 0.1,
+    "sigma_s": 0.2,
+    "iterations": 50,
+    "tolerance": 1e-4,
+    "product": "max",
+})
+_OPTIONS = {"np": NP_OPTIONS, "bp": BP_OPTIONS}
 
 
 @dataclass(frozen=True)
@@ -69,37 +111,65 @@ class SynthesisResult:
 def normalise_intensity(intensity: np.ndarray) -> np.ndarray:
     """Return the intensity as float64 of shape (H, W, C).
 
-    Integer images are scaled to [0, 1] by their dtype's maximum; floating
-    images are used as given. A grey image gets a trailing channel axis.
+    Integer images are scaled to [0, 1] by their dtype's maximum; bool maps to
+    0/1; floating images are used as given. A grey image gets a trailing
+    channel axis.
     """
-    image = np.asarray(intensity)
-    if np.issubdtype(image.dtype, np.bool_):
-        out = image.astype(np.float64)
-    elif np.issubdtype(image.dtype, np.integer):
-        out = image.astype(np.float64) / float(np.iinfo(image.dtype).max)
-    else:
-        out = image.astype(np.float64)
+    out = to_float(np.asarray(intensity))
     if out.ndim == 2:
         out = out[:, :, None]
     return out
 
 
-def _check_int(name: str, value, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"The parameter `{name}` must be an integer, got {type(value).__name__}")
+def _at_least(name: str, value, minimum: int) -> int:
+    """An integer option ``>= minimum`` (the type check of :func:`check_int`)."""
+    value = check_int(name, value)
     if value < minimum:
         raise ValueError(f"The parameter `{name}` must be >= {minimum}, got {value}")
-    return int(value)
-
-
-def _check_positive(name: str, value, *, allow_zero: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"The parameter `{name}` must be a real number, got {type(value).__name__}")
-    value = float(value)
-    if not np.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"The parameter `{name}` must be finite and {bound}, got {value}")
     return value
+
+
+#: How each method-specific option is checked (when it is given).
+_OPTION_CHECKS = {
+    "epsilon": partial(check_real, "epsilon", minimum=0.0),
+    "use_isophotes": partial(check_bool, "use_isophotes"),
+    "ordering": partial(check_choice, "ordering", choices=ORDERINGS),
+    "candidates": partial(_at_least, "candidates", minimum=1),
+    "proximity": partial(check_real, "proximity", minimum=0.0),
+    "sigma_i": partial(check_real, "sigma_i", positive=True),
+    "sigma_s": partial(check_real, "sigma_s", positive=True),
+    "iterations": partial(_at_least, "iterations", minimum=0),
+    "tolerance": partial(check_real, "tolerance", minimum=0.0),
+    "product": partial(check_choice, "product", choices=PRODUCTS),
+}
+
+
+def _method_options(method: str, given: dict) -> dict:
+    """The options of ``method``, checked, with its defaults where ``None`` was given.
+
+    Every option given is checked first; an option of the *other* method
+    raises ``ValueError`` unless it is that option's default.
+    """
+    checked = {name: _OPTION_CHECKS[name](value) for name, value in given.items()
+               if value is not None}
+    for other, defaults in _OPTIONS.items():
+        for name, default in defaults.items():
+            if other != method and name in checked and checked[name] != default:
+                raise ValueError(
+                    f"The parameter `{name}` applies to method={other!r} only; "
+                    f"method={method!r} does not use it"
+                )
+    return {name: checked.get(name, default) for name, default in _OPTIONS[method].items()}
+
+
+def _random_source(seed) -> np.random.Generator:
+    """The generator behind every random choice: from an int, a Generator or None."""
+    if not (seed is None or is_int(seed) or isinstance(seed, np.random.Generator)):
+        raise TypeError(
+            "The parameter `seed` must be an int, a numpy Generator or None, "
+            f"got {type(seed).__name__}"
+        )
+    return np.random.default_rng(check_seed(seed))  # a Generator is returned unaltered
 
 
 def validate_inputs(intensity, partial_range) -> tuple[np.ndarray, np.ndarray]:
@@ -165,29 +235,34 @@ def validate_inputs(intensity, partial_range) -> tuple[np.ndarray, np.ndarray]:
 def synthesize(
     intensity: np.ndarray,
     partial_range: np.ndarray,
+    *,
     method: str = "np",
     seed: int | np.random.Generator | None = 0,
-    *,
     neighbourhood: int = 5,
     radius: float = 10.0,
-    epsilon: float = 0.1,
+    range_weight: float = 16.0,
+    missing_range: str = "mean",
     canny_sigma: float = 0.8,
     edges: np.ndarray | None = None,
     use_edges: bool = True,
-    use_isophotes: bool = True,
-    ordering: str = "priority",
-    range_weight: float = 16.0,
-    missing_range: str = "mean",
-    candidates: int = 8,
-    proximity: float = 1.0,
-    sigma_i: float = 0.1,
-    sigma_s: float = 0.2,
-    iterations: int = 50,
-    tolerance: float = 1e-4,
-    product: str = "max",
     progress: Callable[[int, int], None] | None = None,
+    epsilon: float | None = None,
+    use_isophotes: bool | None = None,
+    ordering: str | None = None,
+    candidates: int | None = None,
+    proximity: float | None = None,
+    sigma_i: float | None = None,
+    sigma_s: float | None = None,
+    iterations: int | None = None,
+    tolerance: float | None = None,
+    product: str | None = None,
 ) -> SynthesisResult:
     """Infer the missing range from intensity and partial range (§3.2).
+
+    Everything after ``partial_range`` is keyword-only. The options of one
+    method (NP or BP only, see the table under Notes) default to ``None``,
+    the method's default; giving one to the other method raises
+    ``ValueError``, unless it is that option's default.
 
     Parameters
     ----------
@@ -200,28 +275,14 @@ def synthesize(
     method : {"np", "bp"}
         Non-parametric sampling (§3.2.2, Eqs. 2–5) or belief propagation
         (§3.2.3, Eqs. 6–9, Fig. 6).
-    seed : int, numpy.random.Generator or None
-        Source of every random choice (the draw from the Eq. 5 set, ties in
-        the fill order). The same seed gives bit-identical output.
+    seed : int, numpy.random.Generator or None, default 0
+        Source of every random choice of NP (the draw from the Eq. 5 set,
+        ties in the fill order). The same seed gives bit-identical output.
+        BP makes no random choice: its output does not depend on the seed.
     neighbourhood : int, default 5
         Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1).
     radius : float, default 10
-        Search radius ``r`` of Eq. 3, in pixels.
-    epsilon : float, default 0.1
-        Tolerance ε of Eq. 5.
-    canny_sigma : float, default 0.8
-        σ of the Canny edge detector's Gaussian (the paper's setting).
-    edges : ndarray of shape (H, W), bool, optional
-        A precomputed edge map; overrides the Canny detector.
-    use_edges : bool, default True
-        NP: use the edge count of Eq. 10 and fill edge pixels last. BP: the
-        edge-constraint rule (edge nodes send no messages). ``False`` is the
-        paper's no-edge ablation (Fig. 13, Table 3).
-    use_isophotes : bool, default True
-        NP: use the isophote data term of Eq. 12. ``False`` sets D = 1 (Fig. 16).
-    ordering : {"priority", "onion"}
-        NP: the paper's information-driven order (Eqs. 10–12) or the
-        onion-peel order it compares against (Fig. 7).
+        Search radius ``r`` of Eq. 3 (NP) and of BP's training set, in pixels.
     range_weight : float, default 16
         Weight λ of the range term of Eq. 2 against the intensity term,
         both normalised (see :mod:`refsynth.synthesis.similarity`).
@@ -231,24 +292,40 @@ def synthesize(
         of the offsets both have; ``"ignore"`` drops them, the literal Eq. 2
         (see :mod:`refsynth.synthesis.similarity` for why refsynth
         departs from it). BP ranks its candidates with the same distance.
-    candidates : int, default 8
-        BP: ``k``, the candidates (labels) per unknown pixel.
-    proximity : float, default 1
-        BP: μ, the weight of the spatial prior ``μ (|p − q| / r)²`` added to
+    canny_sigma : float, default 0.8
+        σ of the Canny edge detector's Gaussian (the paper's setting).
+    edges : ndarray of shape (H, W), bool, optional
+        A precomputed edge map; overrides the Canny detector.
+    use_edges : bool, default True
+        NP: use the edge count of Eq. 10 and fill edge pixels last. BP: the
+        edge-constraint rule (edge nodes send no messages). ``False`` is the
+        paper's no-edge ablation (Fig. 13, Table 3).
+    progress : callable, optional
+        Called as ``progress(done, total)`` every few hundred pixels (NP) or
+        after each of BP's five stages.
+    epsilon : float, NP only, default 0.1
+        Tolerance ε of Eq. 5.
+    use_isophotes : bool, NP only, default True
+        Use the isophote data term of Eq. 12. ``False`` sets D = 1 (Fig. 16).
+    ordering : {"priority", "onion"}, NP only, default "priority"
+        The paper's information-driven order (Eqs. 10–12) or the onion-peel
+        order it compares against (Fig. 7).
+    candidates : int, BP only, default 8
+        ``k``, the candidates (labels) per unknown pixel.
+    proximity : float, BP only, default 1
+        μ, the weight of the spatial prior ``μ (|p − q| / r)²`` added to
         Eq. 2 when ranking candidates and in Φ (a departure from the paper,
         see :mod:`refsynth.synthesis.bp`); 0 ranks by Eq. 2 alone.
-    sigma_i : float, default 0.1
-        BP: σ_i of Eq. 7, in units of the Eq. 2 distance's square root.
-    sigma_s : float, default 0.2
-        BP: σ_s of Eq. 6, in units of the known range's span.
-    iterations : int, default 50
-        BP: at most this many message-passing sweeps (the paper's 50).
-    tolerance : float, default 1e-4
-        BP: stop when no (log) message changes by more than this.
-    product : {"max", "sum"}
-        BP: max-product (MAP, default) or sum-product messages.
-    progress : callable, optional
-        Called as ``progress(done, total)`` every few hundred pixels.
+    sigma_i : float, BP only, default 0.1
+        σ_i of Eq. 7, in units of the Eq. 2 distance's square root.
+    sigma_s : float, BP only, default 0.2
+        σ_s of Eq. 6, in units of the known range's span.
+    iterations : int, BP only, default 50
+        At most this many message-passing sweeps (the paper's 50).
+    tolerance : float, BP only, default 1e-4
+        Stop when no (log) message changes by more than this.
+    product : {"max", "sum"}, BP only, default "max"
+        Max-product (MAP) or sum-product messages.
 
     Returns
     -------
@@ -257,7 +334,42 @@ def synthesize(
     Raises
     ------
     TypeError, ValueError
-        On bad input, naming the argument, before any work starts.
+        On bad input, naming the argument, before any work starts; and
+        ``ValueError`` for an option the chosen method does not use.
+
+    Notes
+    -----
+    The options, by the method that uses them. The options of one method
+    default to ``None``, which stands for the default in the last column:
+
+    =================  ===========  ===========  ================================
+    option             NP           BP           default
+    =================  ===========  ===========  ================================
+    ``seed``           yes          (no effect)  0
+    ``neighbourhood``  yes          yes          5
+    ``radius``         yes          yes          10
+    ``range_weight``   yes          yes          16
+    ``missing_range``  yes          yes          ``"mean"``
+    ``canny_sigma``    yes          yes          0.8
+    ``edges``          yes          yes          Canny's
+    ``use_edges``      Eq. 10       edge rule    True
+    ``progress``       yes          yes          none
+    ``epsilon``        Eq. 5        —            0.1
+    ``use_isophotes``  Eq. 12       —            True
+    ``ordering``       §3.2.4       —            ``"priority"``
+    ``candidates``     —            ``k``        8
+    ``proximity``      —            μ            1
+    ``sigma_i``        —            Eq. 7        0.1
+    ``sigma_s``        —            Eq. 6        0.2
+    ``iterations``     —            Eq. 9        50
+    ``tolerance``      —            Eq. 9        1e-4
+    ``product``        —            Eq. 9        ``"max"``
+    =================  ===========  ===========  ================================
+
+    An option marked "—" raises ``ValueError`` for that method unless it is
+    ``None`` or its default, e.g. ``method="bp", ordering="onion"``: "The
+    parameter `ordering` applies to method='np' only; method='bp' does not use
+    it".
 
     Examples
     --------
@@ -267,36 +379,30 @@ def synthesize(
     >>> result = refsynth.synthesize(image, partial, seed=0)
     >>> bool(np.all(result.range == 2.0))
     True
+    >>> refsynth.synthesize(image, partial, method="bp", ordering="onion")
+    Traceback (most recent call last):
+    ...
+    ValueError: The parameter `ordering` applies to method='np' only; method='bp' does not use it
     """
     image, range_values = validate_inputs(intensity, partial_range)
-    if not isinstance(method, str) or method not in METHODS:
-        raise ValueError(f"The parameter `method` must be one of {METHODS}, got {method!r}")
-    if not isinstance(product, str) or product not in PRODUCTS:
-        raise ValueError(f"The parameter `product` must be one of {PRODUCTS}, got {product!r}")
-    candidates = _check_int("candidates", candidates, 1)
-    iterations = _check_int("iterations", iterations, 0)
-    proximity = _check_positive("proximity", proximity, allow_zero=True)
-    sigma_i = _check_positive("sigma_i", sigma_i)
-    sigma_s = _check_positive("sigma_s", sigma_s)
-    tolerance = _check_positive("tolerance", tolerance, allow_zero=True)
-    if not isinstance(ordering, str) or ordering not in ORDERINGS:
-        raise ValueError(f"The parameter `ordering` must be one of {ORDERINGS}, got {ordering!r}")
-    neighbourhood = _check_int("neighbourhood", neighbourhood, 1)
+    method = check_choice("method", method, METHODS)
+    options = _method_options(method, dict(
+        epsilon=epsilon, use_isophotes=use_isophotes, ordering=ordering,
+        candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
+        iterations=iterations, tolerance=tolerance, product=product,
+    ))
+    neighbourhood = _at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
         raise ValueError(f"The parameter `neighbourhood` must be odd, got {neighbourhood}")
-    radius = _check_positive("radius", radius)
+    radius = check_real("radius", radius)
+    if radius <= 0:
+        raise ValueError(f"The parameter `radius` must be finite and > 0, got {radius}")
     if radius < 1:
         raise ValueError(f"The parameter `radius` must be >= 1 pixel, got {radius}")
-    epsilon = _check_positive("epsilon", epsilon, allow_zero=True)
-    canny_sigma = _check_positive("canny_sigma", canny_sigma, allow_zero=True)
-    range_weight = _check_positive("range_weight", range_weight, allow_zero=True)
-    if not isinstance(missing_range, str) or missing_range not in MISSING_RANGE:
-        raise ValueError(
-            f"The parameter `missing_range` must be one of {MISSING_RANGE}, got {missing_range!r}"
-        )
-    for name, flag in (("use_edges", use_edges), ("use_isophotes", use_isophotes)):
-        if not isinstance(flag, (bool, np.bool_)):
-            raise TypeError(f"The parameter `{name}` must be a bool, got {type(flag).__name__}")
+    canny_sigma = check_real("canny_sigma", canny_sigma, minimum=0.0)
+    range_weight = check_real("range_weight", range_weight, minimum=0.0)
+    missing_range = check_choice("missing_range", missing_range, MISSING_RANGE)
+    use_edges = check_bool("use_edges", use_edges)
     if edges is not None:
         edges = np.asarray(edges)
         if edges.shape != range_values.shape:
@@ -307,18 +413,7 @@ def synthesize(
             raise TypeError(f"The parameter `edges` must be a boolean array, got {edges.dtype}")
     if progress is not None and not callable(progress):
         raise TypeError("The parameter `progress` must be callable or None")
-    if isinstance(seed, np.random.Generator):
-        rng = seed
-    elif seed is None or (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)):
-        rng = np.random.default_rng(seed)
-    else:
-        raise TypeError(
-            "The parameter `seed` must be an int, a numpy Generator or None, "
-            f"got {type(seed).__name__}"
-        )
-
-    from refsynth.synthesis.canny import canny, to_grey
-    from refsynth.synthesis.nonparametric import np_fill
+    rng = _random_source(seed)
 
     if edges is None:
         edge_map = canny(to_grey(image), sigma=canny_sigma) if use_edges else None
@@ -327,70 +422,17 @@ def synthesize(
     if edge_map is None or not use_edges:
         edge_map = np.zeros(range_values.shape, dtype=bool)
 
-    params = dict(
-        method=method,
-        neighbourhood=neighbourhood,
-        radius=radius,
-        canny_sigma=canny_sigma,
-        use_edges=bool(use_edges),
-        range_weight=range_weight,
-        missing_range=missing_range,
-    )
+    params = dict(method=method, neighbourhood=neighbourhood, radius=radius,
+                  canny_sigma=canny_sigma, use_edges=use_edges, range_weight=range_weight,
+                  missing_range=missing_range, **options)
+    common = dict(neighbourhood=neighbourhood, radius=radius, use_edges=use_edges,
+                  range_weight=range_weight, missing_range=missing_range, progress=progress)
     if method == "bp":
-        from refsynth.synthesis.bp import bp_fill
-
-        params.update(candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
-                      iterations=iterations, tolerance=tolerance, product=product)
-        bp = bp_fill(
-            image,
-            range_values,
-            edge_map,
-            neighbourhood=neighbourhood,
-            radius=radius,
-            k=candidates,
-            sigma_i=sigma_i,
-            sigma_s=sigma_s,
-            iterations=iterations,
-            tolerance=tolerance,
-            product=product,
-            use_edges=bool(use_edges),
-            range_weight=range_weight,
-            missing_range=missing_range,
-            proximity=proximity,
-            progress=progress,
-        )
-        return SynthesisResult(
-            range=bp.range,
-            confidence=bp.confidence,
-            order=bp.order,
-            edges=edge_map,
-            method=method,
-            params=params,
-            iterations=bp.iterations,
-            candidate_values=bp.candidate_values,
-        )
-
-    params.update(epsilon=epsilon, use_isophotes=bool(use_isophotes), ordering=ordering)
-    filled, confidence, order = np_fill(
-        image,
-        range_values,
-        edge_map,
-        rng,
-        neighbourhood=neighbourhood,
-        radius=radius,
-        epsilon=epsilon,
-        use_edges=bool(use_edges),
-        use_isophotes=bool(use_isophotes),
-        ordering=ordering,
-        range_weight=range_weight,
-        missing_range=missing_range,
-        progress=progress,
-    )
-    return SynthesisResult(
-        range=filled,
-        confidence=confidence,
-        order=order,
-        edges=edge_map,
-        method=method,
-        params=params,
-    )
+        options["k"] = options.pop("candidates")  # bp_fill's name for it
+        bp = bp_fill(image, range_values, edge_map, **options, **common)
+        return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
+                               edges=edge_map, method=method, params=params,
+                               iterations=bp.iterations, candidate_values=bp.candidate_values)
+    filled, confidence, order = np_fill(image, range_values, edge_map, rng, **options, **common)
+    return SynthesisResult(range=filled, confidence=confidence, order=order, edges=edge_map,
+                           method=method, params=params)

@@ -65,8 +65,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.synthesis.neighbourhood import disc_offsets
-from refsynth.synthesis.nonparametric import PatchTable
-from refsynth.synthesis.similarity import intensity_scale, range_scale
+from refsynth.synthesis.similarity import PatchTable, intensity_scale, range_scale
 
 __all__ = [
     "BPResult",

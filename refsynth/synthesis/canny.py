@@ -26,16 +26,12 @@ S. van der Walt et al., "scikit-image: image processing in Python", PeerJ
 
 from __future__ import annotations
 
-import math
-from numbers import Real
-
 import numpy as np
 from scipy import ndimage as ndi
 
-__all__ = ["to_grey", "sobel_gradients", "non_maximum_suppression", "hysteresis", "canny"]
+from refsynth._checks import check_bool, check_real, check_real_array, grey, to_float
 
-#: Luminance weights (R, G, B) of ITU-R BT.709, the ones ``skimage.color.rgb2gray`` uses.
-LUMINANCE_WEIGHTS = np.array([0.2125, 0.7154, 0.0721])
+__all__ = ["to_grey", "sobel_gradients", "non_maximum_suppression", "hysteresis", "canny"]
 
 # scipy's Gaussian kernel is cut at this many standard deviations (as in scikit-image).
 _GAUSSIAN_TRUNCATE = 4.0
@@ -47,49 +43,14 @@ _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
 # --------------------------------------------------------------------------- helpers
 
 
-def _as_numeric_array(name: str, value) -> np.ndarray:
-    """Return ``value`` as an ndarray of a real numeric (or bool) dtype, or raise TypeError."""
+def _as_image(name: str, value, *, two_d: bool = True) -> np.ndarray:
+    """``value`` as an ndarray of a real (or bool) dtype, 2-D unless ``two_d`` is False."""
     array = np.asarray(value)
-    if not (
-        np.issubdtype(array.dtype, np.bool_)
-        or np.issubdtype(array.dtype, np.integer)
-        or np.issubdtype(array.dtype, np.floating)
-    ):
-        raise TypeError(
-            f"The parameter `{name}` must be a real numeric array, got dtype {array.dtype}"
-        )
-    return array
-
-
-def _dtype_max(dtype: np.dtype) -> float:
-    """The value that maps to 1.0: the integer dtype's maximum, 1 for bool and float."""
-    if np.issubdtype(dtype, np.integer):
-        return float(np.iinfo(dtype).max)
-    return 1.0
-
-
-def _to_float(array: np.ndarray) -> np.ndarray:
-    """A float64 copy of ``array``; integers divided by their dtype's maximum."""
-    return array.astype(np.float64) / _dtype_max(array.dtype)
-
-
-def _check_2d_image(name: str, value) -> np.ndarray:
-    array = _as_numeric_array(name, value)
-    if array.ndim != 2:
+    if array.dtype != np.bool_:
+        check_real_array(name, array)
+    if two_d and array.ndim != 2:
         raise ValueError(f"The parameter `{name}` must be a 2-D array, got shape {array.shape}")
     return array
-
-
-def _check_real(name: str, value, *, minimum: float | None = None) -> float:
-    """``value`` as a finite float (optionally >= minimum), or raise TypeError/ValueError."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real):
-        raise TypeError(f"The parameter `{name}` must be a real number, got {type(value).__name__}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"The parameter `{name}` must be finite, got {value}")
-    if minimum is not None and value < minimum:
-        raise ValueError(f"The parameter `{name}` must be >= {minimum}, got {value}")
-    return value
 
 
 def _check_mask(mask, shape: tuple[int, ...]) -> np.ndarray:
@@ -148,17 +109,15 @@ def to_grey(image: np.ndarray) -> np.ndarray:
     >>> to_grey(np.array([[[255, 255, 255], [0, 0, 0]]], dtype=np.uint8))
     array([[1., 0.]])
     """
-    array = _as_numeric_array("image", image)
+    array = _as_image("image", image, two_d=False)
     if array.ndim == 3 and array.shape[2] == 1:
         array = array[:, :, 0]
-    if array.ndim == 2:
-        return _to_float(array)
-    if array.ndim == 3 and array.shape[2] == 3:
-        return _to_float(array) @ LUMINANCE_WEIGHTS
-    raise ValueError(
-        "The parameter `image` must have shape (H, W), (H, W, 1) or (H, W, 3), "
-        f"got shape {array.shape}"
-    )
+    if array.ndim != 2 and not (array.ndim == 3 and array.shape[2] == 3):
+        raise ValueError(
+            "The parameter `image` must have shape (H, W), (H, W, 1) or (H, W, 3), "
+            f"got shape {array.shape}"
+        )
+    return grey(to_float(array))
 
 
 def sobel_gradients(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -200,7 +159,7 @@ def sobel_gradients(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     >>> float(gx[2, 2]), float(gy[2, 2])
     (8.0, 0.0)
     """
-    array = _check_2d_image("image", image).astype(np.float64)
+    array = _as_image("image", image).astype(np.float64)
     return ndi.sobel(array, axis=0), ndi.sobel(array, axis=1)
 
 
@@ -250,9 +209,9 @@ def non_maximum_suppression(
     ``_nonmaximum_suppression_bilinear``. All of it is array arithmetic over
     the interior; there is no loop over pixels.
     """
-    magnitude = _check_2d_image("magnitude", magnitude).astype(np.float64)
-    gy = _check_2d_image("gy", gy).astype(np.float64)
-    gx = _check_2d_image("gx", gx).astype(np.float64)
+    magnitude = _as_image("magnitude", magnitude).astype(np.float64)
+    gy = _as_image("gy", gy).astype(np.float64)
+    gx = _as_image("gx", gx).astype(np.float64)
     for name, array in (("gy", gy), ("gx", gx)):
         if array.shape != magnitude.shape:
             raise ValueError(
@@ -330,9 +289,9 @@ def hysteresis(magnitude_nms: np.ndarray, low: float, high: float) -> np.ndarray
     >>> hysteresis(np.array([[0.0, 0.2, 0.5, 0.0, 0.2]]), 0.1, 0.4)
     array([[False,  True,  True, False, False]])
     """
-    magnitude_nms = _check_2d_image("magnitude_nms", magnitude_nms)
-    low = _check_real("low", low)
-    high = _check_real("high", high)
+    magnitude_nms = _as_image("magnitude_nms", magnitude_nms)
+    low = check_real("low", low)
+    high = check_real("high", high)
     if low > high:
         raise ValueError(f"The parameter `low` ({low}) must not exceed `high` ({high})")
 
@@ -447,15 +406,13 @@ def canny(
            [0, 0, 0, 1, 0, 0, 0],
            [0, 0, 0, 0, 0, 0, 0]])
     """
-    array = _check_2d_image("image", image)
-    sigma = _check_real("sigma", sigma, minimum=0.0)
-    if not isinstance(use_quantiles, (bool, np.bool_)):
-        raise TypeError(
-            f"The parameter `use_quantiles` must be a bool, got {type(use_quantiles).__name__}"
-        )
+    array = _as_image("image", image)
+    sigma = check_real("sigma", sigma, minimum=0.0)
+    use_quantiles = check_bool("use_quantiles", use_quantiles)
     if mask is not None:
         mask = _check_mask(mask, array.shape)
-    scale = _dtype_max(array.dtype)
+    # thresholds are in the image's units: integers are scaled like the image (to_float)
+    scale = float(np.iinfo(array.dtype).max) if np.issubdtype(array.dtype, np.integer) else 1.0
 
     thresholds = {}
     for name, value, default in (
@@ -465,7 +422,7 @@ def canny(
         if value is None:
             thresholds[name] = default
             continue
-        value = _check_real(name, value)
+        value = check_real(name, value)
         if use_quantiles:
             if not 0.0 <= value <= 1.0:
                 raise ValueError(
@@ -478,7 +435,7 @@ def canny(
     low, high = thresholds["low_threshold"], thresholds["high_threshold"]
     _check_thresholds(low, high)
 
-    intensity = _to_float(array)
+    intensity = to_float(array)
     valid = np.ones(array.shape, dtype=bool) if mask is None else mask
     if not np.isfinite(intensity[valid]).all():
         raise ValueError("The parameter `image` must be finite (where `mask` is True)")

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from refsynth._checks import check_int, check_real
+
 __all__ = [
     "gaussian_window",
     "window_offsets",
@@ -47,11 +49,10 @@ def gaussian_window(n: int, sigma: float | None = None) -> np.ndarray:
     ndarray of shape (n, n)
         Non-negative weights summing to 1, largest at the centre.
     """
-    if n < 1 or n % 2 == 0:
+    n = check_int("n", n, minimum=1)
+    if n % 2 == 0:
         raise ValueError(f"The parameter `n` must be a positive odd integer, got {n}")
-    sigma = n / 6.4 if sigma is None else float(sigma)
-    if not sigma > 0:
-        raise ValueError(f"The parameter `sigma` must be > 0, got {sigma}")
+    sigma = n / 6.4 if sigma is None else check_real("sigma", sigma, positive=True)
     h = n // 2
     v = np.arange(-h, h + 1, dtype=np.float64)
     g = np.exp(-(v[:, None] ** 2 + v[None, :] ** 2) / (2.0 * sigma**2))

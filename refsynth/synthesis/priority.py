@@ -51,6 +51,8 @@ import heapq
 import numpy as np
 from scipy import ndimage
 
+from refsynth._checks import check_int
+
 __all__ = [
     "box_sum",
     "fill_front",
@@ -290,8 +292,7 @@ class FillFront:
         use_isophotes: bool = True,
     ) -> None:
         h = n // 2
-        if pad < h + 1:
-            raise ValueError(f"`pad` must be at least n // 2 + 1 = {h + 1}, got {pad}")
+        pad = check_int("pad", pad, minimum=h + 1)  # n // 2 + 1
         self.n, self.h, self.pad = n, h, pad
         self.use_edges, self.use_isophotes = use_edges, use_isophotes
         H, W = known.shape

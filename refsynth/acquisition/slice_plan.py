@@ -1,0 +1,187 @@
+"""Which slices a scan acquires: the sampling strategies on the pan axis (§3.1.1, Fig. 2).
+
+The paper scans only part of the 500 slices of a pose, "approximately 30
+to 50 % of total range" (§4), chosen by a sampling strategy; Fig. 2's rule
+samples densely where the scene is far. :func:`plan_slices` gives the
+strategies on the 500-slice pan axis:
+
+- ``"all"``: every slice (the paper's complete scans, for ground truth);
+- ``"every"``: every ``step``-th slice;
+- ``"stripes"``: stripes of ``stripe_width`` consecutive slices with gaps
+  sized for the requested fraction (:func:`refsynth.acquisition.sampling.x_stripes_for_fraction`);
+- ``"distance"``: a coarse first pass (every ``coarse_step``-th slice,
+  :func:`coarse_slices`), then :func:`refsynth.acquisition.sampling.distance_driven`
+  on its per-slice median range, the union sized to the requested fraction.
+
+:class:`ScanSettings` holds a strategy and the slice request (the GS
+window); :func:`refsynth.acquisition.scan.run_scan` acquires the plan.
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2) and §4,
+doi:10.1007/s11263-007-0108-2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from refsynth._checks import check_choice, check_int, check_real
+from refsynth.acquisition.geometry import (
+    ENCODER_POSITIONS,
+    PAN_SLICES,
+    SLICE_AVERAGE,
+    SLICE_COUNT,
+    SLICE_START,
+)
+from refsynth.acquisition.sampling import distance_driven, x_stripes_for_fraction
+
+__all__ = ["STRATEGIES", "ScanSettings", "coarse_slices", "plan_slices"]
+
+#: The sampling strategies of :func:`plan_slices`.
+STRATEGIES = ("all", "every", "stripes", "distance")
+
+# ----------------------------------------------------------------------------- settings
+
+
+@dataclass(frozen=True)
+class ScanSettings:
+    """How a scan chooses and requests its slices.
+
+    Parameters
+    ----------
+    strategy : {"stripes", "every", "distance", "all"}
+    fraction : float, default 0.4
+        Fraction of the 500 slices to scan, in (0, 1] (the paper: 0.3–0.5);
+        ignored by ``"all"``, and by ``"every"`` when ``step`` is given.
+    step : int, optional
+        ``"every"``: scan every ``step``-th slice; default ``1 / fraction``
+        rounded half up (0.4 → every 3rd).
+    stripe_width : int, default 4
+        ``"stripes"``: consecutive slices per stripe (the ``rw`` of §3.3).
+    coarse_step : int, default 10
+        ``"distance"``: the first pass scans every ``coarse_step``-th slice.
+    seq, count, average : int
+        The GS window: first encoder position, positions per slice, samples
+        averaged (defaults: 379, 243 and 10, see :mod:`refsynth.acquisition.geometry`).
+    camera : bool, default True
+        Take the ten pictures (``C`` at pan indices 25, 75, …, 475).
+    """
+
+    strategy: str = "stripes"
+    fraction: float = 0.4
+    step: int | None = None
+    stripe_width: int = 4
+    coarse_step: int = 10
+    seq: int = SLICE_START
+    count: int = SLICE_COUNT
+    average: int = SLICE_AVERAGE
+    camera: bool = True
+
+    def __post_init__(self) -> None:
+        check_choice("strategy", self.strategy, STRATEGIES)
+        fraction = check_real("fraction", self.fraction, positive=True, maximum=1.0)
+        if not isinstance(self.fraction, (int, float)):  # a numpy scalar: JSON needs a float
+            object.__setattr__(self, "fraction", fraction)
+        # the integers are stored as Python ints (the manifest is JSON)
+        for name, low, high in (("stripe_width", 1, PAN_SLICES), ("coarse_step", 2, PAN_SLICES),
+                                ("seq", 0, ENCODER_POSITIONS - 1), ("count", 1, ENCODER_POSITIONS),
+                                ("average", 1, 99)):
+            value = check_int(name, getattr(self, name), minimum=low, maximum=high)
+            object.__setattr__(self, name, value)
+        if self.step is not None:
+            step = check_int("step", self.step, minimum=1, maximum=PAN_SLICES)
+            object.__setattr__(self, "step", step)
+        if self.seq + self.count > ENCODER_POSITIONS:
+            raise ValueError(f"The parameters `seq` + `count` must be <= {ENCODER_POSITIONS}, "
+                             f"got {self.seq + self.count}")
+        if not isinstance(self.camera, bool):
+            raise TypeError(f"The parameter `camera` must be a bool, got {self.camera!r}")
+
+    def as_dict(self) -> dict:
+        """The settings as a JSON-ready dict."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, values: dict) -> ScanSettings:
+        """Inverse of :meth:`as_dict` (unknown keys are an error)."""
+        known = {f.name for f in fields(cls)}
+        unknown = set(values) - known
+        if unknown:
+            raise ValueError(f"unknown scan settings {sorted(unknown)}")
+        return cls(**values)
+
+
+def coarse_slices(settings: ScanSettings) -> np.ndarray:
+    """The first pass of the ``"distance"`` strategy: every ``coarse_step``-th slice from 0."""
+    return np.arange(0, PAN_SLICES, settings.coarse_step)
+
+
+def plan_slices(settings: ScanSettings, coarse_range: np.ndarray | None = None) -> np.ndarray:
+    """The pan indices a scan acquires, ascending (§3.1.1, Fig. 2).
+
+    Parameters
+    ----------
+    settings : ScanSettings
+    coarse_range : ndarray of shape (500,), optional
+        ``"distance"`` only (and required there): a representative range
+        (metres) per slice, NaN where the first pass did not scan; in
+        between it is interpolated (:func:`refsynth.acquisition.sampling.column_range_profile`).
+
+    Returns
+    -------
+    ndarray of int
+        Sorted, unique pan indices in ``0 … 499``. For ``"distance"`` it
+        contains :func:`coarse_slices`, and its size is the one closest to
+        ``fraction · 500`` that the rule reaches.
+
+    Examples
+    --------
+    >>> plan = plan_slices(ScanSettings("stripes", 0.4))
+    >>> len(plan), plan[:6].tolist()
+    (200, [0, 1, 2, 3, 10, 11])
+    >>> plan_slices(ScanSettings("every", step=100)).tolist()
+    [0, 100, 200, 300, 400]
+    """
+    if not isinstance(settings, ScanSettings):
+        raise TypeError(f"The parameter `settings` must be a ScanSettings, got {settings!r}")
+    if settings.strategy == "all" or (settings.strategy != "every" and settings.fraction >= 1.0):
+        return np.arange(PAN_SLICES)
+    if settings.strategy == "every":
+        step = settings.step or max(1, int(1.0 / settings.fraction + 0.5))
+        return np.arange(0, PAN_SLICES, step)
+    if settings.strategy == "stripes":
+        mask = x_stripes_for_fraction((1, PAN_SLICES), 1.0 - settings.fraction,
+                                      rw=settings.stripe_width)
+        return np.flatnonzero(mask[0])
+    # distance-driven (Fig. 2), laid out around the coarse pass
+    if coarse_range is None:
+        raise ValueError("The `distance` strategy needs `coarse_range` from a first pass")
+    profile = np.asarray(coarse_range, dtype=np.float64)
+    if profile.shape != (PAN_SLICES,):
+        raise ValueError(f"The parameter `coarse_range` must have shape ({PAN_SLICES},), "
+                         f"got {profile.shape}")
+    coarse = np.zeros(PAN_SLICES, dtype=bool)
+    coarse[coarse_slices(settings)] = True
+    target = settings.fraction * PAN_SLICES
+    if coarse.sum() >= target:
+        return np.flatnonzero(coarse)
+
+    def union(known_fraction: float) -> np.ndarray:
+        return coarse | distance_driven(profile, known_fraction, height=1)[0]
+
+    # the union grows with the rule's own fraction: bisect for the size closest to the target
+    low, high = 1.0 / PAN_SLICES, min(settings.fraction, 1.0 - 1.0 / PAN_SLICES)
+    best = union(high)
+    for _ in range(30):
+        middle = 0.5 * (low + high)
+        candidate = union(middle)
+        if abs(int(candidate.sum()) - target) < abs(int(best.sum()) - target):
+            best = candidate
+        if candidate.sum() < target:
+            low = middle
+        else:
+            high = middle
+    return np.flatnonzero(best)

@@ -1,0 +1,449 @@
+"""The experiments' cases: a scene at a size, a sampling, a method and a seed (§3.3).
+
+A *case* is one fill to score. Cases are named compactly, as on the command
+line (``python -m refsynth evaluate``), and every spec here has a parser that
+validates it and returns its canonical form:
+
+- scenes: ``synthetic`` (the synthetic room of seed 0; ``synthetic-N`` for
+  seed N), ``motorcycle`` (the Middlebury 2014 pair of scikit-image), or a
+  path pair ``IMAGE:DISPARITY`` (PNG/PFM/NPY, see
+  :func:`refsynth.scenes.load_middlebury`);
+- sizes: ``128`` (square), ``450x375`` (width × height, as the paper
+  writes it), or ``native`` (a path pair or the Motorcycle as stored);
+- samplings: ``gRW_XW`` (the paper's grid stripes, known width RW, unknown
+  width XW, Table 1), ``xNN`` (vertical stripes, NN % unknown, Table 4),
+  ``distance`` or ``distanceNN`` (Fig. 2's distance-driven columns, 60 % or
+  NN % unknown);
+- methods: ``np``, ``np-noedges``, ``np-noisophotes``, ``np-onion``, ``bp``,
+  ``bp-noedges``, and the baselines of :mod:`refsynth.evaluation.baselines` by name
+  (``nearest``, ``linear``, ``harmonic``, ``colorization``,
+  ``joint-bilateral``).
+
+:func:`build_cases` and :func:`grid_cases` expand lists of specs into cases
+(NP, which draws at random, over several seeds); :func:`load_scene` and
+:func:`known_mask` turn a case's specs into the scene and the known-range
+mask that :mod:`refsynth.evaluation.runner` fills and scores.
+
+References
+----------
+L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
+Modeling", IJCV 79:137–158 (2008), §3.3 (Tables 1–4, Fig. 2),
+doi:10.1007/s11263-007-0108-2.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from refsynth._checks import check_int
+from refsynth.acquisition.sampling import distance_driven, stripes, x_stripes_for_fraction
+from refsynth.evaluation.baselines import BASELINES
+from refsynth.scenes import load_middlebury, motorcycle, synthetic_room
+
+__all__ = [
+    "Case",
+    "SYNTHESIS_METHODS",
+    "DEFAULT_SAMPLINGS",
+    "DISTANCE_KNOWN_FRACTION",
+    "DEFAULT_GRID",
+    "QUICK_GRID",
+    "method_names",
+    "scene_label",
+    "size_tuple",
+    "parse_scene",
+    "parse_size",
+    "parse_sampling",
+    "parse_method",
+    "parse_list",
+    "build_cases",
+    "grid_cases",
+    "load_scene",
+    "known_mask",
+]
+
+#: The synthesis variants: keyword arguments of :func:`refsynth.synthesize`.
+SYNTHESIS_METHODS: dict[str, dict] = {
+    "np": {},
+    "np-noedges": {"use_edges": False},
+    "np-noisophotes": {"use_isophotes": False},
+    "np-onion": {"ordering": "onion"},
+    "bp": {"method": "bp"},
+    "bp-noedges": {"method": "bp", "use_edges": False},
+}
+
+#: Every sampling of the paper's experiments: Table 1's grids, Table 4's
+#: x-stripes and Fig. 2's distance-driven columns.
+DEFAULT_SAMPLINGS = ("g24_80", "g10_20", "g5_25", "g3_28", "x63", "x78", "x85", "distance")
+
+#: Known fraction of Fig. 2's sampling when the spec gives none: §4 scans
+#: 30–50 % of the slices.
+DISTANCE_KNOWN_FRACTION = 0.4
+
+
+def method_names() -> tuple[str, ...]:
+    """Every method name: the synthesis variants, then the baselines."""
+    return (*SYNTHESIS_METHODS, *BASELINES)
+
+
+#: The default grid, as blocks of (scenes, size, samplings, methods); ``None``
+#: for the methods means all of them. Block 1 is Tables 1, 3 and 4 on 128×128
+#: scenes; block 2 adds three more rooms at Table 2/3's sampling; block 3 is
+#: Table 4 at the paper's Middlebury size.
+DEFAULT_GRID: tuple[tuple[str, str, str, str | None], ...] = (
+    ("synthetic,motorcycle", "128", ",".join(DEFAULT_SAMPLINGS), None),
+    ("synthetic-1,synthetic-2,synthetic-3", "128", "g5_25", "np,np-noedges,bp"),
+    ("motorcycle", "450x375", "x63,x78,x85", None),
+)
+
+#: A grid of seconds, for smoke tests: a 32×32 room.
+QUICK_GRID: tuple[tuple[str, str, str, str | None], ...] = (
+    ("synthetic", "32", "g3_8,x78", "np,np-noedges,np-onion,bp,nearest,colorization"),
+)
+
+
+# ----------------------------------------------------------------------------- specs
+
+
+@dataclass(frozen=True)
+class Case:
+    """One run: a scene at a size, a sampling, a method and a seed, all as spec strings.
+
+    Attributes
+    ----------
+    scene : str
+        ``synthetic``, ``synthetic-N``, ``motorcycle`` or ``IMAGE:DISPARITY``
+        (absolute paths).
+    size : str
+        ``WxH`` or ``native``.
+    sampling : str
+        ``gRW_XW``, ``xNN``, ``distance`` or ``distanceNN``.
+    method : str
+        A name of :func:`method_names`.
+    seed : int
+        The synthesis seed (0 for deterministic methods).
+    """
+
+    scene: str
+    size: str
+    sampling: str
+    method: str
+    seed: int
+
+    @property
+    def label(self) -> str:
+        """A one-line description for progress reports."""
+        return (f"{scene_label(self.scene)} {self.size} {self.sampling} {self.method} "
+                f"seed {self.seed}")
+
+
+def scene_label(scene: str) -> str:
+    """A scene spec for people: a path pair as its two file names, other specs as given."""
+    if ":" in scene:
+        image, disparity = _split_pair(scene)
+        return f"{Path(image).name}:{Path(disparity).name}"
+    return scene
+
+
+def _split_pair(text: str) -> tuple[str, str]:
+    """Split ``IMAGE:DISPARITY``; with several colons, at the one whose halves exist."""
+    parts = text.split(":")
+    if len(parts) == 2:
+        return parts[0], parts[1]
+    for i in range(1, len(parts)):
+        image, disparity = ":".join(parts[:i]), ":".join(parts[i:])
+        if Path(image).is_file() and Path(disparity).is_file():
+            return image, disparity
+    raise ValueError(f"scene {text!r}: cannot tell IMAGE from DISPARITY at its colons")
+
+
+def parse_scene(text: str) -> str:
+    """Validate a scene spec and return it in canonical form.
+
+    Parameters
+    ----------
+    text : str
+        ``synthetic`` (room of seed 0), ``synthetic-N``, ``motorcycle``, or
+        ``IMAGE:DISPARITY`` (two existing files).
+
+    Returns
+    -------
+    str
+        ``synthetic-N``, ``motorcycle`` or ``IMAGE:DISPARITY`` with absolute
+        paths (so that workers elsewhere on the machine find them).
+
+    Raises
+    ------
+    ValueError
+        If the spec is none of these.
+    OSError
+        If a file of a path pair does not exist.
+
+    Examples
+    --------
+    >>> parse_scene("synthetic"), parse_scene("synthetic-3"), parse_scene("motorcycle")
+    ('synthetic-0', 'synthetic-3', 'motorcycle')
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise ValueError(f"scene must be a non-empty string, got {text!r}")
+    text = text.strip()
+    if text == "synthetic":
+        return "synthetic-0"
+    match = re.fullmatch(r"synthetic-(\d+)", text)
+    if match:
+        return f"synthetic-{int(match.group(1))}"
+    if text == "motorcycle":
+        return text
+    if ":" in text:
+        image, disparity = _split_pair(text)
+        for what, path in (("image", image), ("disparity", disparity)):
+            if not path:
+                raise ValueError(f"scene {text!r}: the {what} path is empty")
+            if not Path(path).is_file():
+                raise FileNotFoundError(f"scene {text!r}: {what} file not found: {path}")
+        return f"{Path(image).resolve()}:{Path(disparity).resolve()}"
+    raise ValueError(
+        f"unknown scene {text!r}: expected synthetic, synthetic-N, motorcycle or IMAGE:DISPARITY"
+    )
+
+
+def parse_size(text: str) -> str:
+    """Validate a size spec: ``128`` (square), ``450x375`` (W×H) or ``native``.
+
+    Returns
+    -------
+    str
+        ``WxH`` or ``native``.
+
+    Examples
+    --------
+    >>> parse_size("128"), parse_size("450x375"), parse_size("native")
+    ('128x128', '450x375', 'native')
+    """
+    if not isinstance(text, str):
+        raise ValueError(f"size must be a string, got {text!r}")
+    text = text.strip().lower()
+    if text == "native":
+        return text
+    match = re.fullmatch(r"(\d+)(?:x(\d+))?", text)
+    if not match:
+        raise ValueError(f"bad size {text!r}: expected N (square), WxH such as 450x375, or native")
+    width = int(match.group(1))
+    height = int(match.group(2)) if match.group(2) else width
+    if width < 16 or height < 16:
+        raise ValueError(f"bad size {text!r}: width and height must be at least 16 pixels")
+    return f"{width}x{height}"
+
+
+def size_tuple(size: str) -> tuple[int, int] | None:
+    """``"450x375"`` → ``(450, 375)`` (width, height); ``"native"`` → None."""
+    if size == "native":
+        return None
+    width, height = size.split("x")
+    return int(width), int(height)
+
+
+def parse_sampling(text: str) -> str:
+    """Validate a sampling spec: ``gRW_XW``, ``xNN``, ``distance`` or ``distanceNN``.
+
+    Returns
+    -------
+    str
+        The spec in canonical form (no leading zeros).
+
+    Raises
+    ------
+    ValueError
+        If the spec is malformed or out of range: RW, XW >= 1; NN in 1 … 99.
+
+    Examples
+    --------
+    >>> parse_sampling("g5_25"), parse_sampling("x078"), parse_sampling("distance")
+    ('g5_25', 'x78', 'distance')
+    """
+    if not isinstance(text, str):
+        raise ValueError(f"sampling must be a string, got {text!r}")
+    text = text.strip().lower()
+    match = re.fullmatch(r"g(\d+)_(\d+)", text)
+    if match:
+        rw, xw = int(match.group(1)), int(match.group(2))
+        if rw < 1 or xw < 1:
+            raise ValueError(f"bad sampling {text!r}: gRW_XW needs RW >= 1 and XW >= 1")
+        return f"g{rw}_{xw}"
+    match = re.fullmatch(r"(x|distance)(\d+)", text)
+    if match:
+        percent = int(match.group(2))
+        if not 1 <= percent <= 99:
+            raise ValueError(f"bad sampling {text!r}: the unknown percentage must be in 1..99")
+        return f"{match.group(1)}{percent}"
+    if text == "distance":
+        return text
+    raise ValueError(
+        f"unknown sampling {text!r}: expected gRW_XW (grid stripes, e.g. g5_25), "
+        "xNN (x-stripes, NN % unknown, e.g. x78), distance or distanceNN"
+    )
+
+
+def parse_method(text: str) -> str:
+    """Validate a method name (see :func:`method_names`).
+
+    Examples
+    --------
+    >>> parse_method("np-onion"), parse_method("colorization")
+    ('np-onion', 'colorization')
+    """
+    if not isinstance(text, str) or text.strip().lower() not in method_names():
+        raise ValueError(f"unknown method {text!r}: choose from {', '.join(method_names())}")
+    return text.strip().lower()
+
+
+def parse_list(text: str, parse: Callable[[str], str], what: str) -> list[str]:
+    """Parse a comma-separated list with ``parse``, dropping duplicates, keeping order.
+
+    Raises
+    ------
+    ValueError
+        If the list or one of its items is empty, or an item does not parse.
+
+    Examples
+    --------
+    >>> parse_list("x78,g5_25,x78", parse_sampling, "sampling")
+    ['x78', 'g5_25']
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise ValueError(f"empty {what} list")
+    items = [item.strip() for item in text.split(",")]
+    if any(not item for item in items):
+        raise ValueError(f"empty item in the {what} list {text!r}")
+    return list(dict.fromkeys(parse(item) for item in items))
+
+
+def _is_stochastic(method: str) -> bool:
+    """NP draws from the Eq. 5 set; BP and the baselines are deterministic."""
+    return method.startswith("np")
+
+
+def build_cases(
+    scenes: Sequence[str],
+    sizes: Sequence[str],
+    samplings: Sequence[str],
+    methods: Sequence[str],
+    seeds: int = 3,
+) -> list[Case]:
+    """The product scenes × sizes × samplings × methods (× seeds for NP), in that order.
+
+    Parameters
+    ----------
+    scenes, sizes, samplings, methods : sequence of str
+        Specs, parsed with :func:`parse_scene` etc.
+    seeds : int, default 3
+        NP variants run with seeds ``0 … seeds − 1``; the others once (seed 0).
+
+    Returns
+    -------
+    list of Case
+    """
+    seeds = check_int("seeds", seeds, minimum=1)
+    scenes = [parse_scene(s) for s in scenes]
+    sizes = [parse_size(s) for s in sizes]
+    samplings = [parse_sampling(s) for s in samplings]
+    methods = [parse_method(m) for m in methods]
+    cases = []
+    for scene in scenes:
+        for size in sizes:
+            if size == "native" and scene.startswith("synthetic"):
+                raise ValueError(f"scene {scene!r} has no native size: give --size, e.g. 128")
+            for sampling in samplings:
+                for method in methods:
+                    for seed in range(seeds if _is_stochastic(method) else 1):
+                        cases.append(Case(scene, size, sampling, method, seed))
+    return cases
+
+
+def grid_cases(
+    blocks: Iterable[tuple[str, str, str, str | None]], seeds: int = 3,
+    methods: str | None = None,
+) -> list[Case]:
+    """The cases of a grid given as blocks ``(scenes, sizes, samplings, methods)`` of lists.
+
+    ``methods`` (a comma-separated list) replaces every block's methods.
+    """
+    cases: list[Case] = []
+    for scenes, sizes, samplings, block_methods in blocks:
+        chosen = methods or block_methods or ",".join(method_names())
+        cases += build_cases(
+            parse_list(scenes, parse_scene, "scene"), parse_list(sizes, parse_size, "size"),
+            parse_list(samplings, parse_sampling, "sampling"),
+            parse_list(chosen, parse_method, "method"), seeds,
+        )
+    return list(dict.fromkeys(cases))
+
+
+# ----------------------------------------------------------------------------- scenes and masks
+
+
+@functools.lru_cache(maxsize=8)
+def load_scene(scene: str, size: str):
+    """Load a scene spec at a size spec (cached per process).
+
+    Returns
+    -------
+    refsynth.scenes.Scene
+    """
+    dims = size_tuple(size)
+    if scene.startswith("synthetic-"):
+        if dims is None:
+            raise ValueError(f"scene {scene!r} has no native size: give a size, e.g. 128")
+        return synthetic_room((dims[1], dims[0]), seed=int(scene.split("-")[1]))
+    if scene == "motorcycle":
+        return motorcycle(dims if dims is not None else (741, 500))
+    image, disparity = _split_pair(scene)
+    return load_middlebury(image, disparity, size=dims)
+
+
+def known_mask(scene, sampling: str) -> np.ndarray:
+    """The known-range mask of a sampling spec on a scene, without pixels that lack truth.
+
+    Pixels without ground truth are never given to the synthesis (there is
+    no range to give) and never scored (:func:`refsynth.evaluation.metrics.evaluate`
+    skips them).
+
+    Parameters
+    ----------
+    scene : refsynth.scenes.Scene
+    sampling : str
+        A spec of :func:`parse_sampling`.
+
+    Returns
+    -------
+    ndarray of shape (H, W), bool
+        ``True`` where the range is known.
+
+    Notes
+    -----
+    ``distance`` uses the ground truth's per-column median as the coarse
+    range of Fig. 2 (for disparity, its inverse, which grows with
+    distance), standing in for the rig's coarse pass.
+    """
+    sampling = parse_sampling(sampling)
+    shape = scene.range.shape
+    if sampling.startswith("g"):
+        rw, xw = (int(v) for v in sampling[1:].split("_"))
+        mask = stripes(shape, rw, xw, axes="xy")
+    elif sampling.startswith("x"):
+        mask = x_stripes_for_fraction(shape, int(sampling[1:]) / 100.0)
+    else:
+        percent = sampling[len("distance"):]
+        known_fraction = 1.0 - int(percent) / 100.0 if percent else DISTANCE_KNOWN_FRACTION
+        truth = scene.range
+        if scene.units.startswith("disparity"):
+            with np.errstate(divide="ignore"):
+                truth = np.where(truth > 0, 1.0 / truth, np.nan)
+        mask = distance_driven(truth, known_fraction=known_fraction)
+    return mask & scene.has_truth
+
