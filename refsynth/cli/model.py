@@ -1,0 +1,268 @@
+"""``python -m refsynth model``: stage 3 from the command line — a dense range to a PLY model.
+
+Two forms::
+
+    python -m refsynth model DENSE.npy --intensity IMAGE --camera cylindrical --focal 300 \\
+        --out room.ply [--confidence CONF.npy] [--partial PARTIAL.npy] \\
+        [--max-jump FRACTION] [--ascii]
+    python -m refsynth model DISP.npy --camera pinhole --focal F --cx CX --cy CY \\
+        [--disparity --baseline B --doffs D] --out model.ply
+    python -m refsynth model --merge a.ply b.ply --poses poses.json --out world.ply [--refine]
+
+The first builds one scan position's model (:func:`refsynth.model.build_model`)
+and writes it (:func:`refsynth.model.write_ply`); the second puts several
+models in one world frame (:func:`refsynth.model.merge_models`, optionally
+after :func:`refsynth.model.refine_poses`). ``poses.json`` is a list, one
+entry per PLY in order, of ``{"x": …, "z": …, "heading": DEGREES, "y": …}``
+(refsynth's frame: x right, y up, z forward; ``y`` optional) or of
+``{"matrix": [[4 × 4]]}``.
+
+:func:`add_model_parser` adds the subcommand to :mod:`refsynth.cli.main`'s
+parser. User errors are raised as ValueError / TypeError / OSError with a
+one-line message (``main`` prints it and exits with status 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from refsynth.cli.arguments import check_output, make_parent, real
+from refsynth.io import read_array
+from refsynth.model import (
+    DEFAULT_MAX_JUMP,
+    CylindricalCamera,
+    PinholeCamera,
+    Pose,
+    build_model,
+    disparity_to_depth,
+    grid_faces,
+    merge_models,
+    pose_matrix,
+    read_ply,
+    refine_poses,
+    write_ply,
+)
+
+__all__ = ["add_model_parser", "read_poses"]
+
+
+def _max_jump(text: str) -> float | None:
+    if text.lower() in ("off", "none"):
+        return None
+    value = real(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0 (or 'off'), got {text}")
+    return value
+
+
+def _read(path: str | None, what: str) -> np.ndarray | None:
+    if path is None:
+        return None
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"{what} file not found: {path}")
+    return read_array(path)
+
+
+def _single(array: np.ndarray, what: str, shape=None) -> np.ndarray:
+    if array.ndim == 3 and array.shape[2] == 1:
+        array = array[..., 0]
+    if array.ndim != 2:
+        raise ValueError(f"{what} must hold one channel (H, W), got shape {array.shape}")
+    if shape is not None and array.shape != shape:
+        raise ValueError(f"{what} shape {array.shape} differs from the range's {shape}")
+    if array.dtype == np.bool_ or not np.issubdtype(array.dtype, np.number):
+        raise ValueError(f"{what} must be numeric, got {array.dtype}")
+    return array.astype(np.float64)
+
+
+def _camera(args, shape):
+    rows, cols = shape
+    cx = (cols - 1) / 2 if args.cx is None else args.cx
+    cy = (rows - 1) / 2 if args.cy is None else args.cy
+    if args.camera == "pinhole":
+        if args.phi_step is not None or args.h_step is not None:
+            raise ValueError("--phi-step and --h-step are for --camera cylindrical")
+        return PinholeCamera(args.focal, cx=cx, cy=cy)
+    phi_step = None if args.phi_step is None else math.radians(args.phi_step)
+    return CylindricalCamera(args.focal, cx=cx, cy=cy, phi_step=phi_step,
+                             h_step=1.0 if args.h_step is None else args.h_step)
+
+
+def _cmd_build(args) -> int:
+    if args.poses or args.refine or args.voxel is not None or args.poses_out:
+        raise ValueError("--poses, --refine, --voxel and --poses-out are for --merge")
+    if args.focal is None:
+        raise ValueError("--focal is required to build a model")
+    if args.disparity and args.camera != "pinhole":
+        raise ValueError("--disparity needs --camera pinhole (a rectified pair)")
+    out = check_output(args.out, "--out", (".ply",))
+    dense = _single(_read(args.dense, "range"), "range")
+    if args.disparity:
+        if args.baseline is None:
+            raise ValueError("--disparity needs --baseline (and --doffs if not 0)")
+        dense = disparity_to_depth(dense, args.focal, args.baseline, args.doffs)
+    elif args.baseline is not None or args.doffs != 0.0:
+        raise ValueError("--baseline and --doffs are for --disparity")
+    camera = _camera(args, dense.shape)
+    intensity = _read(args.intensity, "intensity")
+    if intensity is not None and intensity.shape[:2] != dense.shape:
+        raise ValueError(f"intensity shape {intensity.shape} differs from the range's "
+                         f"{dense.shape}")
+    confidence = _read(args.confidence, "confidence")
+    if confidence is not None:
+        confidence = _single(confidence, "confidence", dense.shape)
+    partial = _read(args.partial, "partial range")
+    measured = None
+    if partial is not None:
+        partial = _single(partial, "partial range", dense.shape)
+        with np.errstate(invalid="ignore"):
+            measured = np.isfinite(partial) & (partial > 0)
+    model = build_model(dense, camera, intensity=intensity, confidence=confidence,
+                        measured=measured, max_jump=args.max_jump,
+                        min_confidence=args.min_confidence,
+                        wrap=False if args.no_wrap else None)
+    write_ply(make_parent(out), model, ascii=args.ascii,
+              coordinates="float32" if args.float32 else "float64",
+              comments=[f"camera {args.camera} focal {args.focal}"])
+    kept = np.zeros(dense.shape, dtype=bool)
+    kept[model.pixels[:, 0], model.pixels[:, 1]] = True
+    wrap = not args.no_wrap and camera.covers_360(dense.shape[1])
+    every = len(grid_faces(dense, valid=kept, max_jump=None, wrap=wrap))
+    print(f"wrote {out}: {model.n_vertices} vertices ({int(model.synthesized.sum())} "
+          f"synthesized), {model.n_faces} triangles ({every - model.n_faces} dropped at depth "
+          f"jumps), {'ascii' if args.ascii else 'binary'}")
+    return 0
+
+
+def read_poses(path) -> list[np.ndarray]:
+    """The poses of ``poses.json``: 4×4 transforms (module docstring for the format)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"poses file not found: {path}")
+    try:
+        entries = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise ValueError(f"cannot read {path} as JSON: {error}") from None
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise ValueError(f"{path} must hold a JSON list of objects, one pose per PLY")
+    poses = []
+    for k, entry in enumerate(entries):
+        if "matrix" in entry:
+            poses.append(pose_matrix(entry["matrix"]))
+            continue
+        unknown = set(entry) - {"x", "y", "z", "heading"}
+        if unknown:
+            raise ValueError(f"pose {k} in {path} has unknown keys {sorted(unknown)} "
+                             "(x, z, heading in degrees, y; or matrix)")
+        values = {key: entry.get(key, 0.0) for key in ("x", "y", "z", "heading")}
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                   for v in values.values()):
+            raise ValueError(f"pose {k} in {path} must hold numbers")
+        values["heading"] = math.radians(values["heading"])
+        poses.append(Pose(**values).matrix())
+    return poses
+
+
+def _cmd_merge(args) -> int:
+    if args.dense is not None or args.intensity or args.confidence or args.partial:
+        raise ValueError("--merge takes PLY files only (no DENSE, --intensity, --confidence, "
+                         "--partial)")
+    if not args.poses:
+        raise ValueError("--merge needs --poses poses.json")
+    poses = read_poses(args.poses)
+    if len(poses) != len(args.merge):
+        raise ValueError(f"{args.poses} holds {len(poses)} poses for {len(args.merge)} PLY files")
+    models = []
+    for name in args.merge:
+        if not Path(name).is_file():
+            raise FileNotFoundError(f"PLY file not found: {name}")
+        models.append(read_ply(name))
+    out = check_output(args.out, "--out", (".ply",))
+    poses_out = None if args.poses_out is None else check_output(args.poses_out, "--poses-out",
+                                                                 (".json",))
+    if args.refine:
+        poses, results = refine_poses(models, poses, voxel=args.voxel)
+        for k, result in enumerate(results[1:], start=1):
+            pose = Pose.from_matrix(poses[k])
+            print(f"refined {args.merge[k]}: x={pose.x:.4f} z={pose.z:.4f} "
+                  f"heading={math.degrees(pose.heading):.3f} deg y={pose.y:.4f} "
+                  f"({result.iterations} ICP iterations, rms {result.rms:.4g})")
+    merged = merge_models(models, poses, voxel=args.voxel)
+    write_ply(make_parent(out), merged, ascii=args.ascii,
+              coordinates="float32" if args.float32 else "float64",
+              comments=[f"merged from {len(models)} scans"])
+    if poses_out is not None:
+        make_parent(poses_out).write_text(json.dumps(
+            [{"matrix": np.asarray(p).tolist()} for p in poses], indent=1) + "\n")
+        print(f"wrote {poses_out}")
+    total = sum(m.n_vertices for m in models)
+    print(f"wrote {out}: {merged.n_vertices} vertices from {len(models)} scans "
+          f"({total - merged.n_vertices} fused away in the overlap), {merged.n_faces} triangles")
+    return 0
+
+
+def _cmd_model(args) -> int:
+    if args.merge:
+        return _cmd_merge(args)
+    if args.dense is None:
+        raise ValueError("give a dense range DENSE.npy, or --merge A.ply B.ply ...")
+    return _cmd_build(args)
+
+
+def add_model_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``model`` (stage 3: dense range → PLY; PLYs + poses → one PLY) to a subparser set."""
+    parser = subparsers.add_parser(
+        "model",
+        help="stage 3: build a coloured 3-D model (PLY) from a dense range, or merge models",
+        description="Stage 3 of the paper: back-project a dense range image (cylindrical "
+        "panorama or pinhole camera) to coloured points, mesh them without bridging depth "
+        "discontinuities and write a PLY; or merge several PLYs by their poses.",
+    )
+    parser.add_argument("dense", nargs="?", help="dense range: NPY/PFM (Euclidean distance "
+                        "for --camera cylindrical, depth or --disparity for pinhole)")
+    parser.add_argument("--out", required=True, help="the .ply file to write")
+    parser.add_argument("--intensity", help="the registered intensity (PNG/JPG/NPY), grey or RGB")
+    parser.add_argument("--camera", choices=["cylindrical", "pinhole"], default="cylindrical")
+    parser.add_argument("--focal", type=real, help="focal length f in pixels (the cylinder's "
+                        "radius)")
+    parser.add_argument("--cx", type=real, help="column of pan angle 0 / of the principal point "
+                        "(default: the centre)")
+    parser.add_argument("--cy", type=real, help="row of the horizon / of the principal point "
+                        "(default: the centre)")
+    parser.add_argument("--phi-step", type=real, help="cylindrical: degrees of pan per column "
+                        "(default 180/(pi f), one pixel of arc)")
+    parser.add_argument("--h-step", type=real, help="cylindrical: pixels of height per row "
+                        "(default 1)")
+    parser.add_argument("--no-wrap", action="store_true",
+                        help="do not join the last column to the first of a 360° panorama")
+    parser.add_argument("--disparity", action="store_true",
+                        help="pinhole: DENSE is a disparity; depth = f B / (d + doffs)")
+    parser.add_argument("--baseline", type=real, help="with --disparity: the baseline B "
+                        "(the depth's unit, e.g. mm)")
+    parser.add_argument("--doffs", type=real, default=0.0, help="with --disparity: doffs (px)")
+    parser.add_argument("--confidence", help="per-pixel confidence in [0, 1] (NPY)")
+    parser.add_argument("--partial", help="the partial (measured) range, NaN where unknown: "
+                        "marks each point measured or synthesized")
+    parser.add_argument("--max-jump", type=_max_jump, default=DEFAULT_MAX_JUMP,
+                        metavar="FRACTION", help="drop triangles whose edge jumps by more than "
+                        "FRACTION x the nearer range per pixel (default 0.05; 'off' keeps all)")
+    parser.add_argument("--min-confidence", type=real, default=0.0,
+                        help="drop points whose confidence is below this (default 0)")
+    parser.add_argument("--ascii", action="store_true", help="write an ASCII PLY")
+    parser.add_argument("--float32", action="store_true",
+                        help="write x, y, z as float (default double)")
+    parser.add_argument("--merge", nargs="+", metavar="PLY",
+                        help="merge these models (in their scanners' frames) by --poses")
+    parser.add_argument("--poses", help="with --merge: poses.json, one pose per PLY")
+    parser.add_argument("--refine", action="store_true",
+                        help="with --merge: refine the poses by point-to-plane ICP")
+    parser.add_argument("--voxel", type=real,
+                        help="with --merge: fusion voxel size (default 3x the point spacing)")
+    parser.add_argument("--poses-out", help="with --merge: write the (refined) poses as JSON")
+    parser.set_defaults(func=_cmd_model)
+    return parser
