@@ -1,0 +1,596 @@
+r"""The literal reference: Eq. 2, NP (Eqs. 3–5, 10–12) and BP (Eqs. 6–9) as plainly as the paper.
+
+This module is the definition that the fast code (:mod:`refsynth.synthesis.nonparametric`,
+:mod:`refsynth.synthesis.priority`, :mod:`refsynth.synthesis.bp`) and any port must match bit
+for bit. It loops over pixels, candidates and labels in Python, in the order the paper reads;
+it is slow (use it on images up to about 32 × 32) and has no cleverness.
+
+The numeric contract
+--------------------
+No decision (an argmin, the Eq. 5 threshold, the fill order, BP's argmax) may depend on the
+order of a floating-point reduction, so the quantities that feed decisions are *exact*:
+
+1. The normalised intensity and the normalised range are quantised to ``2**-16``
+   (:func:`quantise_intensity`, :func:`quantise_range`): ``q = rint(2**16 (x − min) / span)``.
+   An offset, or an integer image against the same image as floats, gives the same ``q``.
+2. The Gaussian window of Eq. 2 is an integer table summing to about ``2**18``
+   (:func:`window_weights`). Eq. 2 is then a sum of integer products, exact below ``2**53``
+   in float64 whatever the summation order (BLAS included); a few IEEE operations in a fixed
+   order turn it into the distance (:func:`combine_eq2`).
+3. A synthesized pixel's confidence is rounded to ``2**-40`` (:func:`on_confidence_grid`), so
+   the window sums of Eq. 11 are exact in any order; the range differences of Eq. 12 are
+   multiples of ``2**-16`` and exact too. The priority is one fixed formula
+   (:func:`priority_terms`);
+   ``‖n_p‖`` is ``sqrt(m_row² + m_col²)``, not ``hypot``.
+4. BP works in float64, log domain. Max-product needs only ``+``, ``−`` and ``max``; the sums
+   over a node's (at most four) incoming messages run in the fixed order left, up, right,
+   down. Where an exponential or a logarithm is needed (sum-product, BP's confidence) it is
+   :func:`portable_exp` / :func:`portable_log`: IEEE ``+ − × ÷`` and ``ldexp`` only, so the
+   same on every CPU and library.
+5. Ties: the first candidate in raster order of the disc offsets (Eq. 4, BP's ranking);
+   equal priorities by the seeded permutation ``tie`` (Eqs. 10–12).
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.2.2–§3.2.4, Eqs. 2–12, Fig. 6, doi:10.1007/s11263-007-0108-2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "quantise_intensity", "quantise_range", "window_weights", "portable_exp", "portable_log",
+    "combine_eq2", "on_confidence_grid", "eq2_distance", "confidence_term", "priority_terms",
+    "disc_offsets", "overlap_mean_square",
+    "np_reference", "bp_reference", "NPReference", "BPReference",
+]
+
+INTENSITY_BITS = RANGE_BITS = 16   #: quantisation of the normalised intensity and range
+WINDOW_BITS = 18                   #: the Gaussian window sums to about 2**WINDOW_BITS
+CONFIDENCE_BITS = 40               #: confidences are multiples of 2**-CONFIDENCE_BITS
+SUPPORT_PRIOR = 1e-4               #: ε of the mean-filled range term (see similarity.py)
+VALUE_TOLERANCE = 0.01             #: BP: centres this close (of the span) are one hypothesis
+NO_RANGE = -1                      #: a quantised range array holds this where range is unknown
+_UNIT = 2.0 ** -(2 * RANGE_BITS + WINDOW_BITS)   # one unit of an integer Eq. 2 sum
+_WEIGHT = 2.0 ** -WINDOW_BITS
+_SOBEL_ROW = ((-1, -2, -1), (0, 0, 0), (1, 2, 1))
+
+
+# -- the numeric contract ------------------------------------------------------------------
+
+
+def quantise_intensity(image: np.ndarray) -> np.ndarray:
+    """Intensity (H, W, C) → int64 in [0, 2**16]: ``rint(2**16 (I − min I) / (max I − min I))``."""
+    low = float(np.min(image))
+    span = float(np.max(image)) - low
+    span = span if span > 0 else 1.0
+    return np.rint((image - low) / span * 2.0**INTENSITY_BITS).astype(np.int64)
+
+
+def quantise_range(range_values: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Range (H, W), NaN unknown → (int64 with :data:`NO_RANGE` where unknown, low, span)."""
+    known = np.isfinite(range_values)
+    low = float(np.min(range_values[known]))
+    span = float(np.max(range_values[known])) - low
+    span = span if span > 0 else 1.0
+    q = np.rint((np.where(known, range_values, low) - low) / span * 2.0**RANGE_BITS)
+    return np.where(known, q, NO_RANGE).astype(np.int64), low, span
+
+
+def portable_exp(x):
+    """``exp(x)`` from IEEE ``+ − × ÷`` and ``ldexp`` only: the same bits on every machine.
+
+    ``x = k ln 2 + r`` (Cody–Waite, ``|r| ≤ ln2 / 2``), ``exp(r)`` by Horner on the Taylor
+    series to degree 13, then ``2**k``. Accurate to a few ulp; 0 below −745.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    k = np.rint(x * 1.4426950408889634)
+    r = (x - k * 6.93147180369123816490e-01) - k * 1.90821492927058770002e-10
+    p = np.full_like(x, 1.0 / math.factorial(13))
+    for j in range(12, -1, -1):
+        p = p * r + 1.0 / math.factorial(j)
+    k = np.clip(np.nan_to_num(k, nan=0.0), -1100, 1100).astype(np.int64)
+    return np.where(x < -745.0, 0.0, np.ldexp(p, k))
+
+
+def portable_log(x):
+    """``log(x)``, ``x > 0``, from IEEE ``+ − × ÷`` and ``frexp``: ``x = f 2**e``,
+    ``log f = 2 atanh((f − 1)/(f + 1))`` by its series to degree 31."""
+    x = np.asarray(x, dtype=np.float64)
+    f, e = np.frexp(x)
+    low = f < 0.7071067811865476
+    f = np.where(low, 2.0 * f, f)
+    e = np.where(low, e - 1, e).astype(np.float64)
+    z = (f - 1.0) / (f + 1.0)
+    z2 = z * z
+    s = np.full_like(x, 1.0 / 31.0)
+    for j in range(29, 0, -2):
+        s = s * z2 + 1.0 / j
+    return (e * 6.93147180369123816490e-01 + 2.0 * z * s) + e * 1.90821492927058770002e-10
+
+
+def window_weights(n: int) -> np.ndarray:
+    r"""Eq. 2's Gaussian window as int64, ``rint(2**18 G_v)``, ``G ∝ exp(−|v|²/2σ²)``, σ = n/6.4.
+
+    >>> int(window_weights(5)[2, 2]), int(window_weights(5).sum())
+    (68443, 262151)
+    """
+    sigma = n / 6.4
+    h = n // 2
+    e = [float(portable_exp(-(i * i + j * j) / (2.0 * sigma * sigma)))
+         for i in range(-h, h + 1) for j in range(-h, h + 1)]
+    total = 0.0
+    for value in e:   # left to right, raster order
+        total += value
+    return np.array([round(value / total * 2.0**WINDOW_BITS) for value in e],
+                    dtype=np.int64).reshape(n, n)
+
+
+def combine_eq2(si: int, sr: int, ws: int, wa: int, channels: int, range_weight: float,
+                missing_range: str) -> float:
+    r"""Eq. 2 from its four exact integer sums, in a fixed order of IEEE operations.
+
+    ``si = Σ_v G_v Σ_c ΔI²``, ``sr = Σ_{v∈S} G_v ΔR²`` (``S``: offsets both have range),
+    ``ws = Σ_{v∈S} G_v``, ``wa = Σ_{v∈A} G_v`` (``A``: offsets the target has range).
+    ``"ignore"``: ``si/C + λ sr`` (the literal Eq. 2); ``"mean"``:
+    ``si/C + (λ sr + λε) · (wa / (ws + ε))`` (see :mod:`refsynth.synthesis.similarity`).
+    """
+    intensity = (si * _UNIT) / channels
+    range_term = range_weight * (sr * _UNIT)
+    if missing_range == "mean":
+        range_term = (range_term + range_weight * SUPPORT_PRIOR) * (
+            (wa * _WEIGHT) / (ws * _WEIGHT + SUPPORT_PRIOR))
+    return intensity + range_term
+
+
+def on_confidence_grid(value: float) -> float:
+    """Round a confidence to a multiple of ``2**-40`` (so window sums of Eq. 11 are exact)."""
+    return float(np.rint(value * 2.0**CONFIDENCE_BITS)) * 2.0**-CONFIDENCE_BITS
+
+
+def disc_offsets(radius: float) -> list[tuple[int, int]]:
+    """Eq. 3's offsets ``v ≠ 0`` with ``|v|² ≤ r²``, in raster order (row, then column)."""
+    k = int(math.floor(radius))
+    return [(dr, dc) for dr in range(-k, k + 1) for dc in range(-k, k + 1)
+            if dr * dr + dc * dc <= radius * radius and (dr, dc) != (0, 0)]
+
+
+# -- Eq. 2 --------------------------------------------------------------------------------
+
+
+def eq2_distance(qi_a, qr_a, qi_b, qr_b, window, range_weight=16.0, missing_range="mean"):
+    r"""Eq. 2 between two quantised neighbourhoods (§3.2.2).
+
+    .. math:: \|N_a - N_b\| = \sum_v G(\sigma, v - v_0) \left[ \tfrac{1}{C}\sum_c
+              (I^a_{v,c} - I^b_{v,c})^2 + \lambda (R^a_v - R^b_v)^2 \right]
+
+    ``qi_*`` (n, n, C) and ``qr_*`` (n, n) are quantised intensity and range (:data:`NO_RANGE`
+    where unknown), ``window`` is :func:`window_weights`; ``missing_range`` as in
+    :func:`combine_eq2`. The integer sums are exact, so their order is free.
+    """
+    has_a, has_b = qr_a != NO_RANGE, qr_b != NO_RANGE
+    shared = has_a & has_b
+    di = qi_a - qi_b
+    dr = np.where(shared, qr_a - qr_b, 0)
+    si = int(np.sum(window[:, :, None] * di * di))
+    sr = int(np.sum(window * dr * dr))
+    return combine_eq2(si, sr, int(np.sum(window[shared])), int(np.sum(window[has_a])),
+                       qi_a.shape[2], range_weight, missing_range)
+
+
+class _Frame:
+    """The quantised image and range, padded by ``n // 2`` so that every window can be cut out.
+
+    Intensity is mirrored beyond the border (as :func:`~refsynth.synthesis.neighbourhood.
+    intensity_patches`); there is no range off the image. ``qr`` is updated as NP fills.
+    """
+
+    def __init__(self, image, range_values, n):
+        self.n, self.h = n, n // 2
+        self.shape = range_values.shape
+        pad = ((self.h, self.h), (self.h, self.h))
+        self.qi = np.pad(quantise_intensity(image), pad + ((0, 0),), mode="symmetric")
+        qr, self.low, self.span = quantise_range(range_values)
+        self.qr = np.pad(qr, pad, constant_values=NO_RANGE)
+        self.window = window_weights(n)
+
+    def inside(self, r, c):
+        return 0 <= r < self.shape[0] and 0 <= c < self.shape[1]
+
+    def patch(self, r, c):
+        """The intensity (n, n, C) and range (n, n) windows centred on (r, c)."""
+        return self.qi[r : r + self.n, c : c + self.n], self.qr[r : r + self.n, c : c + self.n]
+
+
+# -- NP: Eqs. 3–5 in the order of Eqs. 10–12 -----------------------------------------------
+
+
+@dataclass(frozen=True)
+class NPReference:
+    """What :func:`np_reference` returns (same meaning as :func:`refsynth.synthesize`'s)."""
+
+    range: np.ndarray
+    confidence: np.ndarray
+    order: np.ndarray
+    trace: list | None = None
+
+
+def _window_sum(values, r, c, h):
+    """Σ of ``values`` over the in-image part of the window of half-side ``h`` at (r, c)."""
+    return values[max(r - h, 0) : r + h + 1, max(c - h, 0) : c + h + 1].sum()
+
+
+def confidence_term(conf, r, c, n):
+    """Eq. 11: ``C(p) = Σ_{i ∈ N_p ∩ ζ} C(V_i) / |N_p|`` (|N_p|: the in-image voxels)."""
+    H, W = conf.shape
+    h = n // 2
+    count = (min(r + h, H - 1) - max(r - h, 0) + 1) * (min(c + h, W - 1) - max(c - h, 0) + 1)
+    return float(_window_sum(conf, r, c, h)) / count   # an exact sum: multiples of 2**-40
+
+
+def priority_terms(r, c, filled, qr, conf, edge_count, n, *, use_isophotes=True):
+    r"""The terms of Eq. 10 at a front voxel: ``(C, D, 1 / (1 + E))``; ``P = C · max(D, 0) + that``.
+
+    ``C`` is Eq. 11. ``D = 1 − |g_row m_col − g_col m_row| / ‖m‖`` is Eq. 12 with α = 1: ``g``
+    the mean forward difference of the quantised range, ``(R_b − R_a) 2**-16``, over the
+    vertically (``g_row``) or horizontally (``g_col``) adjacent filled pairs ``(a, b)`` whose
+    first voxel ``a`` lies in ``N_p``; ``m`` the Sobel gradient of the filled mask (the front
+    normal); D = 1 with ``use_isophotes=False``. ``edge_count`` is ``E``, or None without
+    edges (the term is then 1).
+    """
+    H, W = filled.shape
+    h = n // 2
+    e_term = 1.0 if edge_count is None else 1.0 / (1.0 + edge_count)
+    if not use_isophotes:
+        return confidence_term(conf, r, c, n), 1.0, e_term
+    sum_row = count_row = sum_col = count_col = 0
+    for i in range(max(r - h, 0), min(r + h, H - 1) + 1):
+        for j in range(max(c - h, 0), min(c + h, W - 1) + 1):
+            if filled[i, j] and i + 1 < H and filled[i + 1, j]:
+                sum_row, count_row = sum_row + int(qr[i + 1, j] - qr[i, j]), count_row + 1
+            if filled[i, j] and j + 1 < W and filled[i, j + 1]:
+                sum_col, count_col = sum_col + int(qr[i, j + 1] - qr[i, j]), count_col + 1
+    g_row = (sum_row * 2.0**-RANGE_BITS) / max(count_row, 1)
+    g_col = (sum_col * 2.0**-RANGE_BITS) / max(count_col, 1)
+    m_row = m_col = 0
+    for a in range(3):
+        for b in range(3):
+            i, j = r + a - 1, c + b - 1
+            if 0 <= i < H and 0 <= j < W and filled[i, j]:
+                m_row, m_col = m_row + _SOBEL_ROW[a][b], m_col + _SOBEL_ROW[b][a]
+    norm = math.sqrt(m_row * m_row + m_col * m_col) or 1.0
+    d_term = 1.0 - abs(g_row * m_col - g_col * m_row) / norm
+    return confidence_term(conf, r, c, n), d_term, e_term
+
+
+def _onion_schedule(known, rng):
+    """Fig. 7: layer (chessboard distance to the known region) by layer, seeded within one."""
+    H, W = known.shape
+    unknown = [(r, c) for r in range(H) for c in range(W) if not known[r, c]]
+    sources = [(r, c) for r in range(H) for c in range(W) if known[r, c]]
+    layer = [min(max(abs(r - a), abs(c - b)) for a, b in sources) for r, c in unknown]
+    tie = rng.permutation(len(unknown))
+    return [unknown[i] for i in sorted(range(len(unknown)), key=lambda i: (layer[i], tie[i]))]
+
+
+def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.0, epsilon=0.1,
+                 use_edges=True, use_isophotes=True, ordering="priority", range_weight=16.0,
+                 missing_range="mean", confidence_rule="product", trace=False) -> NPReference:
+    r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
+
+    For the front voxel ``p`` of highest priority (Eq. 10; edge voxels in a second tier,
+    equal keys by the seeded ``tie``), or the onion schedule (Fig. 7):
+
+    .. math:: A_p = \{N_q : |p - q| \le r,\ R_q \text{ filled}\}                 \quad (3)
+
+    .. math:: N_{best} = \arg\min_{A_p} \|N_p - N_q\|                              \quad (4)
+
+    .. math:: \Gamma' = \{N_q \in A_p : \|N_p - N_q\| \le (1 + \epsilon)
+              \|N_p - N_{best}\|\}                                                  \quad (5)
+
+    ``R_p`` is the centre range of a uniformly drawn member of Γ' (the draw ``u`` picks member
+    ``floor(u |Γ'|)``). If ``A_p`` is empty the search widens to the filled voxels within
+    ``d + r``, ``d`` the distance to the nearest. ``p`` then gets the confidence
+    ``C(p) · C(N_best)`` (``confidence_rule="product"``, refsynth's default) or ``C(N_best)``
+    (``"best"``, Eq. 11 as the text reads), on the confidence grid.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, C), float
+        As :func:`refsynth.synthesize` passes it (integers scaled to [0, 1]).
+    range_values : ndarray of shape (H, W), NaN where unknown
+    edges : ndarray of shape (H, W), bool
+    rng : numpy.random.Generator
+        Consumed as the fast code does: ``permutation`` of the padded frame (the ties), then
+        one ``random`` per unknown pixel (the Eq. 5 draws), then the onion permutation.
+    neighbourhood, radius, epsilon, use_edges, use_isophotes, ordering, range_weight, missing_range
+        See :func:`refsynth.synthesize`.
+    confidence_rule : {"product", "best"}
+    trace : bool
+        Also record every step (pixel, priority, candidates, distances, Γ', draw, source).
+
+    Returns
+    -------
+    NPReference
+        ``range``, ``confidence``, ``order`` ((N, 2) int64) and ``trace`` (list of dicts).
+    """
+    H, W = range_values.shape
+    n, h = neighbourhood, neighbourhood // 2
+    frame = _Frame(image, range_values, n)
+    known = np.isfinite(range_values)
+    filled, qr = known.copy(), frame.qr[h : h + H, h : h + W]   # a view: fills show in frame
+    conf = known.astype(np.float64)
+    out = range_values.copy()
+    pad = max(int(math.ceil(radius)), h + 1)
+    tie = rng.permutation((H + 2 * pad) * (W + 2 * pad)).reshape(H + 2 * pad, W + 2 * pad)
+    tie = tie[pad : pad + H, pad : pad + W]
+    total = int((~known).sum())
+    draws = rng.random(total)
+    schedule = _onion_schedule(known, rng) if ordering == "onion" else None
+    edge_count = [[int(_window_sum(edges.astype(np.int64), r, c, h)) for c in range(W)]
+                  for r in range(H)]
+    offsets = disc_offsets(radius)
+    order, steps = [], [] if trace else None
+    for step in range(total):
+        if schedule is not None:
+            p, terms = schedule[step], None
+        else:   # Eqs. 10–12: the front voxel with the smallest (tier, −P, tie)
+            key = p = terms = None
+            for r in range(H):
+                for c in range(W):
+                    front = not filled[r, c] and filled[max(r - 1, 0) : r + 2,
+                                                        max(c - 1, 0) : c + 2].any()
+                    if not front:
+                        continue
+                    C, D, E = priority_terms(r, c, filled, qr, conf,
+                                             edge_count[r][c] if use_edges else None, n,
+                                             use_isophotes=use_isophotes)
+                    P = C * max(D, 0.0) + E                                       # Eq. 10
+                    k = (int(use_edges and edges[r, c]), -P, int(tie[r, c]))
+                    if key is None or k < key:
+                        key, p, terms = k, (r, c), (C, D, E, P)
+        r, c = p
+        candidates = [(r + dr, c + dc) for dr, dc in offsets
+                      if frame.inside(r + dr, c + dc) and filled[r + dr, c + dc]]
+        if not candidates:   # a gap wider than r: widen to d + r
+            near = [(a, b) for a in range(H) for b in range(W) if filled[a, b]]
+            dist = [math.sqrt((a - r) ** 2 + (b - c) ** 2) for a, b in near]
+            candidates = [q for q, d in zip(near, dist) if d <= min(dist) + radius]
+        target = frame.patch(r, c)
+        distances = [eq2_distance(*target, *frame.patch(a, b), frame.window, range_weight,
+                                  missing_range) for a, b in candidates]
+        best = distances.index(min(distances))                        # Eq. 4, first minimum
+        threshold = (1.0 + epsilon) * distances[best]
+        members = [i for i, d in enumerate(distances) if d <= threshold]   # Eq. 5
+        source = candidates[members[int(draws[step] * len(members))]]
+        c_best = confidence_term(conf, *candidates[best], n)
+        new = c_best if confidence_rule == "best" else confidence_term(conf, r, c, n) * c_best
+        filled[r, c], qr[r, c], out[r, c] = True, qr[source], out[source]
+        conf[r, c] = on_confidence_grid(new)
+        order.append(p)
+        if trace:
+            steps.append(dict(pixel=p, terms=terms, candidates=candidates, distances=distances,
+                              best=best, members=members, draw=float(draws[step]),
+                              source=source, confidence=conf[r, c]))
+    return NPReference(out, conf, np.array(order, dtype=np.int64).reshape(-1, 2), steps)
+
+
+# -- BP: the algorithm of Fig. 6 (Eqs. 6–9) --------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BPReference:
+    """What :func:`bp_reference` returns.
+
+    ``range``, ``confidence``, ``order`` (raster) as :func:`refsynth.synthesize`; per node
+    (unknown pixels in raster order): ``labels`` (N,) the MAP label, ``candidates`` (N, k, 2)
+    the (row, col) of each label's centre, ``candidate_values`` (N, k), ``unary`` (N, k)
+    (log Φ plus the fixed neighbours' terms), ``beliefs`` (N, k) (log, unnormalised); per
+    4-neighbour pair of unknown pixels (horizontal pairs then vertical, raster order):
+    ``pairs`` (E, 2) node indices, ``log_psi`` (E, k, k) and ``messages`` (2E, k): row ``e``
+    goes ``pairs[e, 0] → pairs[e, 1]``, row ``E + e`` back; ``iterations`` the sweeps done;
+    ``trace`` (with ``trace=True``) the messages and the largest change after every sweep.
+    """
+
+    range: np.ndarray
+    confidence: np.ndarray
+    order: np.ndarray
+    labels: np.ndarray
+    candidates: np.ndarray
+    candidate_values: np.ndarray
+    unary: np.ndarray
+    pairs: np.ndarray
+    log_psi: np.ndarray
+    messages: np.ndarray
+    beliefs: np.ndarray
+    iterations: int
+    trace: list | None = None
+
+
+def overlap_mean_square(first, second, direction):
+    r"""Eq. 6's ``|d_jk^l − d_kj^m|²``: the mean squared difference of two range patches over
+    the pixels they share (``first`` left of / above ``second``) where both have range; 0 if
+    there is none (Ψ = 1). The integer sum is exact; one division makes the mean."""
+    if direction == "h":
+        a, b = first[:, 1:], second[:, :-1]
+    else:
+        a, b = first[1:, :], second[:-1, :]
+    both = (a != NO_RANGE) & (b != NO_RANGE)
+    count = int(both.sum())
+    if count == 0:
+        return 0.0
+    d = np.where(both, a - b, 0)
+    return (int(np.sum(d * d)) * 2.0 ** (-2 * RANGE_BITS)) / count
+
+
+def _bp_candidates(frame, known, r, c, k, radius, proximity, range_weight, missing_range, side):
+    """Fig. 6, step 2: the ``k`` training patches (measured centres) closest to node (r, c).
+
+    Ranked by Eq. 2 plus ``μ |v|² / r²``, ties by the raster order of the offsets; the radius
+    doubles until ``k`` are found, every measured pixel is in the disc, or ``ceil(r) ≥ side``
+    (the padded frame's longer side). Too few: the last one repeats.
+    """
+    total_known = int(known.sum())
+    target = frame.patch(r, c)
+    r_t = radius
+    while True:
+        offsets = disc_offsets(r_t)
+        dist = []
+        for dr, dc in offsets:
+            if not (frame.inside(r + dr, c + dc) and known[r + dr, c + dc]):
+                dist.append(math.inf)
+                continue
+            d = eq2_distance(*target, *frame.patch(r + dr, c + dc), frame.window, range_weight,
+                             missing_range)
+            if proximity:
+                d = d + (proximity / (radius * radius)) * (dr * dr + dc * dc)
+            dist.append(d)
+        kk = min(k, len(offsets))
+        ranked = sorted(range(len(offsets)), key=lambda i: (dist[i], i))[:kk]
+        finite = sum(math.isfinite(dist[i]) for i in ranked)
+        if (kk == k and finite == k) or math.ceil(r_t) >= side or total_known <= finite:
+            break
+        r_t *= 2.0
+    keep = [ranked[min(j, max(finite, 1) - 1, kk - 1)] for j in range(k)]
+    return [(r + offsets[i][0], c + offsets[i][1]) for i in keep], [dist[i] for i in keep]
+
+
+def _send(t, axis, product):
+    """Eq. 9 for one message: ``⊕`` over the sender's labels (``axis``), then normalised."""
+    if product == "max":
+        m = t.max(axis=axis)
+        return m - m.max()
+    top = t.max(axis=axis)
+    terms = portable_exp(t - np.expand_dims(top, axis))
+    m = np.zeros_like(top)
+    for label in range(t.shape[axis]):      # left to right over the sender's labels
+        m = m + np.take(terms, label, axis=axis)
+    m = portable_log(m) + top
+    z = 0.0
+    for value in portable_exp(m - m.max()):
+        z += value
+    return m - (float(portable_log(z)) + m.max())
+
+
+def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=8,
+                 sigma_i=0.1, sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
+                 damping=0.0, use_edges=True, range_weight=16.0, missing_range="mean",
+                 proximity=1.0, trace=False) -> BPReference:
+    r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
+
+    1. Nodes: the unknown pixels; fixed nodes: the measured ones.
+    2. Labels of node ``i``: its ``k`` closest training patches (:func:`_bp_candidates`).
+    3. Eq. 7, ``log Φ(x_i^l, y_i) = −d_l / 2σ_i²`` with ``d_l`` the ranking distance.
+    4. Eq. 6, ``log Ψ = −|d^l − d^m|² / 2σ_s²`` (:func:`overlap_mean_square`) for each pair
+       of unknown 4-neighbours; a measured neighbour adds ``log Ψ`` against its own patch to
+       the unary term, in the order right, left, below, above.
+    5. Eq. 9, synchronous sweeps: ``b_i = unary_i + Σ M_·i`` (incoming in the order left,
+       up, right, down), ``h = b_i − M_ji``, ``M_ij(x_j) = max_{x_i} [log Ψ + h]`` minus its
+       maximum (sum-product: log-sum-exp); nodes on an edge send nothing (the edge rule);
+       stop when no message moved by more than ``tolerance``.
+    6. Eq. 8, ``x_i = argmax b_i`` (the first maximum); its centre range is the result, its
+       belief pooled over labels proposing the same range (within 1 % of the span) the
+       confidence.
+
+    Parameters are :func:`refsynth.synthesize`'s (``k`` is ``candidates``); ``image``,
+    ``range_values`` and ``edges`` as in :func:`np_reference`. Returns :class:`BPReference`.
+    """
+    H, W = range_values.shape
+    h = neighbourhood // 2
+    frame = _Frame(image, range_values, neighbourhood)
+    known = np.isfinite(range_values)
+    pad = max(int(math.ceil(radius)), h + 1)
+    side = max(H, W) + 2 * pad
+    nodes = [(r, c) for r in range(H) for c in range(W) if not known[r, c]]
+    node_of = {p: i for i, p in enumerate(nodes)}
+    N = len(nodes)
+    cands, unary = np.zeros((N, k, 2), np.int64), np.zeros((N, k))
+    for i, (r, c) in enumerate(nodes):                                  # steps 2 and 3
+        cand, dist = _bp_candidates(frame, known, r, c, k, radius, proximity, range_weight,
+                                    missing_range, side)
+        cands[i] = cand
+        unary[i] = [-d / (2.0 * sigma_i * sigma_i) for d in dist]
+        patches = [frame.patch(a, b)[1] for a, b in cand]
+        for dr, dc, direction, node_first in ((0, 1, "h", True), (0, -1, "h", False),
+                                              (1, 0, "v", True), (-1, 0, "v", False)):
+            a, b = r + dr, c + dc
+            if not (frame.inside(a, b) and known[a, b]):
+                continue
+            fixed = frame.patch(a, b)[1]
+            for label, patch in enumerate(patches):                     # step 4, fixed
+                ms = overlap_mean_square(*((patch, fixed) if node_first else (fixed, patch)),
+                                         direction)
+                unary[i, label] = unary[i, label] + (-ms / (2.0 * sigma_s * sigma_s))
+    pairs = [(node_of[(r, c)], node_of[(r, c + 1)], "h") for r in range(H) for c in range(W - 1)
+             if (r, c) in node_of and (r, c + 1) in node_of]
+    pairs += [(node_of[(r, c)], node_of[(r + 1, c)], "v") for r in range(H - 1)
+              for c in range(W) if (r, c) in node_of and (r + 1, c) in node_of]
+    E = len(pairs)
+    log_psi = np.zeros((E, k, k))
+    for e, (a, b, direction) in enumerate(pairs):                       # step 4
+        pa = [frame.patch(*cands[a, label])[1] for label in range(k)]
+        pb = [frame.patch(*cands[b, label])[1] for label in range(k)]
+        for la in range(k):
+            for lb in range(k):
+                ms = overlap_mean_square(pa[la], pb[lb], direction)
+                log_psi[e, la, lb] = -ms / (2.0 * sigma_s * sigma_s)
+    incoming = [[] for _ in range(N)]     # message rows into each node: left, up, right, down
+    for e, pair in enumerate(pairs):
+        incoming[pair[1]].append(e)
+    for e, pair in enumerate(pairs):
+        incoming[pair[0]].append(E + e)
+    silent = [bool(use_edges and edges[r, c]) for r, c in nodes]
+
+    def beliefs(messages):
+        out = np.zeros((N, k))
+        for i in range(N):
+            total = np.zeros(k)
+            for row in incoming[i]:
+                total = total + messages[row]
+            out[i] = unary[i] + total
+        return out
+
+    messages = np.zeros((2 * E, k))
+    sweeps = [] if trace else None
+    done = 0
+    while done < iterations:                                            # step 5
+        done += 1
+        belief = beliefs(messages)
+        new = np.zeros((2 * E, k))
+        for e, (a, b, _) in enumerate(pairs):
+            if not silent[a]:
+                new[e] = _send(log_psi[e] + (belief[a] - messages[E + e])[:, None], 0, product)
+            if not silent[b]:
+                new[E + e] = _send(log_psi[e] + (belief[b] - messages[e])[None, :], 1, product)
+        if damping:
+            new = new * (1.0 - damping) + damping * messages
+        change = float(np.max(np.abs(new - messages), initial=0.0))
+        messages = new
+        if trace:
+            sweeps.append((messages.copy(), change))
+        if change <= tolerance:
+            break
+    belief = beliefs(messages)                                          # step 6
+    values = np.where(known, range_values, 0.0)[cands[..., 0], cands[..., 1]]
+    labels = np.zeros(N, np.int64)
+    out, confidence = range_values.copy(), known.astype(np.float64)
+    for i, (r, c) in enumerate(nodes):
+        labels[i] = int(np.argmax(belief[i]))
+        out[r, c] = values[i, labels[i]]
+        weights = portable_exp(belief[i] - belief[i].max())
+        z = 0.0
+        for w in weights:
+            z += w
+        pooled = 0.0
+        for label in range(k):
+            if abs(values[i, label] - out[r, c]) <= VALUE_TOLERANCE * frame.span:
+                pooled += weights[label] / z
+        confidence[r, c] = min(pooled, 1.0)
+    order = np.array(nodes, dtype=np.int64).reshape(-1, 2)
+    return BPReference(out, confidence, order, labels, cands, values, unary,
+                       np.array([p[:2] for p in pairs], np.int64).reshape(-1, 2), log_psi,
+                       messages, belief, done, sweeps)
