@@ -7,6 +7,7 @@
 - :func:`read_array`: any of the above, chosen by the file's suffix.
 - :func:`write_array`: ``.npy``, ``.pfm`` or a 16-bit ``.png``, chosen by the
   suffix (:data:`WRITE_SUFFIXES`); anything else is refused before writing.
+  :func:`write_unit_png16` writes values in [0, 1] (a confidence map).
 
 Every reader rejects what it cannot read exactly — a truncated or padded
 file, a malformed header, an image too large to decode safely — with a
@@ -26,7 +27,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import Image
 
 __all__ = [
     "read_pfm",
@@ -35,6 +36,7 @@ __all__ = [
     "read_array",
     "read_npy",
     "write_png16",
+    "write_unit_png16",
     "write_array",
     "check_write_suffix",
     "IMAGE_SUFFIXES",
@@ -184,6 +186,19 @@ def write_pfm(path: str | Path, array: np.ndarray) -> None:
 # ----------------------------------------------------------------------------- images
 
 
+def _decode(image: Image.Image) -> tuple[np.ndarray, str]:
+    """Pillow's pixels as an array: grey modes as they are, alpha dropped, the rest RGB."""
+    image.load()
+    mode = image.mode
+    if mode in ("LA", "La"):
+        image = image.getchannel("L")
+        mode = "L"
+    elif mode not in ("1", "L", "I", "F") and not mode.startswith("I;16"):
+        image = image.convert("RGB")
+        mode = "RGB"
+    return np.array(image), mode
+
+
 def read_image(path: str | Path, *, raw: bool = False) -> np.ndarray:
     """Read a PNG, JPEG, TIFF, PGM … image through Pillow; drop any alpha channel.
 
@@ -222,28 +237,17 @@ def read_image(path: str | Path, *, raw: bool = False) -> np.ndarray:
             image_file = Image.open(path)
         with image_file as image:
             width, height = image.size
-            if width * height > MAX_IMAGE_PIXELS:
-                raise ValueError(
-                    f"Cannot read '{path}' as an image: {width}x{height} pixels is more than "
-                    f"refsynth decodes ({MAX_IMAGE_PIXELS})"
-                )
-            image.load()
-            mode = image.mode
-            if mode in ("LA", "La"):
-                image = image.getchannel("L")
-                mode = "L"
-            elif mode not in ("1", "L", "I", "F") and not mode.startswith("I;16"):
-                image = image.convert("RGB")
-                mode = "RGB"
-            array = np.array(image)
-    except (
-        UnidentifiedImageError,
-        OSError,
-        SyntaxError,
-        Image.DecompressionBombError,
-        Image.DecompressionBombWarning,
-    ) as error:
-        raise ValueError(f"Cannot read '{path}' as an image: {error}") from error
+            if width * height <= MAX_IMAGE_PIXELS:
+                array, mode = _decode(image)
+    except Exception as error:  # Pillow raises OSError, ValueError,
+        # SyntaxError, EOFError, struct.error, zlib.error ... on a damaged file
+        reason = " ".join(str(error).split()) or type(error).__name__
+        raise ValueError(f"Cannot read '{path}' as an image: {reason}") from error
+    if width * height > MAX_IMAGE_PIXELS:
+        raise ValueError(
+            f"Cannot read '{path}' as an image: {width}x{height} pixels is more than "
+            f"refsynth decodes ({MAX_IMAGE_PIXELS})"
+        )
     if mode.startswith("I;16"):
         array = array.astype(np.uint16)
     if raw:
@@ -431,3 +435,45 @@ def check_write_suffix(path: str | Path, name: str = "path") -> str:
             f"got {str(path)!r}"
         )
     return suffix
+
+
+def write_unit_png16(path: str | Path, array: np.ndarray) -> Path:
+    """Write values in [0, 1] (a confidence map) as a 16-bit grey PNG: ``round(value · 65535)``.
+
+    Read back with ``read_image(path)``, which divides by 65535. Unlike
+    :func:`write_png16`, 0 is a value here, not "unknown".
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (overwritten if it exists).
+    array : ndarray of shape (H, W), real
+        Finite values in [0, 1].
+
+    Returns
+    -------
+    Path
+        The path written.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "confidence.png"
+    >>> _ = write_unit_png16(path, np.array([[0.0, 0.5], [1.0, 0.25]]))
+    >>> read_image(path).round(4).tolist()
+    [[0.0, 0.5], [1.0, 0.25]]
+
+    Raises
+    ------
+    ValueError
+        If the shape is not (H, W) or a value is not finite or outside [0, 1].
+    """
+    path = _check_path(path)
+    if not isinstance(array, np.ndarray) or array.ndim != 2 or 0 in array.shape:
+        shape = getattr(array, "shape", type(array).__name__)
+        raise ValueError(f"The parameter `array` must be a non-empty 2-D array, got {shape}")
+    values = np.asarray(array, dtype=np.float64)
+    if not (np.all(np.isfinite(values)) and values.min() >= 0 and values.max() <= 1):
+        raise ValueError(f"Cannot write '{path}' as a [0, 1] PNG: values must lie in [0, 1]")
+    Image.fromarray(np.rint(values * 65535).astype(np.uint16)).save(path, format="PNG")
+    return path

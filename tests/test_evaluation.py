@@ -423,3 +423,145 @@ def test_load_reprints_saved_rows(tmp_path, capsys):
         _evaluate(["--load", str(tmp_path / "bad.json")])
     with pytest.raises(ValueError, match="--load prints saved rows"):
         _evaluate(["--load", str(tmp_path / "rows.json"), "--methods", "np"])
+
+
+# ----------------------------------------------------------------------------- #14: the front door
+
+
+@pytest.mark.parametrize(("parse", "text", "match"), [
+    (parse_sampling, "g1_99999999999999999999999", "both at most 100000"),
+    (parse_sampling, "g100001_5", "both at most 100000"),
+    (parse_scene, "synthetic-٣", "unknown scene"),
+    (parse_scene, "synthetic-12345678901234567890", "unknown scene"),
+    (parse_size, "٣٢", "bad size"),
+    (parse_size, "1234567890x16", "bad size"),
+    (parse_sampling, "x٧٨", "unknown sampling"),
+])
+def test_specs_accept_ascii_digits_of_sensible_length_only(parse, text, match):
+    """#14 item 10: ``synthetic-٣`` read as room 3; a huge stripe width overflowed."""
+    with pytest.raises(ValueError, match=match) as info:
+        parse(text)
+    assert "\n" not in str(info.value)
+
+
+@pytest.fixture
+def no_grid(monkeypatch):
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the grid started before the checks failed")
+
+    monkeypatch.setattr("refsynth.cli.evaluate.run_cases", forbidden)
+
+
+@pytest.mark.parametrize(("argv", "match"), [
+    (["--scene", ""], "empty scene list"),
+    (["--size", ""], "empty size list"),
+    (["--sampling", ""], "empty sampling list"),
+    (["--methods", ""], "empty method list"),
+    (["--sampling", "g1_99999999999999999999999"], "at most 100000"),
+    (["--scene", "synthetic", "--size", "100000", "--sampling", "x78", "--methods", "nearest"],
+     r"the case synthetic-room-0 100000x100000 x78 nearest seed 0 would need about 9\.1 TiB "
+     "of memory"),
+    (["--scene", "synthetic", "--json", "rows.txt"], "--json must end in .json"),
+    (["--scene", "synthetic", "--csv", "rows.json"], "--csv must end in .csv"),
+    (["--scene", "synthetic", "--json", "a.json/rows.json"], "a.json is not a folder"),
+])
+def test_cli_refuses_before_any_work(tmp_path, monkeypatch, no_grid, argv, match):
+    """#14 items 5, 8, 10: a traceback, the default grid for "", or a failure after the work."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a.json").write_text("[]")
+    monkeypatch.setattr("refsynth.cli.arguments.physical_memory", lambda: 8 * 2**30)
+    with pytest.raises((ValueError, OSError), match=match) as info:
+        _evaluate([*argv, "--quiet"])
+    assert "\n" not in str(info.value)
+
+
+def test_cli_memory_estimate_counts_the_jobs(monkeypatch, no_grid):
+    monkeypatch.setattr("refsynth.cli.arguments.physical_memory", lambda: 2**30)
+    argv = ["--scene", "synthetic", "--size", "500", "--sampling", "x78", "--methods", "np"]
+    with pytest.raises(ValueError, match=r"3 cases at once \(--jobs 4\)"):
+        _evaluate([*argv, "--jobs", "4", "--quiet"])  # 3 seeds: 3 cases at most at once
+    with pytest.raises(AssertionError, match="the grid started"):  # one at a time fits
+        _evaluate([*argv, "--jobs", "1", "--quiet"])
+
+
+@pytest.mark.parametrize(("content", "match"), [
+    ("[" * 100_000 + "]" * 100_000, "nests too deeply"),
+    ("[]", "holds no rows"),
+    ('[{"scene": 1}]', "row 0 lacks"),
+    ("[1]", "row 0 is a int"),
+    ("\xff\xfe", "not UTF-8"),
+])
+def test_load_refuses_what_it_cannot_print(tmp_path, content, match):
+    """#14 item 10: deeply nested JSON raised RecursionError."""
+    path = tmp_path / "rows.json"
+    path.write_bytes(content.encode("latin-1") if content.startswith("\xff") else
+                     content.encode())
+    with pytest.raises(ValueError, match=match) as info:
+        _evaluate(["--load", str(path)])
+    assert "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+def test_load_checks_the_type_of_every_field(tmp_path, capsys):
+    argv = ["--scene", "synthetic", "--size", "16", "--sampling", "x78", "--methods",
+            "nearest", "--quiet", "--no-findings", "--json", str(tmp_path / "rows.json")]
+    assert _evaluate(argv) == 0
+    rows = json.loads((tmp_path / "rows.json").read_text())
+    for field, bad in [("mar", "0.5"), ("seeds", []), ("known", -1), ("units", None),
+                       ("mar_per_seed", [0.1, 0.2]), ("surprise", 1)]:
+        broken = [dict(rows[0], **{field: bad})]
+        (tmp_path / "bad.json").write_text(json.dumps(broken))
+        with pytest.raises(ValueError, match=f"row 0 .*(bad|unknown field|seeds but) "
+                           f"|{field}") as info:
+            _evaluate(["--load", str(tmp_path / "bad.json"), "--no-findings"])
+        assert "\n" not in str(info.value)
+    rows[0]["rmse"] = None  # NaN is written as null: read back as NaN
+    (tmp_path / "nan.json").write_text(json.dumps(rows))
+    assert _evaluate(["--load", str(tmp_path / "nan.json"), "--no-findings"]) == 0
+    assert "nan" in capsys.readouterr().out
+
+
+def test_progress_and_tables_use_one_scene_name_and_the_size_that_ran(capsys):
+    """#14 item 12: a 32x32 run was headed "128×128"; progress said synthetic-0."""
+    argv = ["--scene", "synthetic", "--size", "32", "--sampling", "g5_25",
+            "--methods", "np,bp", "--seeds", "1"]
+    assert _evaluate(argv) == 0
+    captured = capsys.readouterr()
+    assert "128×128" not in captured.out and "### synthetic-room-0 (m)" in captured.out
+    progress = [line for line in captured.err.splitlines() if line.startswith("[")]
+    assert len(progress) == 2 and all("] synthetic-room-0 32x32 g5_25 " in line
+                                      for line in progress)
+
+
+def test_scene_labels_match_the_loaded_scenes_names(tmp_path):
+    from refsynth.evaluation.cases import load_scene, scene_label
+
+    image = tmp_path / "pair" / "im0.png"
+    image.parent.mkdir()
+    Image.fromarray(np.zeros((16, 20, 3), np.uint8)).save(image)
+    np.save(image.parent / "disp.npy", np.ones((16, 20)))
+    specs = [("synthetic-2", "16x16"), ("motorcycle", "32x32"),
+             (parse_scene(f"{image}:{image.parent / 'disp.npy'}"), "native")]
+    for scene, size in specs:
+        assert scene_label(scene, size) == load_scene(scene, size).name
+
+
+def test_a_complex_npy_disparity_is_refused(tmp_path):
+    """#14 item 10: a complex .npy was cast to real with only a ComplexWarning."""
+    from refsynth.evaluation.cases import load_scene
+
+    Image.fromarray(np.zeros((16, 20), np.uint8)).save(tmp_path / "im.png")
+    np.save(tmp_path / "disp.npy", np.ones((16, 20)) + 1j)
+    scene = parse_scene(f"{tmp_path / 'im.png'}:{tmp_path / 'disp.npy'}")
+    with pytest.raises(ValueError, match="must hold real numbers, got dtype complex128"):
+        load_scene(scene, "native")
+
+
+def test_case_memory_scales_with_pixels_and_method():
+    from refsynth.evaluation.cases import Case, case_memory
+
+    small, large = (case_memory(Case("synthetic-0", size, "x78", "np", 0))
+                    for size in ("100x100", "200x200"))
+    assert large == 4 * small
+    assert case_memory(Case("synthetic-0", "100x100", "x78", "bp", 0)) > small
+    assert case_memory(Case("synthetic-0", "100x100", "x78", "nearest", 0)) < small
+    assert case_memory(Case("motorcycle", "native", "x78", "np", 0)) == 741 * 500 * small / 1e4

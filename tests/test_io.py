@@ -292,3 +292,88 @@ def test_write_png16_refuses_values_it_cannot_store(tmp_path):
     with pytest.raises(ValueError, match="outside 1..65535"):
         write_png16(tmp_path / "r.png", np.array([[70000.0, 2.0]]))
     assert not (tmp_path / "r.png").exists()
+
+
+# ----------------------------------------------------------------------------- fuzz (#14 item 6)
+
+
+def _valid_bytes(suffix: str, array: np.ndarray, folder) -> bytes:
+    """The bytes of a valid file of ``suffix`` holding ``array`` (grey, small)."""
+    path = folder / f"valid{suffix}"
+    if suffix == ".npy":
+        np.save(path, array)
+    elif suffix == ".pfm":
+        write_pfm(path, array.astype(np.float32))
+    else:
+        Image.fromarray((array * 255).astype(np.uint8)).save(path)
+    return path.read_bytes()
+
+
+@st.composite
+def damaged_file(draw):
+    """A suffix and bytes: random junk, or a valid small file truncated, overwritten or padded."""
+    suffix = draw(st.sampled_from([".npy", ".pfm", ".png"]))
+    if draw(st.booleans()):
+        return suffix, draw(st.binary(max_size=200)), None
+    height, width = draw(st.integers(1, 4)), draw(st.integers(1, 4))
+    array = draw(arrays(np.float64, (height, width), elements=st.floats(0, 1)))
+    edits = draw(st.lists(st.tuples(st.sampled_from(["cut", "set", "insert", "append"]),
+                                    st.integers(0, 10_000), st.binary(min_size=1, max_size=8)),
+                          max_size=3))
+    return suffix, array, edits
+
+
+def _apply(data: bytes, edits) -> bytes:
+    for kind, where, chunk in edits:
+        at = where % (len(data) + 1)
+        if kind == "cut":
+            data = data[:at]
+        elif kind == "set":
+            data = data[:at] + chunk + data[at + len(chunk):]
+        elif kind == "insert":
+            data = data[:at] + chunk + data[at:]
+        else:
+            data = data + chunk
+    return data
+
+
+@settings(deadline=None, max_examples=300)
+@given(damaged_file())
+def test_readers_give_an_array_or_one_line_naming_the_file(tmp_path_factory, case):
+    """Random or damaged .npy/.pfm/.png files: an array, or one ValueError line naming the file."""
+    folder = tmp_path_factory.mktemp("fuzz")
+    suffix, content, edits = case
+    if edits is not None:
+        content = _apply(_valid_bytes(suffix, content, folder), edits)
+    path = folder / f"damaged{suffix}"
+    path.write_bytes(content)
+    for raw in (False, True):
+        try:
+            array = read_array(path, raw=raw)
+        except ValueError as error:
+            message = str(error)
+            assert "\n" not in message and str(path) in message, message
+        else:
+            assert isinstance(array, np.ndarray)
+
+
+def test_a_damaged_file_pillow_rejects_with_a_value_error_names_the_file(tmp_path):
+    """Pillow raised a bare ValueError ("Reached EOF while reading header") for this one."""
+    path = tmp_path / "range.png"
+    path.write_bytes(b"P1")
+    with pytest.raises(ValueError, match="Cannot read .*range.png' as an image") as info:
+        read_array(path, raw=True)
+    assert "\n" not in str(info.value)
+
+
+def test_write_unit_png16_round_trips_a_confidence_map(tmp_path):
+    from refsynth.io import write_unit_png16
+
+    confidence = np.array([[0.0, 0.25], [0.5, 1.0]])
+    write_unit_png16(tmp_path / "c.png", confidence)
+    np.testing.assert_allclose(read_image(tmp_path / "c.png"), confidence, atol=1 / 65535)
+    assert read_image(tmp_path / "c.png", raw=True).dtype == np.uint16
+    for bad in (np.array([[0.5, 1.5]]), np.array([[np.nan, 0.5]]), np.zeros(3)):
+        with pytest.raises(ValueError):
+            write_unit_png16(tmp_path / "bad.png", bad)
+    assert not (tmp_path / "bad.png").exists()

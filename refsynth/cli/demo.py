@@ -1,19 +1,31 @@
-"""``python -m refsynth demo``: the main job, and its table.
+"""``python -m refsynth demo``: the paper's story end to end, or (``--quick``) the main job's table.
 
 :func:`add_demo_parser` adds the subcommand to the main parser of
-:mod:`refsynth.cli.main`. The work is :func:`refsynth.plotting.demo.run_demo`
-(the synthetic room: NP, its ablations, BP and the baselines on two
-samplings) or, with ``--pipeline``, :func:`refsynth.plotting.demo.run_pipeline_demo`
-(simulated scan → registration → synthesis); this module prints their
-results. User errors are raised as ValueError with a one-line message.
+:mod:`refsynth.cli.main`. The default is
+:func:`refsynth.plotting.story.run_pipeline_demo`: the simulated rig scans
+its room from two positions, registration (Appendix A), NP and BP, a table
+of MAR against the simulator's ground truth, the targets of stage 3, the
+merged 3-D model and its rendered view (about a minute on two cores);
+``--pipeline`` is the same (kept for old scripts). ``--quick`` (or
+``--size``) is :func:`refsynth.plotting.demo.run_demo`: the synthetic room,
+NP, its ablations, BP and the baselines on two samplings (about 10 s). This
+module prints their results, and the story's progress with the time left on
+stderr. The output folder and the memory the largest fill needs are checked
+before any work. User errors are raised as ValueError / OSError with a
+one-line message.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import sys
+import time
 from pathlib import Path
 
+from refsynth.cli.arguments import check_folder, check_memory, integer
 from refsynth.cli.synth import pixel_progress
+from refsynth.evaluation.cases import Case, case_memory
 from refsynth.plotting.demo import DEMO_FIGURES, run_demo, run_pipeline_demo
 
 __all__ = ["add_demo_parser"]
@@ -29,19 +41,149 @@ def _format_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
     return "\n".join([line(header), line(["-" * w for w in widths]), *map(line, body)])
 
 
+def _clock(seconds: float) -> str:
+    """``75.2`` → ``"1:15"``."""
+    minutes, seconds = divmod(int(seconds), 60)
+    return f"{minutes}:{seconds:02d}"
+
+
+def story_progress(*, stream=None, interval: float | None = None, clock=time.monotonic):
+    """The story's progress on stderr: stage, percent, time elapsed and left.
+
+    A ``progress(stage, fraction)`` for
+    :func:`refsynth.plotting.story.run_pipeline_demo`. On a terminal one line
+    is updated in place (every 0.2 s); otherwise (a log, a pipe) a line is
+    written as each stage starts and every 5 s within one, e.g. ``demo:  42 %
+    position 2: BP, 0:31 elapsed, ~0:43 left``.
+    """
+    out = sys.stderr if stream is None else stream
+    try:
+        tty = bool(out.isatty())
+    except (AttributeError, ValueError):
+        tty = False
+    every = (0.2 if tty else 5.0) if interval is None else interval
+    start = clock()
+    state = {"stage": None, "last": -math.inf, "width": 0}
+
+    def report(stage: str, fraction: float) -> None:
+        now = clock()
+        if stage == state["stage"] and now - state["last"] < every:
+            return
+        state["stage"], state["last"] = stage, now
+        elapsed = now - start
+        line = f"demo: {100 * fraction:3.0f} % {stage}, {_clock(elapsed)} elapsed"
+        if fraction > 0.02:
+            line += f", ~{_clock(elapsed * (1 - fraction) / fraction)} left"
+        if tty:
+            padding = " " * max(0, state["width"] - len(line))
+            state["width"] = len(line)
+            print(f"\r{line}{padding}", end="", file=out, flush=True)
+        else:
+            print(line, file=out, flush=True)
+
+    def finish() -> None:
+        if tty and state["width"]:
+            print(file=out, flush=True)
+
+    report.finish = finish
+    return report
+
+
+def _print_targets(targets: dict) -> None:
+    """#12's targets as a table: one column per position."""
+    per = targets["positions"]
+    names = [f"position {k}" for k in range(1, len(per) + 1)]
+    methods = [m for m in per[0]["points_percent"] if m != "measured"]
+    rows = []
+
+    def row(measure, cells, target=""):
+        rows.append({"measure": measure, **dict(zip(names, cells)), "target": target})
+
+    row("model points off the true surface (median % of range) [1]: measured",
+        [f"{p['points_percent']['measured']:.2f} %" for p in per], "<= 1 %")
+    for m in methods:
+        row(f"  {m}-synthesized", [f"{p['points_percent'][m]:.2f} %" for p in per])
+    tri = [p["triangles"] for p in per]
+    row("triangles bridging a true depth discontinuity [2]: measured",
+        [f"{t['measured']['bridging']} of {t['measured']['triangles']}" for t in tri], "0")
+    for m in methods:
+        row(f"  with a synthesized vertex, {m}",
+            [f"{t[m]['bridging']} of {t[m]['triangles']}" for t in tri])
+    row("silhouette triangles [3]: measured / " + " / ".join(methods),
+        [" / ".join(str(t[k]["silhouette"]) for k in ("measured", *methods)) for t in tri])
+    cells = ["-"] * len(per)
+    for entry in targets["alignment"]:
+        cells[entry["position"] - 1] = (f"{entry['odometry_cm']:.2f} -> "
+                                        f"{entry['refined_cm']:.2f} cm")
+    row(f"median alignment error of the merged model ({targets['merged']['method']}): "
+        "odometry (2 deg, 10 cm) -> ICP", cells, "<= 1 cm")
+    print("stage 3 against the room's truth (#12's targets):")
+    print(_format_table(rows, [("measure", "measure", ""), *((n, n, "") for n in names),
+                               ("target", "target", "")]))
+    print("  [1] |r - r_true| / r_true along each point's ray (r_true: the simulator's ray caster "
+          "from the true pose)")
+    print("  [2] the true range jumps by > 10 % between its pixels and its centre lies > 2.5 % "
+          "of its range off every true surface")
+    print("  [3] the true range jumps by > 10 % between its pixels, but the triangle lies on one "
+          "surface (a range registered a pixel beside a depth edge)")
+    merged = targets["merged"]
+    print(f"merged model: {merged['vertices']} vertices ({merged['fused_away']} fused away in "
+          f"the overlap), {merged['triangles']} triangles")
+
+
+def _print_story(summary: dict, args, seconds: float) -> None:
+    """The story's results on stdout: positions, the MAR table, the targets, every file."""
+    positions = summary["positions"]
+    print(f"refsynth demo: the simulated rig's room (seed {args.seed}) scanned from "
+          f"{len(positions)} positions, 40 % of the 500 slices each; {seconds:.0f} s")
+    for k, position in enumerate(positions, start=1):
+        pose, (h, w) = position["pose"], position["panorama"]
+        print(f"  position {k}: x = {pose['x']:g} m, z = {pose['z']:g} m, heading "
+              f"{pose['heading']:g} deg ({position['scan']}); registered panorama {w}x{h}, "
+              f"{100 * position['known']:.0f} % with range; warp a, b, alpha, beta = "
+              + ", ".join(f"{v:.2f}" for v in position["warp"]))
+    print("MAR (Eq. 13) against the simulator's ground truth, range in m, on every 2nd row "
+          "and column of each panorama:")
+    print(_format_table(summary["rows"], [
+        ("position", "position", ""), ("method", "method", ""),
+        ("unknown", "unknown %", ".1f"), ("mar", "MAR (m)", ".4f"), ("rmse", "RMSE (m)", ".4f"),
+        ("median_percent", "median |error| / range %", ".2f"), ("seconds", "seconds", ".2f"),
+    ]))
+    _print_targets(summary["targets"])
+    print("wrote:")
+    for path in summary["files"]:
+        print(f"  {path}{'/' if Path(path).is_dir() else ''}")
+
+
+def _cmd_story(args) -> int:
+    check_memory(case_memory(Case("synthetic-0", "481x114", "x78", "bp", 0)),
+                 "the demo", "run demo --quick")
+    progress = story_progress()
+    start = time.perf_counter()
+    try:
+        summary = run_pipeline_demo(Path(args.out), seed=args.seed, progress=progress)
+    finally:
+        progress.finish()
+    _print_story(summary, args, time.perf_counter() - start)
+    return 0
+
+
 def _cmd_demo(args) -> int:
-    if args.pipeline:
-        summary = run_pipeline_demo(Path(args.out), seed=args.seed, progress=pixel_progress)
-        h, w = summary["panorama"]
-        print(f"refsynth demo --pipeline: simulated scan ({args.out}/scan), registered panorama "
-              f"{w}x{h}, {100 * summary['known']:.0f} % with range; warp a, b, alpha, beta = "
-              + ", ".join(f"{v:.2f}" for v in summary["warp"]))
-        for method, seconds in summary["seconds"].items():
-            figure = Path(args.out) / f"pipeline_{method}.png"
-            print(f"{method.upper()}: {seconds:.1f} s -> {figure}")
-        return 0
+    check_folder(args.out, "--out")
+    if args.seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    quick = args.quick or args.size is not None
+    if quick and args.pipeline:
+        raise ValueError("--pipeline (the default story) takes no --quick or --size")
+    if not quick:
+        return _cmd_story(args)
+    if args.size is None:
+        args.size = 128
     if args.size < 16:
         raise ValueError(f"--size must be at least 16, got {args.size}")
+    size = f"{args.size}x{args.size}"
+    check_memory(case_memory(Case("synthetic-0", size, "x78", "bp", 0)),
+                 f"the demo at --size {args.size}", "choose a smaller --size")
     rows = run_demo(Path(args.out), size=args.size, seed=args.seed, progress=pixel_progress)
     print(f"refsynth demo: synthetic room {args.size}x{args.size}, seed {args.seed}, range in m")
     print(_format_table(rows, [
@@ -54,12 +196,25 @@ def _cmd_demo(args) -> int:
 
 def add_demo_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``demo`` subcommand to an argparse subparsers object (sets ``func=``)."""
-    demo = subparsers.add_parser("demo", help="run the main job on the bundled synthetic room")
-    demo.add_argument("--out", default="refsynth-demo", help="folder for the figures")
-    demo.add_argument("--size", type=int, default=128, help="image side in pixels (default 128)")
-    demo.add_argument("--seed", type=int, default=0, help="scene and synthesis seed")
+    demo = subparsers.add_parser(
+        "demo", help="the paper's story end to end on the simulated rig (--quick: the main "
+        "job's table on the synthetic room)",
+        description="The paper's story end to end (about a minute): the simulated rig scans "
+        "its room from two positions, the scans are registered to the pictures (Appendix A), "
+        "NP and BP fill the range (a table of MAR against the ground truth, with nearest and "
+        "colorization), and the positions become one 3-D model (PLY, ICP-refined odometry) "
+        "and a rendered view. --quick: NP, its ablations, BP and the baselines on the "
+        "synthetic room, one table (about 10 s).")
+    demo.add_argument("--out", default="refsynth-demo",
+                      help="folder for the scans, models and figures (default refsynth-demo)")
+    demo.add_argument("--quick", action="store_true",
+                      help="the main job's table on the synthetic room instead (default off)")
+    demo.add_argument("--size", type=integer, default=None,
+                      help="--quick: the synthetic room's side in pixels, at least 16; implies "
+                      "--quick (default 128)")
+    demo.add_argument("--seed", type=integer, default=0,
+                      help="room, noise and synthesis seed (default 0)")
     demo.add_argument("--pipeline", action="store_true",
-                      help="acquire with the simulated rig, register, then synthesize "
-                      "(instead of the pre-aligned synthetic room)")
+                      help="the default story (kept for old scripts; default off)")
     demo.set_defaults(func=_cmd_demo)
     return demo

@@ -1,104 +1,334 @@
 """``python -m refsynth synth``: fill the unknown range of your own image (§3.2).
 
 :func:`add_synth_parser` adds the subcommand to the main parser of
-:mod:`refsynth.cli.main`: it reads an intensity image and a partial range
-(NPY/PFM: NaN or inf = unknown; an image file: 0 = unknown), optionally
-masks the range, runs :func:`refsynth.synthesize` and writes the dense range
-(and a figure). :func:`pixel_progress` is the command line's progress line
-for one synthesis, which the ``demo`` and ``figures`` commands use too. User
-errors are raised as ValueError / TypeError / OSError with a one-line message.
+:mod:`refsynth.cli.main`. It reads an intensity image and a partial range,
+optionally masks the range, runs :func:`refsynth.synthesize` (NP or BP) and
+writes the dense range, and optionally its confidence map and a figure.
+
+Units: the dense range comes back in the partial range's unit. A ``.npy``
+or ``.pfm`` range is read as stored (NaN or ±inf = unknown); an image range
+(PNG, TIFF, PGM …) as its stored integers (0 = unknown), divided by
+``--png-scale`` if it is given. ``--out`` writes the format its suffix names:
+``.npy``, ``.pfm`` (float32) or a 16-bit ``.png`` holding
+``round(range × png-scale)`` (0 = unknown; default scale 1, which needs a
+range of whole numbers).
+
+Every output path, every option and every limit is checked before the work
+starts. :func:`pixel_progress` is the command line's progress line for one
+synthesis (the ``demo`` and ``figures`` commands use it too). User errors are
+raised as ValueError / TypeError / OSError with a one-line message.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from matplotlib.backend_bases import FigureCanvasBase
 
-from refsynth.io import read_array
+from refsynth.cli.arguments import check_output, integer, make_parent, real
+from refsynth.io import IMAGE_SUFFIXES, WRITE_SUFFIXES, read_array, write_array, write_unit_png16
 from refsynth.plotting.layouts import result_figure
 from refsynth.synthesis.api import synthesize
 
 __all__ = ["pixel_progress", "add_synth_parser"]
 
+#: Seconds between progress lines when stderr is not a terminal (a log file, a pipe).
+LOG_INTERVAL = 5.0
+#: Seconds between ``\r`` updates of the progress line on a terminal.
+TTY_INTERVAL = 0.2
 
-def pixel_progress(label: str) -> Callable[[int, int], None] | None:
-    """A progress callback writing ``label: done/total pixels`` on one stderr line.
 
-    None (no progress) when stderr is not a terminal.
+def _clock(seconds: float) -> str:
+    """``75.2`` → ``"1:15"``; an hour or more → ``"1:02:03"``."""
+    seconds = int(seconds)
+    hours, rest = divmod(seconds, 3600)
+    minutes, seconds = divmod(rest, 60)
+    return f"{hours}:{minutes:02d}:{seconds:02d}" if hours else f"{minutes}:{seconds:02d}"
+
+
+def pixel_progress(label: str, *, stream=None, interval: float | None = None,
+                   clock: Callable[[], float] = time.monotonic) -> Callable[[int, int], None]:
+    """A progress callback for :func:`refsynth.synthesize`, writing to stderr with time left.
+
+    On a terminal the line is updated in place (``\\r``) every
+    :data:`TTY_INTERVAL` seconds and ends with the final count. Otherwise
+    (a log file, a pipe, a CI job) one line is written every
+    :data:`LOG_INTERVAL` seconds, and a last one at the end if any was
+    written: a run shorter than the interval writes nothing.
+
+    Parameters
+    ----------
+    label : str
+        What is running, e.g. ``"synthesizing"``.
+    stream : file, optional
+        Default ``sys.stderr`` (looked up at each call's creation).
+    interval : float, optional
+        Seconds between lines; default as above.
+    clock : callable, default time.monotonic
+
+    Returns
+    -------
+    callable
+        ``report(done, total)``, e.g. ``synthesizing: 42 % (155610/370500),
+        0:40 elapsed, ~0:55 left``.
     """
-    if not sys.stderr.isatty():
-        return None
-    start = time.perf_counter()
+    out = sys.stderr if stream is None else stream
+    try:
+        tty = bool(out.isatty())
+    except (AttributeError, ValueError):
+        tty = False
+    every = (TTY_INTERVAL if tty else LOG_INTERVAL) if interval is None else interval
+    start = clock()
+    state = {"last": start, "printed": False, "width": 0, "finished": False}
 
     def report(done: int, total: int) -> None:
-        end = "\n" if done >= total else ""
-        rate = done / max(time.perf_counter() - start, 1e-9)
-        print(f"\r{label}: {done}/{total} pixels ({rate:,.0f}/s)", end=end, file=sys.stderr)
+        now = clock()
+        finished = done >= total
+        if state["finished"] or (not finished and now - state["last"] < every):
+            return
+        state["finished"] = finished
+        if finished and not tty and not state["printed"]:
+            return
+        elapsed = now - start
+        percent = 100.0 * done / total if total else 100.0
+        line = f"{label}: {percent:3.0f} % ({done}/{total}), {_clock(elapsed)} elapsed"
+        if not finished and done > 0:
+            line += f", ~{_clock(elapsed * (total - done) / done)} left"
+        state["last"], state["printed"] = now, True
+        if tty:
+            padding = " " * max(0, state["width"] - len(line))
+            state["width"] = len(line)
+            print(f"\r{line}{padding}", end="\n" if finished else "", file=out, flush=True)
+        else:
+            print(line, file=out, flush=True)
 
     return report
 
 
-def _read(path: str, what: str) -> np.ndarray:
+# ----------------------------------------------------------------------------- reading
+
+
+def _read(path: str, what: str, *, raw: bool = False) -> np.ndarray:
     if not Path(path).is_file():
         raise FileNotFoundError(f"{what} file not found: {path}")
-    return read_array(path)
+    array = read_array(path, raw=raw)
+    if array.dtype.kind not in "biuf":
+        raise TypeError(f"{what} file {path} must hold real numbers, got dtype {array.dtype}")
+    return array
 
 
-def _cmd_synth(args) -> int:
-    intensity = _read(args.image, "image")
-    partial = _read(args.range, "range").astype(np.float64)
-    if partial.ndim == 3:
-        raise ValueError(f"range file must hold a single channel, got shape {partial.shape}")
-    if Path(args.range).suffix.lower() not in (".npy", ".pfm"):
+def _is_image(path: str) -> bool:
+    return Path(path).suffix.lower() in IMAGE_SUFFIXES
+
+
+def _read_range(args) -> np.ndarray:
+    """The partial range, float64 (H, W), NaN where unknown, in the file's unit."""
+    stored = _read(args.range, "range", raw=True)
+    if stored.ndim != 2:
+        raise ValueError(f"range file {args.range} must hold a single channel (H, W), "
+                         f"got shape {stored.shape}")
+    if stored.dtype == bool:
+        raise TypeError(f"range file {args.range} holds booleans, not range values")
+    partial = stored.astype(np.float64)
+    if _is_image(args.range):
         partial[partial == 0] = np.nan  # image files: 0 marks unknown range
-    partial[np.isinf(partial)] = np.nan  # PFM: inf marks unknown
+        if args.png_scale is not None:
+            partial /= args.png_scale
+    partial[~np.isfinite(partial)] = np.nan  # PFM: inf marks unknown; NPY: NaN or inf
     if args.mask is not None:
         mask = _read(args.mask, "mask")
         if mask.ndim == 3:
-            mask = mask.mean(axis=2)
+            mask = mask.max(axis=2)
         if mask.shape != partial.shape:
             raise ValueError(f"mask shape {mask.shape} differs from range shape {partial.shape}")
         partial = np.where(mask > 0, partial, np.nan)
+    return partial
+
+
+# ----------------------------------------------------------------------------- checks
+
+#: The options only one method uses: CLI name -> (attribute, method).
+_METHOD_OPTIONS = {
+    "--epsilon": ("epsilon", "np"), "--ordering": ("ordering", "np"),
+    "--no-isophotes": ("use_isophotes", "np"), "--candidates": ("candidates", "bp"),
+    "--proximity": ("proximity", "bp"), "--sigma-i": ("sigma_i", "bp"),
+    "--sigma-s": ("sigma_s", "bp"), "--iterations": ("iterations", "bp"),
+}
+_DEFAULT_RADIUS = 10.0
+_DEFAULT_NEIGHBOURHOOD = 5
+
+
+def _check_options(args) -> tuple[Path, Path | None, Path | None]:
+    """Everything that does not need the files: outputs, method options, --png-scale."""
+    out = check_output(args.out, "--out", WRITE_SUFFIXES)
+    confidence = (None if args.confidence is None
+                  else check_output(args.confidence, "--confidence", WRITE_SUFFIXES))
+    figure = None
+    if args.figure is not None:
+        kinds = sorted(f".{kind}" for kind in FigureCanvasBase.get_supported_filetypes())
+        figure = check_output(args.figure, "--figure", kinds)
+    written = [p.resolve() for p in (out, confidence, figure) if p is not None]
+    if len(set(written)) < len(written):
+        raise ValueError("--out, --confidence and --figure must be different files")
+    for option, (name, method) in _METHOD_OPTIONS.items():
+        if getattr(args, name) is not None and args.method != method:
+            raise ValueError(f"{option} applies to --method {method} only (got --method "
+                             f"{args.method})")
+    if args.png_scale is not None:
+        if args.png_scale <= 0:
+            raise ValueError(f"--png-scale must be > 0, got {args.png_scale:g}")
+        if not (_is_image(args.range) or out.suffix.lower() == ".png"):
+            raise ValueError("--png-scale applies to an image RANGE or a .png --out only")
+    if args.seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    return out, confidence, figure
+
+
+def _check_limits(args, shape: tuple[int, int]) -> None:
+    """Refuse --radius / --neighbourhood beyond what the image can use."""
+    height, width = shape
+    reach = math.ceil(math.hypot(height - 1, width - 1))  # reaches every pixel from any pixel
+    if args.radius > max(reach, _DEFAULT_RADIUS):
+        raise ValueError(
+            f"--radius {args.radius:g} is larger than the {width}x{height} image needs: "
+            f"{reach} already reaches every pixel; give at most {max(reach, 10)}"
+        )
+    side = 2 * max(height, width) - 1  # a window of this side covers the image from any pixel
+    if args.neighbourhood > max(side, _DEFAULT_NEIGHBOURHOOD):
+        raise ValueError(
+            f"--neighbourhood {args.neighbourhood} is larger than the {width}x{height} image "
+            f"needs: {side} already covers it from every pixel; give at most "
+            f"{max(side, _DEFAULT_NEIGHBOURHOOD)}"
+        )
+
+
+def _check_png_out(path: Path, partial: np.ndarray, scale: float | None) -> None:
+    """A .png --out stores round(range × scale) in 1..65535: check the known values now.
+
+    Both methods copy measured values, so the dense range spans what the known
+    range spans.
+    """
+    known = partial[np.isfinite(partial)]
+    if known.size == 0:
+        return
+    stored = known * (1.0 if scale is None else scale)
+    if scale is None and not np.array_equal(stored, np.rint(stored)):
+        raise ValueError(
+            f"--out {path} stores whole numbers but the range has fractions "
+            f"({known.min():g}..{known.max():g}): give --png-scale (e.g. 1000 for mm from m) "
+            "or write .npy / .pfm"
+        )
+    low, high = float(np.rint(stored.min())), float(np.rint(stored.max()))
+    if low < 1 or high > 65535:
+        raise ValueError(
+            f"--out {path}: the range x {1.0 if scale is None else scale:g} spans "
+            f"{low:g}..{high:g}, outside a 16-bit PNG's 1..65535 (0 = unknown); "
+            "choose another --png-scale or write .npy / .pfm"
+        )
+
+
+# ----------------------------------------------------------------------------- the command
+
+
+def _cmd_synth(args) -> int:
+    out, confidence_path, figure_path = _check_options(args)
+    intensity = _read(args.image, "image")
+    partial = _read_range(args)
+    _check_limits(args, partial.shape)
+    if out.suffix.lower() == ".png":
+        _check_png_out(out, partial, args.png_scale)
+    options = {name: getattr(args, name) for name, _ in _METHOD_OPTIONS.values()}
     result = synthesize(
         intensity, partial, method=args.method, seed=args.seed,
-        neighbourhood=args.neighbourhood, radius=args.radius, epsilon=args.epsilon,
-        use_edges=not args.no_edges, use_isophotes=not args.no_isophotes,
-        ordering=args.ordering, progress=pixel_progress("synthesizing"),
+        neighbourhood=args.neighbourhood, radius=args.radius, use_edges=not args.no_edges,
+        progress=pixel_progress("synthesizing"), **options,
     )
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    np.save(out, result.range)
-    print(f"wrote {out}: {result.range.shape[0]}x{result.range.shape[1]} range, "
-          f"{len(result.order)} pixels synthesized")
-    if args.figure:
+    scale = 1.0 if args.png_scale is None else args.png_scale
+    write_array(make_parent(out), result.range, png_scale=scale)
+    unit = "the range file's unit" if args.png_scale is None or not _is_image(args.range) \
+        else f"the range file's unit / {args.png_scale:g}"
+    print(f"wrote {out}: {result.range.shape[0]}x{result.range.shape[1]} range in {unit}, "
+          f"{len(result.order)} pixels synthesized ({args.method.upper()})")
+    if confidence_path is not None:
+        make_parent(confidence_path)
+        if confidence_path.suffix.lower() == ".png":
+            write_unit_png16(confidence_path, result.confidence)
+            print(f"wrote {confidence_path}: confidence in [0, 1] (16-bit PNG, x 65535)")
+        else:
+            write_array(confidence_path, result.confidence)
+            print(f"wrote {confidence_path}: confidence in [0, 1]")
+    if figure_path is not None:
         fig = result_figure(intensity, result.edges, partial, result.range,
                             title=f"{Path(args.image).name}: {args.method.upper()}")
-        fig.savefig(args.figure, dpi=110)
-        print(f"wrote {args.figure}")
+        fig.savefig(make_parent(figure_path), dpi=110)
+        print(f"wrote {figure_path}")
     return 0
 
 
 def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``synth`` subcommand to an argparse subparsers object (sets ``func=``)."""
-    synth = subparsers.add_parser("synth", help="fill the unknown range of your own image")
-    synth.add_argument("image", help="intensity image: PNG/JPG/NPY/PFM")
-    synth.add_argument("range", help="partial range: NPY/PFM (NaN or inf = unknown) "
-                       "or PNG (0 = unknown)")
-    synth.add_argument("--out", required=True, help="output .npy file")
-    synth.add_argument("--mask", help="known-range mask (nonzero = known) applied to RANGE")
-    synth.add_argument("--figure", help="also write a PNG figure here")
-    synth.add_argument("--method", default="np", choices=["np", "bp"])
-    synth.add_argument("--seed", type=int, default=0)
-    synth.add_argument("--neighbourhood", type=int, default=5)
-    synth.add_argument("--radius", type=float, default=10.0)
-    synth.add_argument("--epsilon", type=float, default=0.1)
-    synth.add_argument("--ordering", default="priority", choices=["priority", "onion"])
-    synth.add_argument("--no-edges", action="store_true")
-    synth.add_argument("--no-isophotes", action="store_true")
+    synth = subparsers.add_parser(
+        "synth", help="fill the unknown range of your own image",
+        description="Fill the unknown range of IMAGE's partial range (Torres-Méndez & Dudek "
+        "2008, §3.2) with NP sampling or belief propagation, and write the dense range in "
+        "the partial range's unit. Every path and option is checked before the work starts.",
+    )
+    synth.add_argument("image", help="intensity image: PNG/JPG/TIFF/NPY/PFM, grey or colour")
+    synth.add_argument("range", help="partial range: NPY/PFM (NaN or inf = unknown, values as "
+                       "stored) or a 16/8-bit PNG/TIFF/PGM (0 = unknown, the stored integers)")
+    synth.add_argument("--out", required=True, metavar="FILE",
+                       help="dense range: .npy, .pfm (float32) or .png (16-bit, "
+                       "round(range x --png-scale), 0 = unknown)")
+    synth.add_argument("--confidence", metavar="FILE",
+                       help="also write the confidence map (1 = measured): .npy, .pfm or .png "
+                       "(16-bit, confidence x 65535)")
+    synth.add_argument("--png-scale", type=real, metavar="S",
+                       help="stored integer per unit of range: divides a PNG range on input, "
+                       "multiplies a .png --out (default: 1, the stored integers)")
+    synth.add_argument("--mask", metavar="FILE",
+                       help="known-range mask applied to RANGE (nonzero = known; default none)")
+    synth.add_argument("--figure", metavar="FILE",
+                       help="also write a figure (.png, .pdf, .svg ...; default none)")
+    synth.add_argument("--method", default="np", choices=["np", "bp"],
+                       help="np: non-parametric sampling (§3.2.2); bp: belief propagation "
+                       "(§3.2.3) (default np)")
+    synth.add_argument("--seed", type=integer, default=0,
+                       help="seed of NP's random draws; the same seed gives the same output "
+                       "(default 0)")
+    synth.add_argument("--neighbourhood", type=integer, default=_DEFAULT_NEIGHBOURHOOD,
+                       metavar="N", help="odd side of the NxN MRF neighbourhood (default 5)")
+    synth.add_argument("--radius", type=real, default=_DEFAULT_RADIUS, metavar="R",
+                       help="search radius of Eq. 3 in pixels, at most the image's diagonal "
+                       "(default 10)")
+    synth.add_argument("--no-edges", action="store_true",
+                       help="ignore intensity edges (the paper's no-edge ablation; default: "
+                       "use Canny edges)")
+    np_group = synth.add_argument_group("NP only (--method np)")
+    np_group.add_argument("--epsilon", type=real, metavar="E",
+                          help="tolerance of Eq. 5 (default 0.1)")
+    np_group.add_argument("--ordering", choices=["priority", "onion"],
+                          help="fill order: priority (Eqs. 10-12) or onion peel (default "
+                          "priority)")
+    np_group.add_argument("--no-isophotes", dest="use_isophotes", action="store_const",
+                          const=False, help="drop the isophote term of Eq. 12 (default: use it)")
+    bp_group = synth.add_argument_group("BP only (--method bp)")
+    bp_group.add_argument("--candidates", type=integer, metavar="K",
+                          help="candidate labels per unknown pixel (default 8)")
+    bp_group.add_argument("--proximity", type=real, metavar="MU",
+                          help="weight of the spatial prior when ranking candidates "
+                          "(default 1)")
+    bp_group.add_argument("--sigma-i", type=real, metavar="S",
+                          help="sigma_i of Eq. 7 (default 0.1)")
+    bp_group.add_argument("--sigma-s", type=real, metavar="S",
+                          help="sigma_s of Eq. 6, in units of the known range's span "
+                          "(default 0.2)")
+    bp_group.add_argument("--iterations", type=integer, metavar="N",
+                          help="at most this many message-passing sweeps (default 50)")
     synth.set_defaults(func=_cmd_synth)
     return synth

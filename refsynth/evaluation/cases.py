@@ -19,6 +19,12 @@ validates it and returns its canonical form:
   (``nearest``, ``linear``, ``harmonic``, ``colorization``,
   ``joint-bilateral``).
 
+Numbers in specs are ASCII digits only (``synthetic-٣`` is not room 3).
+:func:`scene_label` names a scene as the result tables do
+(``synthetic-room-3``, ``motorcycle-128x128``), and :func:`case_memory`
+estimates the memory one case needs, so that a command can refuse an absurd
+size before it starts.
+
 :func:`build_cases` and :func:`grid_cases` expand lists of specs into cases
 (NP, which draws at random, over several seeds); :func:`load_scene` and
 :func:`known_mask` turn a case's specs into the scene and the known-range
@@ -56,6 +62,8 @@ __all__ = [
     "method_names",
     "scene_label",
     "size_tuple",
+    "case_memory",
+    "MAX_STRIPE_WIDTH",
     "parse_scene",
     "parse_size",
     "parse_sampling",
@@ -84,6 +92,11 @@ DEFAULT_SAMPLINGS = ("g24_80", "g10_20", "g5_25", "g3_28", "x63", "x78", "x85", 
 #: Known fraction of Fig. 2's sampling when the spec gives none: §4 scans
 #: 30–50 % of the slices.
 DISTANCE_KNOWN_FRACTION = 0.4
+
+#: The widest stripe (RW or XW of ``gRW_XW``) a sampling spec may name, in pixels.
+MAX_STRIPE_WIDTH = 100_000
+#: The most digits a number in a spec may have (larger numbers name nothing useful).
+_MAX_DIGITS = 9
 
 
 def method_names() -> tuple[str, ...]:
@@ -137,16 +150,44 @@ class Case:
 
     @property
     def label(self) -> str:
-        """A one-line description for progress reports."""
-        return (f"{scene_label(self.scene)} {self.size} {self.sampling} {self.method} "
-                f"seed {self.seed}")
+        """A one-line description for progress reports, naming the scene as the tables do.
+
+        >>> Case("synthetic-0", "64x64", "x78", "np", 1).label
+        'synthetic-room-0 64x64 x78 np seed 1'
+        >>> Case("motorcycle", "450x375", "x78", "bp", 0).label
+        'motorcycle-450x375 x78 bp seed 0'
+        """
+        name = scene_label(self.scene, self.size)
+        size = "" if name.endswith(self.size) else f" {self.size}"
+        return f"{name}{size} {self.sampling} {self.method} seed {self.seed}"
 
 
-def scene_label(scene: str) -> str:
-    """A scene spec for people: a path pair as its two file names, other specs as given."""
+def scene_label(scene: str, size: str | None = None) -> str:
+    """A scene spec's name in the result tables (the loaded scene's ``name``).
+
+    Parameters
+    ----------
+    scene : str
+        A canonical spec (:func:`parse_scene`).
+    size : str, optional
+        A canonical size (:func:`parse_size`); only the Motorcycle's name
+        carries it (``motorcycle-450x375``; ``native`` is 741x500).
+
+    Examples
+    --------
+    >>> scene_label("synthetic-3"), scene_label("motorcycle", "128x128")
+    ('synthetic-room-3', 'motorcycle-128x128')
+    """
+    if scene.startswith("synthetic-"):
+        return f"synthetic-room-{scene.split('-', 1)[1]}"
+    if scene == "motorcycle":
+        if size is None:
+            return scene
+        return f"motorcycle-{'741x500' if size == 'native' else size}"
     if ":" in scene:
-        image, disparity = _split_pair(scene)
-        return f"{Path(image).name}:{Path(disparity).name}"
+        image = Path(_split_pair(scene)[0])
+        folder = image.parent.name
+        return f"{folder}/{image.stem}" if folder else image.stem
     return scene
 
 
@@ -194,7 +235,7 @@ def parse_scene(text: str) -> str:
     text = text.strip()
     if text == "synthetic":
         return "synthetic-0"
-    match = re.fullmatch(r"synthetic-(\d+)", text)
+    match = re.fullmatch(rf"synthetic-([0-9]{{1,{_MAX_DIGITS}}})", text)
     if match:
         return f"synthetic-{int(match.group(1))}"
     if text == "motorcycle":
@@ -230,9 +271,10 @@ def parse_size(text: str) -> str:
     text = text.strip().lower()
     if text == "native":
         return text
-    match = re.fullmatch(r"(\d+)(?:x(\d+))?", text)
+    match = re.fullmatch(rf"([0-9]{{1,{_MAX_DIGITS}}})(?:x([0-9]{{1,{_MAX_DIGITS}}}))?", text)
     if not match:
-        raise ValueError(f"bad size {text!r}: expected N (square), WxH such as 450x375, or native")
+        raise ValueError(f"bad size {text!r}: expected N (square), WxH such as 450x375, or native "
+                         f"(at most {_MAX_DIGITS} ASCII digits each)")
     width = int(match.group(1))
     height = int(match.group(2)) if match.group(2) else width
     if width < 16 or height < 16:
@@ -248,6 +290,36 @@ def size_tuple(size: str) -> tuple[int, int] | None:
     return int(width), int(height)
 
 
+#: Peak memory of one fill per pixel, in bytes, by method family: measured with
+#: tracemalloc on the synthetic room at 64–256 px (NP about 1.2 kB, BP 7.5 kB,
+#: the baselines 0.4–0.7 kB, the scene included), with a margin.
+_BYTES_PER_PIXEL = {"np": 2_000, "bp": 10_000, "baseline": 1_000}
+#: The Motorcycle as stored (width, height).
+_MOTORCYCLE_NATIVE = (741, 500)
+
+
+def case_memory(case: Case) -> int | None:
+    """A rough peak memory of one case in bytes (pixels × a method's bytes per pixel).
+
+    Returns
+    -------
+    int or None
+        None for a path pair at its native size (the files set the size).
+
+    Examples
+    --------
+    >>> case_memory(Case("synthetic-0", "100x100", "x78", "bp", 0))
+    100000000
+    """
+    dims = size_tuple(case.size)
+    if dims is None:
+        if case.scene != "motorcycle":
+            return None
+        dims = _MOTORCYCLE_NATIVE
+    family = case.method.split("-")[0] if case.method in SYNTHESIS_METHODS else "baseline"
+    return dims[0] * dims[1] * _BYTES_PER_PIXEL[family]
+
+
 def parse_sampling(text: str) -> str:
     """Validate a sampling spec: ``gRW_XW``, ``xNN``, ``distance`` or ``distanceNN``.
 
@@ -259,7 +331,8 @@ def parse_sampling(text: str) -> str:
     Raises
     ------
     ValueError
-        If the spec is malformed or out of range: RW, XW >= 1; NN in 1 … 99.
+        If the spec is malformed or out of range: RW, XW in 1 …
+        :data:`MAX_STRIPE_WIDTH`; NN in 1 … 99.
 
     Examples
     --------
@@ -269,13 +342,14 @@ def parse_sampling(text: str) -> str:
     if not isinstance(text, str):
         raise ValueError(f"sampling must be a string, got {text!r}")
     text = text.strip().lower()
-    match = re.fullmatch(r"g(\d+)_(\d+)", text)
+    match = re.fullmatch(r"g([0-9]+)_([0-9]+)", text)
     if match:
         rw, xw = int(match.group(1)), int(match.group(2))
-        if rw < 1 or xw < 1:
-            raise ValueError(f"bad sampling {text!r}: gRW_XW needs RW >= 1 and XW >= 1")
+        if not (1 <= rw <= MAX_STRIPE_WIDTH and 1 <= xw <= MAX_STRIPE_WIDTH):
+            raise ValueError(f"bad sampling {text!r}: gRW_XW needs RW >= 1 and XW >= 1, "
+                             f"both at most {MAX_STRIPE_WIDTH}")
         return f"g{rw}_{xw}"
-    match = re.fullmatch(r"(x|distance)(\d+)", text)
+    match = re.fullmatch(r"(x|distance)([0-9]+)", text)
     if match:
         percent = int(match.group(2))
         if not 1 <= percent <= 99:

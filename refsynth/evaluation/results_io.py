@@ -13,7 +13,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["CSV_FIELDS", "write_json", "read_json", "write_csv"]
+__all__ = ["CSV_FIELDS", "ROW_FIELDS", "write_json", "read_json", "write_csv"]
 
 
 def _json_value(value):
@@ -29,26 +29,90 @@ def write_json(path: str | Path, rows: Sequence[dict]) -> None:
                           encoding="utf-8")
 
 
+#: The fields of a row and their types, as :func:`refsynth.evaluation.aggregation.aggregate`
+#: writes them: "str", "int", "real" (a number, or null for NaN), "real?" (null allowed
+#: as such), "ints" / "reals" (lists). ``seconds`` may be absent (``--no-timing``).
+ROW_FIELDS = {
+    "scene": "str", "scene_spec": "str", "size": "str", "units": "str", "sampling": "str",
+    "unknown_percent": "real", "known": "int", "evaluated": "int", "method": "str",
+    "seeds": "ints", "mar": "real", "mar_sd": "real?", "mar_min": "real", "mar_max": "real",
+    "mar_per_seed": "reals", "rmse": "real", "bad1": "real", "bad3": "real", "seconds": "real",
+}
+_OPTIONAL = {"seconds"}
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _field_ok(kind: str, value) -> bool:
+    if kind == "str":
+        return isinstance(value, str)
+    if kind == "int":
+        return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+    if kind in ("real", "real?"):
+        return value is None or _is_number(value)
+    if kind == "ints":
+        return (isinstance(value, list) and len(value) > 0
+                and all(_field_ok("int", v) for v in value))
+    return isinstance(value, list) and all(_field_ok("real", v) for v in value)
+
+
+def _row(path, index: int, row) -> dict:
+    """One row, checked; null reals (NaN written as null) come back as NaN."""
+    if not isinstance(row, dict):
+        raise ValueError(f"{path} is not a list of rows written by `evaluate --json`: "
+                         f"row {index} is a {type(row).__name__}")
+    missing = [name for name in ROW_FIELDS if name not in row and name not in _OPTIONAL]
+    if missing:
+        raise ValueError(f"{path} is not a list of rows written by `evaluate --json`: "
+                         f"row {index} lacks {', '.join(missing)}")
+    clean = {}
+    for name, value in row.items():
+        kind = ROW_FIELDS.get(name)
+        if kind is None:
+            raise ValueError(f"{path}: row {index} has an unknown field {name!r}")
+        if not _field_ok(kind, value):
+            raise ValueError(f"{path}: row {index} has a bad {name!r}: {value!r:.60}")
+        if kind == "real" and value is None:
+            value = math.nan
+        elif kind == "reals":
+            value = [math.nan if v is None else float(v) for v in value]
+        elif kind.startswith("real") and value is not None:
+            value = float(value)
+        clean[name] = value
+    if len(clean["mar_per_seed"]) != len(clean["seeds"]):
+        raise ValueError(f"{path}: row {index} has {len(clean['seeds'])} seeds but "
+                         f"{len(clean['mar_per_seed'])} MARs")
+    return clean
+
+
 def read_json(path: str | Path) -> list[dict]:
-    """Read rows written by :func:`write_json` (``--json``).
+    """Read rows written by :func:`write_json` (``--json``), checking every field.
 
     Raises
     ------
     OSError
         If the file cannot be read.
     ValueError
-        If it is not a JSON list of rows.
+        If it is not UTF-8 JSON, nests too deeply, or is not a list of rows
+        with the fields and types of :data:`ROW_FIELDS` (the message names
+        the file, and the row and field at fault).
     """
     try:
-        rows = json.loads(Path(path).read_text(encoding="utf-8"))
+        text = Path(path).read_text(encoding="utf-8")
+        rows = json.loads(text)
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{path} is not UTF-8 text: {error.reason}") from None
     except json.JSONDecodeError as error:
         raise ValueError(f"{path} is not JSON: {error}") from None
-    needed = {"scene", "sampling", "method", "mar", "mar_sd", "seeds", "units"}
-    if not isinstance(rows, list) or not all(
-        isinstance(r, dict) and needed <= r.keys() for r in rows
-    ):
+    except RecursionError:
+        raise ValueError(f"{path} is not a list of rows: it nests too deeply") from None
+    if not isinstance(rows, list):
         raise ValueError(f"{path} is not a list of rows written by `evaluate --json`")
-    return rows
+    if not rows:
+        raise ValueError(f"{path} holds no rows")
+    return [_row(path, index, row) for index, row in enumerate(rows)]
 
 
 #: CSV columns, in order (lists are joined with spaces).

@@ -4,6 +4,8 @@
   *Motorcycle* pair, resized to the paper's 450 × 375 (§3.3, Table 4).
 - :func:`load_middlebury`: any Middlebury image + disparity from disk (PFM,
   ``.npy`` or a scaled integer image), optionally resized.
+- :func:`require_scikit_image`: the check a command runs before any work when
+  it will need the Motorcycle (scikit-image is the optional ``data`` extra).
 
 The resizes are :mod:`refsynth.scenes.resize`'s exact area averages; sizes
 are **width × height** as the paper writes them.
@@ -24,11 +26,33 @@ from pathlib import Path
 import numpy as np
 
 from refsynth._checks import check_size, is_real
-from refsynth.io import IMAGE_SUFFIXES, read_image, read_pfm
+from refsynth.io import IMAGE_SUFFIXES, read_image, read_npy, read_pfm
 from refsynth.scenes.resize import resize_area, resize_disparity
 from refsynth.scenes.scene import Scene
 
-__all__ = ["motorcycle", "load_middlebury"]
+__all__ = ["motorcycle", "load_middlebury", "require_scikit_image", "DATA_EXTRA_HINT"]
+
+#: How to install what :func:`motorcycle` needs.
+DATA_EXTRA_HINT = (
+    'pip install "refsynth[data]" (in a checkout: pip install -e ".[data]"), '
+    "or pip install scikit-image"
+)
+
+
+def require_scikit_image(what: str = "motorcycle()") -> None:
+    """Raise ``ImportError`` (one line, saying what to install) unless scikit-image imports.
+
+    Parameters
+    ----------
+    what : str
+        What needs it, for the message (``"the Motorcycle scene"``).
+    """
+    try:
+        from skimage import data  # noqa: F401
+    except ImportError as error:
+        raise ImportError(
+            f"{what} needs scikit-image (for the Middlebury Motorcycle): {DATA_EXTRA_HINT}"
+        ) from error
 
 
 def motorcycle(size: int | tuple[int, int] = (450, 375)) -> Scene:
@@ -58,17 +82,13 @@ def motorcycle(size: int | tuple[int, int] = (450, 375)) -> Scene:
     Raises
     ------
     ImportError
-        If scikit-image is not installed (it is an optional test
-        dependency).
+        If scikit-image is not installed (the optional ``data`` extra:
+        ``pip install "refsynth[data]"``).
     """
     width, height = check_size(size)
-    try:
-        from skimage import data as skimage_data
-    except ImportError as error:
-        raise ImportError(
-            "motorcycle() needs scikit-image: `pip install scikit-image` "
-            '(or `pip install -e ".[test]"` in a refsynth checkout)'
-        ) from error
+    require_scikit_image()
+    from skimage import data as skimage_data
+
     left, _, disparity = skimage_data.stereo_motorcycle()
     intensity = np.clip(resize_area(left / 255.0, (width, height)), 0.0, 1.0)
     disparity = resize_disparity(disparity.astype(np.float64), (width, height))
@@ -86,7 +106,13 @@ def _read_disparity(path: Path, disparity_scale: float) -> np.ndarray:
         values = read_pfm(path).astype(np.float64)
         unknown = ~np.isfinite(values)
     elif suffix == ".npy":
-        values = np.load(path, allow_pickle=False).astype(np.float64)
+        values = read_npy(path)
+        if values.dtype.kind not in "iuf":
+            raise ValueError(
+                f"The parameter `disparity` must hold real numbers, got dtype {values.dtype} "
+                f"from '{path}'"
+            )
+        values = values.astype(np.float64)
         unknown = ~np.isfinite(values)
     elif suffix in IMAGE_SUFFIXES:
         values = read_image(path, raw=True).astype(np.float64)

@@ -1,0 +1,176 @@
+"""What every subcommand's arguments share: strict number types and output-path checks.
+
+- :func:`integer` and :func:`real`: argparse ``type=`` functions that accept
+  ASCII digits only (Python's ``int`` reads ``"٣"`` as 3 and ``"1_0"`` as 10)
+  and, for reals, finite values only.
+- :func:`check_output`: an output file's suffix and folder, checked before
+  any work starts, so that a long run never ends in "cannot write".
+- :func:`make_parent`: create an output file's missing folders, once the work
+  is done.
+- :func:`check_folder`: an output folder, checked before any work.
+- :func:`check_memory`: refuse work whose estimated memory exceeds the
+  machine's, saying how much it would need.
+
+User errors are raised as ``ValueError`` / ``OSError`` with a one-line
+message naming the option (:mod:`refsynth.cli.main` prints it and exits 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+from collections.abc import Iterable
+from pathlib import Path
+
+__all__ = [
+    "integer", "real", "check_output", "make_parent", "check_folder", "check_memory",
+    "physical_memory", "format_bytes",
+]
+
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_REAL = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?")
+#: Digits accepted in an integer argument: more would only name an absurd value.
+_MAX_DIGITS = 18
+
+
+def integer(text: str) -> int:
+    """An argparse type: an integer written with ASCII digits (``-3``, ``42``).
+
+    >>> integer("42"), integer("-3")
+    (42, -3)
+    """
+    if not _INTEGER.fullmatch(text) or len(text.lstrip("+-")) > _MAX_DIGITS:
+        raise argparse.ArgumentTypeError(
+            f"invalid integer {text!r} (ASCII digits, at most {_MAX_DIGITS})"
+        )
+    return int(text)
+
+
+def real(text: str) -> float:
+    """An argparse type: a finite real number written with ASCII digits (``0.5``, ``1e-3``).
+
+    >>> real("0.5"), real("1e-3")
+    (0.5, 0.001)
+    """
+    value = float(text) if _REAL.fullmatch(text) else float("nan")
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"invalid number {text!r} (a finite decimal number)")
+    return value
+
+
+def check_output(path: str, option: str, suffixes: Iterable[str] | None = None) -> Path:
+    """Check, before any work, that ``path`` can be written as the file ``option`` names.
+
+    Parameters
+    ----------
+    path : str
+        The value given to ``option``.
+    option : str
+        The option's name, for the message (``"--out"``).
+    suffixes : iterable of str, optional
+        The suffixes allowed (lower case, with the dot), matched
+        case-insensitively; default: any.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ValueError
+        If the path is empty or its suffix is not allowed.
+    OSError
+        If it names a folder, or its nearest existing folder is not a
+        writable folder (missing folders below it are created later by
+        :func:`make_parent`).
+    """
+    target = Path(path)
+    if not path or not target.name or path.endswith(("/", os.sep)):
+        raise ValueError(f"{option} must name a file, got {path!r}")
+    if suffixes is not None:
+        allowed = tuple(suffixes)
+        if target.suffix.lower() not in allowed:
+            raise ValueError(
+                f"{option} must end in {', '.join(allowed)}, got {path!r}"
+            )
+    if target.is_dir():
+        raise IsADirectoryError(f"{option} names a folder, not a file: {path}")
+    if target.exists() and not os.access(target, os.W_OK):
+        raise PermissionError(f"{option}: cannot write {path} (permission denied)")
+    _check_nearest_folder(target.parent, f"{option}: cannot write {path}")
+    return target
+
+
+def _check_nearest_folder(folder: Path, prefix: str) -> None:
+    """The nearest existing folder at or above ``folder`` must be a writable folder."""
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise NotADirectoryError(f"{prefix}: {folder} is not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise PermissionError(f"{prefix}: the folder {folder} is read-only")
+
+
+def make_parent(path: Path) -> Path:
+    """Create the missing folders above ``path`` (checked by :func:`check_output`)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def check_folder(path: str, option: str) -> Path:
+    """Check, before any work, that ``path`` is (or can be created as) a writable folder.
+
+    Raises
+    ------
+    ValueError
+        If the path is empty.
+    OSError
+        If it names a file, or its nearest existing folder is read-only.
+    """
+    if not path:
+        raise ValueError(f"{option} must name a folder, got {path!r}")
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise NotADirectoryError(f"{option} must be a folder, got the file {path}")
+    _check_nearest_folder(folder, f"{option}: cannot create {path}")
+    return folder
+
+
+def format_bytes(count: float) -> str:
+    """``80_000_000_000`` → ``"74.5 GiB"``.
+
+    >>> format_bytes(512), format_bytes(3 * 2**30)
+    ('512 B', '3.0 GiB')
+    """
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if count < 1024 or unit == "TiB":
+            return f"{count:.0f} {unit}" if unit == "B" else f"{count:.1f} {unit}"
+        count /= 1024
+    raise AssertionError  # pragma: no cover
+
+
+def physical_memory() -> int | None:
+    """This machine's physical memory in bytes, or None where the OS does not say."""
+    try:
+        pages, size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, OSError, ValueError):
+        return None
+    return pages * size if pages > 0 and size > 0 else None
+
+
+def check_memory(need: int, what: str, hint: str = "") -> None:
+    """Refuse ``what`` (one line, with the estimate) if it needs more than the machine has.
+
+    Raises
+    ------
+    ValueError
+        If ``need`` bytes exceed :func:`physical_memory` (or 2^50, a pebibyte,
+        where the OS does not say).
+    """
+    have = physical_memory()
+    limit = have if have is not None else 2**50
+    if need > limit:
+        where = f"this machine's {format_bytes(have)}" if have else "any machine's"
+        raise ValueError(f"{what} would need about {format_bytes(need)} of memory, more than "
+                         f"{where}" + (f"; {hint}" if hint else ""))
