@@ -20,12 +20,16 @@ fraction of the tables (:func:`unknown_fraction`).
   (:mod:`~refsynth.acquisition.errors`).
 - The simulator: :class:`RigSimulator`, both devices on pseudo-terminals,
   backed by a ray-cast of the synthetic room, with :class:`Faults`
-  injected; :class:`RoomRig` is its physics without ports.
+  injected; :class:`RoomRig` is its physics without ports, seen from a
+  :class:`RigPose` (a scan position, :mod:`~refsynth.acquisition.pose`; the
+  convention of :class:`refsynth.model.Pose`).
 - Scans: :func:`plan_slices` (the strategies on the pan axis: all / every
   n-th / stripes / distance-driven, Fig. 2), :func:`run_scan` (saved slice
-  by slice, resumable, :mod:`~refsynth.acquisition.scan_folder`),
-  :func:`load_scan` (spherical samples (r, θ, φ),
-  :mod:`~refsynth.acquisition.assembly`).
+  by slice, :mod:`~refsynth.acquisition.scan_folder`; resumable, trusting
+  nothing on disk unchecked and never deleting or overwriting a slice,
+  :mod:`~refsynth.acquisition.resume`; the manifest and its checks,
+  :mod:`~refsynth.acquisition.manifest`), :func:`load_scan` (spherical
+  samples (r, θ, φ), :mod:`~refsynth.acquisition.assembly`).
 
 References
 ----------
@@ -46,6 +50,7 @@ from refsynth.acquisition.errors import (
 )
 from refsynth.acquisition.faults import Faults
 from refsynth.acquisition.pan_unit import PanInfo, PanUnit
+from refsynth.acquisition.pose import RigPose
 from refsynth.acquisition.rangefinder import Rangefinder
 from refsynth.acquisition.sampling import (
     column_range_profile,
@@ -74,6 +79,7 @@ __all__ = [
     "Rangefinder",
     "RigSimulator",
     "RoomRig",
+    "RigPose",
     "Faults",
     "ScanSettings",
     "ScanSummary",

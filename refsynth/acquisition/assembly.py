@@ -5,7 +5,11 @@ scanned slice and one column per encoder position: the range ``r`` in
 metres (NaN: no return), the polar angle ``θ`` from the upward axis and the
 pan angle ``φ`` (:mod:`refsynth.acquisition.geometry`), as written to
 ``scan.npz``. :func:`load_scan` reads a scan folder back as a :class:`Scan`:
-a complete scan from ``scan.npz``, an interrupted one from its slice files.
+a complete scan from ``scan.npz``, an interrupted one from its slice files;
+it trusts nothing unchecked — the manifest in full
+(:func:`refsynth.acquisition.manifest.read_manifest`), ``scan.npz`` against
+the plan and the geometry, each slice file against the CRC the manifest
+recorded, each picture for being whole.
 
 References
 ----------
@@ -15,16 +19,35 @@ doi:10.1007/s11263-007-0108-2.
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from refsynth.acquisition.geometry import FOCAL_PX, PAN_SLICES, pan_angle, polar_angle
-from refsynth.acquisition.scan_folder import SliceRecord, read_slice
-from refsynth.acquisition.slice_plan import ScanSettings
+from refsynth.acquisition.geometry import (
+    ENCODER_POSITIONS,
+    FOCAL_PX,
+    PAN_SLICES,
+    pan_angle,
+    polar_angle,
+)
+from refsynth.acquisition.manifest import check_plan, read_manifest
+from refsynth.acquisition.scan_folder import (
+    SliceRecord,
+    parse_slice,
+    png_is_complete,
+    read_npz,
+    slice_bytes,
+    slice_crc,
+    slice_name,
+)
+from refsynth.acquisition.slice_plan import (
+    ScanSettings,
+    coarse_profile,
+    coarse_slices,
+    plan_slices,
+)
 
 __all__ = ["assemble", "CameraImage", "Scan", "load_scan"]
 
@@ -140,18 +163,90 @@ class Scan:
                          r * np.sin(theta) * np.cos(phi)], axis=-1)
 
 
+_NPZ_ARRAYS = ("r", "theta", "phi", "amplitude", "pan_index", "encoder")
+#: The largest array of a scan: 500 slices of 2000 float64 samples, and a header.
+_NPZ_MEMBER_BYTES = PAN_SLICES * ENCODER_POSITIONS * 8 + 4096
+
+
+def _read_assembled(path: Path, plan: list[int], settings: ScanSettings) -> dict:
+    """The arrays of ``scan.npz``, checked against the plan and the geometry."""
+    try:
+        arrays = read_npz(path, _NPZ_ARRAYS, _NPZ_MEMBER_BYTES)
+    except ValueError as error:
+        raise ValueError(f"{error}: resume the scan (scan --resume) to assemble it again from "
+                         "its slice files") from None
+    expected = assemble({}, [], settings)  # the dtypes, and the encoder axis
+    shape = (len(plan), settings.count)
+    problem = None
+    for name, array in arrays.items():
+        want = (len(plan),) if name == "pan_index" else (
+            (settings.count,) if name == "encoder" else shape)
+        if array.dtype != expected[name].dtype or array.shape != want:
+            problem = f"{name} is {array.dtype} {array.shape}, not {expected[name].dtype} {want}"
+            break
+    else:
+        theta, phi = np.broadcast_arrays(polar_angle(expected["encoder"])[None, :],
+                                         pan_angle(np.asarray(plan, dtype=np.int64))[:, None])
+        r = arrays["r"]
+        if arrays["pan_index"].tolist() != plan:
+            problem = "pan_index is not the plan of manifest.json"
+        elif not np.array_equal(arrays["encoder"], expected["encoder"]):
+            problem = "encoder is not the GS window of the settings"
+        elif not (np.array_equal(arrays["theta"], theta) and np.array_equal(arrays["phi"], phi)):
+            problem = "theta or phi is not the rig's geometry"
+        elif not np.all(np.isnan(r) | ((r > 0) & (r < 65.536))):
+            problem = "r holds values no slice can give (ranges are 0.001-65.535 m, or NaN)"
+    if problem:
+        raise ValueError(f"'{path}' does not hold the scan of its manifest.json: {problem} "
+                         "(resume the scan to assemble it again from its slice files)")
+    return arrays
+
+
+def _read_slices(folder: Path, manifest: dict, settings: ScanSettings, indices) -> dict:
+    """The slice files ``indices`` that are on disk, each checked (own CRC, name, GS window,
+    the CRC the manifest recorded)."""
+    records = {}
+    for index in indices:
+        path = folder / "slices" / slice_name(index)
+        if not path.is_file():
+            continue
+        data = path.read_bytes()
+        record = parse_slice(data, path)
+        entry = manifest["slices"].get(str(index))
+        if record.pan_index != index or slice_bytes(record) != data:
+            problem = f"its header says pan {record.pan_index}" if record.pan_index != index \
+                else "its bytes are not those of a slice file of its data"
+        elif (record.seq, record.count, record.average) != (
+            settings.seq, settings.count, settings.average
+        ):
+            problem = "it was taken with another GS window than the settings'"
+        elif entry is not None and entry["crc"] != slice_crc(data):
+            problem = f"its CRC {slice_crc(data)} is not the {entry['crc']} manifest.json records"
+        else:
+            records[index] = record
+            continue
+        raise ValueError(f"'{path}' is not a slice of this scan: {problem} (resume the scan "
+                         "to set it aside and acquire it again)")
+    return records
+
+
 def load_scan(folder: str | os.PathLike) -> Scan:
     """Load a scan folder written by :func:`run_scan`.
 
     A complete scan is read from ``scan.npz``; an incomplete one is
-    assembled from its slice files (``complete=False``).
+    assembled from the slice files of its plan that are on disk
+    (``complete`` then says whether every planned slice is there). Nothing
+    is trusted unchecked: the manifest in full, ``scan.npz`` against the
+    plan and the geometry, each slice file against the CRC the manifest
+    recorded, each picture (when its file is there) for being a whole PNG.
 
     Raises
     ------
     FileNotFoundError
         If the folder holds no ``manifest.json``.
     ValueError
-        If the manifest or a file is invalid.
+        If the manifest, ``scan.npz``, a slice file or a picture is invalid
+        (one line naming the file).
 
     Examples
     --------
@@ -163,28 +258,38 @@ def load_scan(folder: str | os.PathLike) -> Scan:
     manifest_path = folder / "manifest.json"
     if not manifest_path.is_file():
         raise FileNotFoundError(f"No scan in '{folder}': no manifest.json")
-    try:
-        manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
-        settings = ScanSettings.from_dict(manifest["settings"])
-    except (ValueError, KeyError, TypeError) as error:
-        raise ValueError(f"'{manifest_path}' is not a valid scan manifest: {error}") from None
+    manifest, settings = read_manifest(manifest_path)
+    plan, coarse = manifest["plan"], manifest.get("coarse")
+    if plan is None and settings.strategy != "distance":
+        plan = plan_slices(settings).tolist()
+    if plan is not None and settings.strategy == "distance":  # the plan its coarse pass gives
+        records = _read_slices(folder, manifest, settings, coarse)
+        if len(records) == len(coarse):
+            try:
+                profile = coarse_profile({i: r.range_mm for i, r in records.items()}, coarse)
+                check_plan(plan, coarse, settings, profile)
+            except ValueError as error:
+                raise ValueError(f"'{manifest_path}' is not a valid scan manifest: "
+                                 f"{error}") from None
     npz = folder / "scan.npz"
-    if manifest.get("complete") and npz.is_file():
-        with np.load(npz, allow_pickle=False) as data:
-            arrays = {key: data[key] for key in data.files}
+    if manifest["complete"] and npz.is_file():
+        arrays = _read_assembled(npz, plan, settings)
         complete = True
     else:
-        records = {}
-        for path in sorted((folder / "slices").glob("pan-*.slice")):
-            record = read_slice(path)
-            records[record.pan_index] = record
+        wanted = plan if plan is not None else (coarse or coarse_slices(settings).tolist())
+        records = _read_slices(folder, manifest, settings, wanted)
         arrays = assemble(records, list(records), settings)
-        complete = False
-    images = tuple(
-        CameraImage(folder / entry["file"], int(entry["pan_index"]),
-                    float(np.radians(entry["pan_angle_deg"])))
-        for _, entry in sorted(manifest.get("images", {}).items(), key=lambda kv: int(kv[0]))
-    )
+        complete = plan is not None and len(records) == len(plan)
+    images = []
+    for _, entry in sorted(manifest["images"].items(), key=lambda kv: int(kv[0])):
+        path = folder / entry["file"]  # images/pan-<i>.png: the manifest's check saw to it
+        if path.exists() and not png_is_complete(path):
+            raise ValueError(f"'{path}' is not a whole PNG picture (resume the scan to take it "
+                             "again)")
+        images.append(CameraImage(path, int(entry["pan_index"]),
+                                  float(np.radians(entry["pan_angle_deg"]))))
     return Scan(r=arrays["r"], theta=arrays["theta"], phi=arrays["phi"],
                 amplitude=arrays["amplitude"], pan_index=arrays["pan_index"],
-                encoder=arrays["encoder"], images=images, settings=settings, complete=complete)
+                encoder=arrays["encoder"], images=tuple(images), settings=settings,
+                complete=complete, focal=float(manifest.get("camera", {}).get("focal_px",
+                                                                              FOCAL_PX)))

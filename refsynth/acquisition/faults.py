@@ -85,7 +85,8 @@ class Faults:
         Raises
         ------
         ValueError
-            On an unknown key or a bad value (the message names it).
+            On an unknown key, a key given twice, or a bad value (the message
+            names it).
         """
         if spec is not None and not isinstance(spec, str):
             raise TypeError(f"The fault specification must be a str, got {type(spec).__name__}")
@@ -99,6 +100,8 @@ class Faults:
             if not sep or key not in names:
                 raise ValueError(f"unknown fault {item.strip()!r}: expected key=value with key in "
                                  f"{', '.join(names)}")
+            if key in values:
+                raise ValueError(f"the fault {key!r} is given twice in {spec.strip()!r}")
             try:
                 values[key] = int(text) if key.startswith("disconnect") else float(text)
             except ValueError:

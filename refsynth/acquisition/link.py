@@ -51,6 +51,8 @@ DRAIN_TIMEOUT = 0.1
 BACKOFF_FIRST, BACKOFF_MAX = 0.05, 1.0
 #: Reconnections allowed within one operation.
 MAX_RECONNECTS = 3
+#: The largest deadline (``timeout``, ``reconnect_timeout``), seconds; retries; baud rate.
+MAX_SECONDS, MAX_RETRIES, MAX_BAUD = 3600.0, 1000, 10**8
 
 
 def open_port(url: str, *, baudrate: int, timeout: float) -> serial.SerialBase:
@@ -233,9 +235,12 @@ class Device:
 
     def __init__(self, port, *, baudrate: int, timeout: float, retries: int,
                  reconnect_timeout: float) -> None:
-        self.timeout = check_real("timeout", timeout, positive=True)
-        self.reconnect_timeout = check_real("reconnect_timeout", reconnect_timeout, positive=True)
-        self.retries = check_int("retries", retries, minimum=0)
+        # bounded: beyond an hour a deadline is no deadline (and overflows the clock at 1e300)
+        self.timeout = check_real("timeout", timeout, positive=True, maximum=MAX_SECONDS)
+        self.reconnect_timeout = check_real("reconnect_timeout", reconnect_timeout,
+                                            positive=True, maximum=MAX_SECONDS)
+        self.retries = check_int("retries", retries, minimum=0, maximum=MAX_RETRIES)
+        check_int("baudrate", baudrate, minimum=1, maximum=MAX_BAUD)
         self.stats = DeviceStats()
         self._link = Link(port, self.name, baudrate=baudrate, timeout=self.timeout)
 

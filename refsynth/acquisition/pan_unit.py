@@ -66,14 +66,15 @@ class PanUnit(Device):
         ``serial.serial_for_url(url, baudrate=..., timeout=..., exclusive=True)``,
         or an open port (which the driver will not close).
     baudrate : int, default 9600
+        At most 10**8.
     timeout : float, default 0.5
-        Deadline of one request, seconds (a move's ``A`` gets more: the
+        Deadline of one request, seconds, at most 3600 (a move's ``A`` gets more: the
         travel time at the unit's speed).
     retries : int, default 8
-        Times an operation is sent again after a rejected reply, a timeout
+        At most 1000: times an operation is sent again after a rejected reply, a timeout
         or a ``! Busy``.
     reconnect_timeout : float, default 10.0
-        How long to keep trying to reopen a lost port, seconds.
+        How long to keep trying to reopen a lost port, seconds, at most 3600.
     speed : int, optional
         Positions per second to set at initialisation (``PS<n>``); default:
         leave the unit's.

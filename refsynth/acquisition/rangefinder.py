@@ -53,16 +53,17 @@ class Rangefinder(Device):
         ``serial.serial_for_url(url, baudrate=..., timeout=..., exclusive=True)``,
         or an open port (which the driver will not close).
     baudrate : int, default 115200
+        At most 10**8.
     timeout : float, default 0.5
-        Deadline of one request, seconds.
+        Deadline of one request, seconds, at most 3600.
     retries : int, default 8
-        Times a request is sent again after a rejected reply, a timeout, or
+        At most 1000: times a request is sent again after a rejected reply, a timeout, or
         status 02 (laser off: the laser is switched on first), 03 (encoder
         fault) or 04 (busy).
     reconnect_timeout : float, default 10.0
-        How long to keep trying to reopen a lost port, seconds.
+        How long to keep trying to reopen a lost port, seconds, at most 3600.
     sweep_time : float, default 0.0
-        Seconds per mirror revolution: a GS request's deadline is
+        Seconds per mirror revolution, at most 60: a GS request's deadline is
         ``timeout + average * sweep_time`` (the paper's slices took about
         2.4 s for 10 samples; the simulator answers at once).
     """
@@ -71,7 +72,7 @@ class Rangefinder(Device):
 
     def __init__(self, port, *, baudrate: int = 115200, timeout: float = 0.5, retries: int = 8,
                  reconnect_timeout: float = 10.0, sweep_time: float = 0.0) -> None:
-        sweep_time = check_real("sweep_time", sweep_time, minimum=0)
+        sweep_time = check_real("sweep_time", sweep_time, minimum=0, maximum=60)
         super().__init__(port, baudrate=baudrate, timeout=timeout, retries=retries,
                          reconnect_timeout=reconnect_timeout)
         self.sweep_time = sweep_time

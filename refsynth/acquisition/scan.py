@@ -10,6 +10,13 @@ drivers' retries leaves the folder resumable: ``resume=True`` keeps every
 valid slice on disk and acquires only the rest. The complete scan is
 assembled into ``scan.npz`` (:mod:`refsynth.acquisition.assembly`).
 
+What a resumed session trusts is :mod:`refsynth.acquisition.resume`: the
+manifest is checked in full, every slice file against its own CRC and the
+one the manifest recorded, every picture for being whole; what fails is set
+aside into ``rejected/`` and acquired again, never deleted or overwritten.
+A folder whose ``manifest.json`` is gone is resumed only with the scan's
+settings given, its manifest rebuilt from the slice files.
+
 References
 ----------
 Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2) and §4,
@@ -21,7 +28,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,19 +36,31 @@ import numpy as np
 from refsynth.acquisition.assembly import assemble
 from refsynth.acquisition.errors import RigError
 from refsynth.acquisition.geometry import PAN_SLICES, camera_indices, image_name, pan_angle
+from refsynth.acquisition.manifest import image_entry_file, slice_entry_file
 from refsynth.acquisition.pan_protocol import PAN_RESOLUTION
-from refsynth.acquisition.rangefinder_protocol import crc16
+from refsynth.acquisition.resume import (
+    finish_temporary,
+    prepare_folder,
+    trusted_images,
+    trusted_slices,
+)
 from refsynth.acquisition.scan_folder import (
     SliceRecord,
-    existing_slices,
-    prepare_folder,
+    png_is_complete,
+    set_aside,
     slice_bytes,
+    slice_crc,
     slice_name,
-    write_atomic,
     write_json,
+    write_new,
     write_npz,
 )
-from refsynth.acquisition.slice_plan import ScanSettings, coarse_slices, plan_slices
+from refsynth.acquisition.slice_plan import (
+    ScanSettings,
+    coarse_profile,
+    coarse_slices,
+    plan_slices,
+)
 
 __all__ = ["ScanSummary", "run_scan"]
 
@@ -58,7 +77,7 @@ class ScanSummary:
     acquired : int
         Slices acquired in this session.
     already : int
-        Valid slices found on disk when the session started.
+        Valid slices of the plan found on disk when the session started.
     images : int
         Pictures taken in this session.
     retries, faults, reconnects : int
@@ -67,6 +86,11 @@ class ScanSummary:
     seconds : float
     complete : bool
         Whether the plan is complete and ``scan.npz`` written.
+    rejected : list of Path
+        Files set aside into ``rejected/`` (invalid, or not what the
+        manifest recorded) and acquired again.
+    rebuilt : int
+        The slice files a missing manifest was rebuilt from.
     """
 
     folder: Path
@@ -79,28 +103,24 @@ class ScanSummary:
     reconnects: int = 0
     seconds: float = 0.0
     complete: bool = False
+    rejected: list = field(default_factory=list)
+    rebuilt: int = 0
 
     def __str__(self) -> str:
+        notes = ""
+        if self.rebuilt:
+            notes += f"; manifest.json rebuilt from {self.rebuilt} slice files"
+        if self.rejected:
+            count = len(self.rejected)
+            notes += (f"; {count} file{'s' if count != 1 else ''} not trusted, set aside in "
+                      f"{self.folder / 'rejected'}")
         return (
             f"{self.acquired + self.already}/{self.planned} slices "
             f"({100 * self.planned / PAN_SLICES:.1f} % of {PAN_SLICES}; {self.acquired} acquired "
             f"now, {self.already} already on disk), {self.images} pictures; retries "
             f"{self.retries}, faults recovered {self.faults} ({self.reconnects} reconnects); "
-            f"{self.seconds:.1f} s"
+            f"{self.seconds:.1f} s{notes}"
         )
-
-
-def _coarse_profile(records: dict[int, SliceRecord], indices: np.ndarray) -> np.ndarray:
-    """Median range (m) of each coarse slice's returns; NaN elsewhere."""
-    profile = np.full(PAN_SLICES, np.nan)
-    for index in indices:
-        values = records[int(index)].range_mm
-        returned = values[values > 0]
-        if returned.size:
-            profile[index] = np.median(returned) / 1000.0
-    if not np.isfinite(profile).any():
-        raise ValueError("the coarse pass saw no return at all: cannot plan by distance")
-    return profile
 
 
 def _check_pan(info) -> None:
@@ -139,9 +159,14 @@ def run_scan(
         Default ``ScanSettings()`` (stripes, 40 %). When resuming, the
         folder's own settings are used; passing different ones is an error.
     resume : bool, default False
-        Continue the scan in ``folder``: keep every valid slice file, acquire
-        the rest of the plan. Without it, a folder holding a scan is an
-        error. With it, a folder without one starts a new scan.
+        Continue the scan in ``folder``: check its manifest, keep every slice
+        file that is valid and matches the CRC the manifest recorded, set
+        aside into ``rejected/`` any other (and any damaged picture), and
+        acquire the rest of the plan. Without it, a folder holding a scan
+        (or slice files) is an error. With it, an empty folder starts a new
+        scan, and a folder with slice files but no ``manifest.json`` is
+        resumed only if ``settings`` are given and every slice belongs to
+        them: the manifest is rebuilt from the slice files.
     source : dict, optional
         Recorded in the manifest (e.g. ``{"simulated": True, "seed": 0}``);
         when resuming it must agree with the recorded one on ``"simulated"``
@@ -160,9 +185,10 @@ def run_scan(
     Raises
     ------
     ValueError
-        On settings that disagree with the folder's scan, a folder that
-        holds a scan without ``resume``, or a pan unit with another
-        geometry.
+        On settings that disagree with the folder's scan, an invalid
+        manifest, a folder that holds a scan without ``resume``, slice files
+        without a manifest that cannot be resumed (see ``resume``), or a pan
+        unit with another geometry. Nothing in the folder is changed then.
     RigError
         When a device fails beyond its retries (the folder stays
         resumable).
@@ -184,23 +210,32 @@ def run_scan(
     source = dict(source or {})
 
     # --- the folder: a new scan, or the one to resume ---------------------------------
-    manifest, settings = prepare_folder(folder, settings, source, resume)
+    manifest, settings, rebuilt = prepare_folder(folder, settings, source, resume)
 
-    # --- what is on disk is the truth ---------------------------------------------------
-    records = existing_slices(folder, settings)
+    # --- what is on disk, checked, is the truth --------------------------------------
+    finish_temporary(folder)
+    decisions = trusted_slices(folder, manifest, settings)
+    records = decisions.records
+    if manifest["plan"] is None and settings.strategy != "distance":
+        manifest["plan"] = plan_slices(settings).tolist()
     session = len(manifest["sessions"]) + 1
     entries = {}
-    for index, record in records.items():
-        entry = manifest["slices"].get(str(index)) or {"session": max(session - 1, 1)}
-        entry.update(file=f"slices/{slice_name(index)}",
-                     crc=f"{crc16(slice_bytes(record)):04X}")
+    for index in records:
+        entry = manifest["slices"].get(str(index)) or {
+            "session": 0 if rebuilt else max(session - 1, 1)}
+        entry.update(file=slice_entry_file(index), crc=decisions.crcs[index])
         entries[str(index)] = entry
     manifest["slices"] = entries
-    manifest["images"] = {key: value for key, value in manifest["images"].items()
-                          if not camera_dir_is_local or (folder / value["file"]).is_file()}
-    summary = ScanSummary(folder=folder, already=len(records))
-    record_session = {"session": session, "resumed": session > 1, "acquired": 0, "images": 0,
-                      "complete": False}
+    damaged = trusted_images(folder, manifest, camera_dir_is_local, bool(rebuilt))
+    summary = ScanSummary(folder=folder, rebuilt=rebuilt)
+    summary.rejected = [set_aside(folder, path) for path in decisions.set_aside + damaged]
+    on_disk = set(records)
+    record_session = {"session": session, "resumed": session > 1 or bool(rebuilt),
+                      "acquired": 0, "images": 0, "complete": False}
+    if rebuilt:
+        record_session["rebuilt_from"] = rebuilt
+    if summary.rejected:
+        record_session["rejected"] = [str(p.relative_to(folder)) for p in summary.rejected]
     manifest["sessions"].append(record_session)
     manifest["source"] = {**manifest.get("source", {}), **source}
     write_json(manifest_path, manifest)
@@ -234,10 +269,10 @@ def run_scan(
         pan.move_to(index)
         pan.trigger_camera(expected=index)
         name = image_name(index)
-        if camera_dir_is_local and not (folder / "images" / name).is_file():
-            raise RigError("pan unit", "C", f"the camera wrote no file images/{name}")
+        if camera_dir_is_local and not png_is_complete(folder / "images" / name):
+            raise RigError("pan unit", "C", f"the camera wrote no whole picture images/{name}")
         manifest["images"][str(index)] = {
-            "file": f"images/{name}", "pan_index": index,
+            "file": image_entry_file(index), "pan_index": index,
             "pan_angle_deg": round(float(np.degrees(pan_angle(index))), 6),
             "after_slices": len(records), "session": session,
         }
@@ -256,10 +291,10 @@ def run_scan(
         record = SliceRecord(index, settings.seq, settings.count, settings.average,
                              range_mm, amplitude)
         data = slice_bytes(record)
-        write_atomic(folder / "slices" / slice_name(index), data)
+        write_new(folder / "slices" / slice_name(index), data)  # never over another file
         records[index] = record
-        manifest["slices"][str(index)] = {"file": f"slices/{slice_name(index)}",
-                                          "crc": f"{crc16(data):04X}", "session": session}
+        manifest["slices"][str(index)] = {"file": slice_entry_file(index),
+                                          "crc": slice_crc(data), "session": session}
         summary.acquired += 1
 
     def run(indices: np.ndarray, total: int, last_picture: int) -> None:
@@ -276,20 +311,32 @@ def run_scan(
             account()
             write_json(manifest_path, manifest)
 
+    refused = []
+
+    def check_plan_of_rebuilt(plan: list[int]) -> None:
+        off = sorted(on_disk - set(plan))
+        if rebuilt and off:  # the settings given are not the scan's: undo the new manifest
+            refused.append(off)
+            raise ValueError(
+                f"cannot resume '{folder}' with these settings: {len(off)} of its slice files "
+                f"(pan {', '.join(map(str, off[:5]))}) are not in their plan; give the "
+                "settings the scan was taken with")
+
     try:
         if settings.strategy == "distance" and manifest["plan"] is None:
             coarse = coarse_slices(settings)
             plan_so_far = set(int(i) for i in coarse)
+            summary.already = len(on_disk & plan_so_far)
             manifest["coarse"] = coarse.tolist()
             run(coarse, len(coarse), int(coarse.max()))
-            plan = plan_slices(settings, _coarse_profile(records, coarse))
-            manifest["plan"] = plan.tolist()
+            profile = coarse_profile({int(i): records[int(i)].range_mm for i in coarse}, coarse)
+            manifest["plan"] = plan_slices(settings, profile).tolist()
             write_json(manifest_path, manifest)
-        elif manifest["plan"] is None:
-            manifest["plan"] = plan_slices(settings).tolist()
         plan = np.asarray(manifest["plan"], dtype=np.int64)
+        check_plan_of_rebuilt(manifest["plan"])
         plan_so_far = set(plan.tolist())
         summary.planned = len(plan)
+        summary.already = len(on_disk & plan_so_far)
         run(plan, len(plan), PAN_SLICES - 1)
         missing = [i for i in plan.tolist() if i not in records]
         if missing:  # cannot happen unless a slice file vanished under us
@@ -300,5 +347,8 @@ def run_scan(
     finally:
         summary.planned = summary.planned or len(manifest["plan"] or [])
         account()
-        write_json(manifest_path, manifest)
+        if refused:
+            manifest_path.unlink()  # this session wrote it, from nothing
+        else:
+            write_json(manifest_path, manifest)
     return summary

@@ -1,13 +1,14 @@
 """A scan's folder on disk: slice files, ``manifest.json``, ``scan.npz`` (§4).
 
 Scans that lose nothing: each validated slice is written at once
-(temporary file, then ``os.replace``) to ``slices/pan-<index>.slice``, whose
-bytes depend only on the data, and ``manifest.json`` is rewritten the same
-way after every slice and picture. The slice files are the truth: a scan
-interrupted at any point (even by SIGKILL) is resumed by re-reading and
-checking them (:func:`existing_slices`) and acquiring only what is missing.
-When the plan is complete the scan is assembled into ``scan.npz``
-(:func:`write_npz`, whose bytes depend only on the arrays).
+(temporary file, then ``os.replace``; :func:`write_new` never replaces a
+file) to ``slices/pan-<index>.slice``, whose bytes depend only on the data
+(:func:`slice_bytes`), and ``manifest.json`` is rewritten the same way after
+every slice and picture, recording each slice's CRC. When the plan is
+complete the scan is assembled into ``scan.npz`` (:func:`write_npz`, whose
+bytes depend only on the arrays; :func:`read_npz` reads one back, or says
+why it cannot). A file a session cannot trust is never deleted:
+:func:`set_aside` moves it into ``rejected/``.
 
 Output folder::
 
@@ -15,10 +16,11 @@ Output folder::
     slices/pan-0250.slice
     images/pan-0025.png  the camera's pictures (every 18°)
     scan.npz             r, theta, phi, amplitude, pan_index, encoder
+    rejected/            files a session could not trust, set aside (never deleted)
 
-:func:`prepare_folder` opens the folder for a session: a new scan (its
-manifest), or the one to resume, checked against the settings and source
-asked for.
+What the manifest holds and how it is checked is
+:mod:`refsynth.acquisition.manifest`; which files a resumed session trusts,
+:mod:`refsynth.acquisition.resume`.
 
 References
 ----------
@@ -31,51 +33,46 @@ import io
 import json
 import os
 import re
+import struct
 import zipfile
-from dataclasses import dataclass, fields
+import zlib
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from refsynth.acquisition.errors import ProtocolError
-from refsynth.acquisition.geometry import (
-    CAMERA_EVERY,
-    CAMERA_FIRST,
-    ENCODER_POSITIONS,
-    ENCODER_STEP_DEG,
-    FOCAL_PX,
-    IMAGE_HEIGHT,
-    IMAGE_WIDTH,
-    PAN_CENTRE,
-    PAN_SLICES,
-    PAN_STEP_DEG,
-)
+from refsynth.acquisition.geometry import PAN_SLICES
 from refsynth.acquisition.rangefinder_protocol import (
     LINE_WIDTH,
     crc16,
     decode_samples,
     encode_samples,
 )
-from refsynth.acquisition.slice_plan import ScanSettings
 
 __all__ = [
-    "FORMAT",
     "SliceRecord",
     "slice_name",
     "slice_bytes",
+    "slice_crc",
+    "parse_slice",
     "read_slice",
-    "existing_slices",
+    "slice_files",
+    "png_is_complete",
     "write_atomic",
+    "write_new",
     "write_json",
     "write_npz",
-    "prepare_folder",
-    "saved_manifest",
+    "read_npz",
+    "set_aside",
 ]
 
-#: The manifest's format tag.
-FORMAT = "refsynth-scan/1"
 _SLICE_MAGIC = b"refsynth-slice 1\n"
 _SLICE_NAME = re.compile(r"pan-(\d{4})\.slice")
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+#: What reading a damaged ``.npz`` can raise (zip, zlib and numpy's own errors).
+_NPZ_ERRORS = (OSError, ValueError, EOFError, KeyError, RuntimeError, NotImplementedError,
+               zipfile.BadZipFile, zlib.error, struct.error)
 
 
 # ----------------------------------------------------------------------------- slice files
@@ -130,18 +127,19 @@ def slice_bytes(record: SliceRecord) -> bytes:
     return _SLICE_MAGIC + header + block + f"={crc16(block):04X}\n".encode("ascii")
 
 
-def read_slice(path: str | os.PathLike) -> SliceRecord:
-    """Read and check a slice file (header, CRC, sample count).
+def slice_crc(data: bytes) -> str:
+    """The CRC the manifest records for a slice file's bytes: CRC-16, 4 upper-case hex digits."""
+    return f"{crc16(data):04X}"
+
+
+def parse_slice(data: bytes, path: str | os.PathLike) -> SliceRecord:
+    """Check the bytes of a slice file (header, CRC, sample count) and decode them.
 
     Raises
     ------
     ValueError
-        If the file is not a valid slice file (the message names it).
-    FileNotFoundError
-        If it does not exist.
+        If they are not a valid slice file (the message names ``path``).
     """
-    path = Path(path)
-    data = path.read_bytes()
     try:
         if not data.startswith(_SLICE_MAGIC):
             raise ProtocolError("not a slice file")
@@ -151,7 +149,7 @@ def read_slice(path: str | os.PathLike) -> SliceRecord:
         values = {}
         for line in header.split(b"\n"):
             key, _, value = line.partition(b" ")
-            if not value.isdigit():
+            if not value.isdigit() or len(value) > 6:
                 raise ProtocolError(f"bad header line {line[:30]!r}")
             values[key.decode("ascii", "replace")] = int(value)
         if set(values) != {"pan", "seq", "count", "average"}:
@@ -168,28 +166,57 @@ def read_slice(path: str | os.PathLike) -> SliceRecord:
                        range_mm, amplitude)
 
 
-def existing_slices(folder: Path, settings: ScanSettings) -> dict[int, SliceRecord]:
-    """The valid slice files in ``folder/slices``; invalid or stray files are removed."""
-    found: dict[int, SliceRecord] = {}
-    for path in sorted((folder / "slices").iterdir()):
+def read_slice(path: str | os.PathLike) -> SliceRecord:
+    """Read and check a slice file (header, CRC, sample count).
+
+    Raises
+    ------
+    ValueError
+        If the file is not a valid slice file (the message names it).
+    FileNotFoundError
+        If it does not exist.
+    """
+    return parse_slice(Path(path).read_bytes(), path)
+
+
+def slice_files(folder: Path) -> dict[int, Path]:
+    """The regular files ``slices/pan-<i>.slice`` of ``folder`` with ``i`` a pan index, by ``i``.
+
+    Nothing is read: what they hold is for the caller to check.
+    """
+    found: dict[int, Path] = {}
+    directory = folder / "slices"
+    if not directory.is_dir():
+        return found
+    for path in sorted(directory.iterdir()):
         match = _SLICE_NAME.fullmatch(path.name)
-        if match is None:
-            if path.name.endswith(".tmp"):
-                path.unlink()  # a write cut short by a kill
-            continue
-        try:
-            record = read_slice(path)
-        except ValueError:
-            path.unlink()
-            continue
-        window = (record.seq, record.count, record.average)
-        if record.pan_index != int(match.group(1)) or window != (
-            settings.seq, settings.count, settings.average
-        ):
-            path.unlink()
-            continue
-        found[record.pan_index] = record
+        if match is not None and int(match.group(1)) < PAN_SLICES and path.is_file():
+            found[int(match.group(1))] = path
     return found
+
+
+def png_is_complete(path: Path) -> bool:
+    """Whether ``path`` is a whole PNG file: the signature, then chunks whose CRC-32s
+    hold, ending with ``IEND`` at the end of the file (a cut-short or damaged picture
+    is not). The pixels are not decoded."""
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return False
+    if not data.startswith(_PNG_SIGNATURE):
+        return False
+    position = len(_PNG_SIGNATURE)
+    while position + 12 <= len(data):
+        length = int.from_bytes(data[position : position + 4], "big")
+        end = position + 12 + length
+        if end > len(data):
+            return False
+        if zlib.crc32(data[position + 4 : end - 4]) != int.from_bytes(data[end - 4 : end], "big"):
+            return False
+        kind, position = data[position + 4 : position + 8], end
+        if kind == b"IEND":
+            return position == len(data)
+    return False
 
 
 # ----------------------------------------------------------------------------- writing
@@ -200,6 +227,19 @@ def write_atomic(path: Path, data: bytes) -> None:
     temporary = path.with_name(f".{path.name}.tmp")
     temporary.write_bytes(data)
     os.replace(temporary, path)
+
+
+def write_new(path: Path, data: bytes) -> None:
+    """:func:`write_atomic` to a path that does not exist yet: a file is never replaced.
+
+    Raises
+    ------
+    FileExistsError
+        If ``path`` exists.
+    """
+    if os.path.lexists(path):
+        raise FileExistsError(f"refusing to replace '{path}'")
+    write_atomic(path, data)
 
 
 def write_json(path: Path, value: dict) -> None:
@@ -221,93 +261,50 @@ def write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
     write_atomic(path, buffer.getvalue())
 
 
-# ----------------------------------------------------------------------------- the manifest
-
-
-def prepare_folder(
-    folder: Path, settings: ScanSettings | None, source: dict, resume: bool
-) -> tuple[dict, ScanSettings]:
-    """Open ``folder`` for a session of :func:`refsynth.acquisition.scan.run_scan`.
-
-    Returns the manifest (read from the folder, or a new one) and the
-    settings of its scan; creates ``slices/`` and ``images/``. Nothing else
-    is written.
+def read_npz(path: Path, names, max_bytes: int) -> dict[str, np.ndarray]:
+    """The arrays ``names`` of the ``.npz`` at ``path``, each member at most ``max_bytes``.
 
     Raises
     ------
     ValueError
-        If the folder holds a scan and ``resume`` is false; if the scan to
-        resume has a bad manifest, other settings, or another ``source``
-        (``"simulated"``, ``"seed"``); if the folder is not empty and holds
-        no scan.
+        ``cannot read scan file '<path>' as .npz (...)`` if it is not a
+        readable ``.npz`` without pickles; ``scan file '<path>' lacks the
+        arrays [...]``; or a member is larger than ``max_bytes``.
+    FileNotFoundError
+        If it does not exist.
     """
-    manifest_path = folder / "manifest.json"
-    if manifest_path.exists():
-        if not resume:
-            raise ValueError(f"'{folder}' already holds a scan: resume it (--resume) or choose "
-                             "another folder")
-        try:
-            manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
-            if manifest.get("format") != FORMAT:
-                raise ValueError(f"format {manifest.get('format')!r}")
-            saved = ScanSettings.from_dict(manifest["settings"])
-        except (ValueError, KeyError, TypeError) as error:
-            raise ValueError(f"cannot resume '{folder}': bad manifest.json ({error})") from None
-        if settings is not None and settings != saved:
-            changed = [f.name for f in fields(ScanSettings)
-                       if getattr(settings, f.name) != getattr(saved, f.name)]
-            raise ValueError(f"cannot resume '{folder}' with other settings "
-                             f"({', '.join(changed)} differ from the saved scan)")
-        settings = saved
-        recorded = manifest.get("source", {})
-        clash = [k for k in ("simulated", "seed")
-                 if k in source and k in recorded and source[k] != recorded[k]]
-        if clash:
-            raise ValueError(f"cannot resume '{folder}': {', '.join(sorted(clash))} differ from "
-                             f"the saved scan ({', '.join(f'{k}={recorded[k]!r}' for k in clash)})")
-    else:
-        settings = ScanSettings() if settings is None else settings
-        if folder.exists() and any(p.name not in ("slices", "images") for p in folder.iterdir()):
-            raise ValueError(f"'{folder}' is not empty and holds no scan (no manifest.json)")
-        manifest = _new_manifest(settings, source)
-    (folder / "slices").mkdir(parents=True, exist_ok=True)
-    (folder / "images").mkdir(parents=True, exist_ok=True)
-    return manifest, settings
-
-
-def _new_manifest(settings: ScanSettings, source: dict) -> dict:
-    """The manifest of a new scan: what the scan is, before any slice."""
-    return {
-        "format": FORMAT,
-        "paper": "Torres-Mendez & Dudek (2008), IJCV 79:137-158, sections 3.1 and 4",
-        "settings": settings.as_dict(),
-        "source": source,
-        "geometry": {
-            "pan_slices": PAN_SLICES, "pan_step_deg": PAN_STEP_DEG, "pan_centre": PAN_CENTRE,
-            "encoder_positions": ENCODER_POSITIONS, "encoder_step_deg": ENCODER_STEP_DEG,
-            "theta": "polar angle from the upward axis = encoder * encoder_step_deg",
-            "phi": "pan angle = (pan_index - pan_centre) * pan_step_deg, positive to the right",
-        },
-        "camera": {
-            "focal_px": FOCAL_PX, "width": IMAGE_WIDTH, "height": IMAGE_HEIGHT,
-            "principal_point": [IMAGE_WIDTH / 2, IMAGE_HEIGHT / 2],
-            "first": CAMERA_FIRST, "every": CAMERA_EVERY,
-            "model": "pinhole at the laser centre; pixel (row, col) looks along "
-                     "((col + 0.5 - W/2)/f, (H/2 - row - 0.5)/f, 1) turned by phi",
-        },
-        "plan": None,
-        "coarse": None,
-        "slices": {},
-        "images": {},
-        "devices": {},
-        "sessions": [],
-        "complete": False,
-    }
-
-
-def saved_manifest(folder: str | os.PathLike) -> dict:
-    """The manifest of the scan in ``folder``; ``{}`` if there is none or it is unreadable."""
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"'{path}' not found")
     try:
-        return json.loads((Path(folder) / "manifest.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
+        with zipfile.ZipFile(path) as archive:
+            sizes = {info.filename: info.file_size for info in archive.infolist()}
+    except _NPZ_ERRORS as error:
+        raise ValueError(f"cannot read scan file '{path}' as .npz ({error})") from None
+    missing = sorted(name for name in names if f"{name}.npy" not in sizes)
+    if missing:
+        raise ValueError(f"scan file '{path}' lacks the arrays {missing}")
+    large = sorted(name for name in names if sizes[f"{name}.npy"] > max_bytes)
+    if large:
+        raise ValueError(f"scan file '{path}': the arrays {large} are larger than a scan can be "
+                         f"({max_bytes} bytes)")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {name: data[name] for name in names}
+    except _NPZ_ERRORS as error:
+        raise ValueError(f"cannot read scan file '{path}' as .npz ({error})") from None
+
+
+def set_aside(folder: Path, path: Path) -> Path:
+    """Move ``path`` into ``folder/rejected/`` (``name``, else ``name.1``, ``name.2``, …).
+
+    How a session gets a file it cannot trust out of its way without losing
+    it. Returns the new path.
+    """
+    rejected = folder / "rejected"
+    rejected.mkdir(exist_ok=True)
+    target, number = rejected / path.name, 0
+    while os.path.lexists(target):
+        number += 1
+        target = rejected / f"{path.name}.{number}"
+    os.replace(path, target)
+    return target

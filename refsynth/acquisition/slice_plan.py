@@ -38,7 +38,7 @@ from refsynth.acquisition.geometry import (
 )
 from refsynth.acquisition.sampling import distance_driven, x_stripes_for_fraction
 
-__all__ = ["STRATEGIES", "ScanSettings", "coarse_slices", "plan_slices"]
+__all__ = ["STRATEGIES", "ScanSettings", "coarse_slices", "coarse_profile", "plan_slices"]
 
 #: The sampling strategies of :func:`plan_slices`.
 STRATEGIES = ("all", "every", "stripes", "distance")
@@ -117,6 +117,38 @@ class ScanSettings:
 def coarse_slices(settings: ScanSettings) -> np.ndarray:
     """The first pass of the ``"distance"`` strategy: every ``coarse_step``-th slice from 0."""
     return np.arange(0, PAN_SLICES, settings.coarse_step)
+
+
+def coarse_profile(range_mm: dict, indices) -> np.ndarray:
+    """The coarse pass as a range profile: the median range (m) of each coarse slice's returns.
+
+    Parameters
+    ----------
+    range_mm : dict of int to ndarray
+        Each coarse slice's ranges in mm (0 = no return), by pan index.
+    indices : array_like of int
+        The coarse slices (:func:`coarse_slices`).
+
+    Returns
+    -------
+    ndarray of shape (500,)
+        NaN where no coarse slice was taken or it saw no return: what
+        :func:`plan_slices` takes as ``coarse_range``.
+
+    Raises
+    ------
+    ValueError
+        If no coarse slice saw a return.
+    """
+    profile = np.full(PAN_SLICES, np.nan)
+    for index in indices:
+        values = range_mm[int(index)]
+        returned = values[values > 0]
+        if returned.size:
+            profile[index] = np.median(returned) / 1000.0
+    if not np.isfinite(profile).any():
+        raise ValueError("the coarse pass saw no return at all: cannot plan by distance")
+    return profile
 
 
 def plan_slices(settings: ScanSettings, coarse_range: np.ndarray | None = None) -> np.ndarray:

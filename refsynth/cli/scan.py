@@ -11,12 +11,29 @@ Examples::
     python -m refsynth scan --simulate --out scan-0 --strategy stripes --fraction 0.4
     python -m refsynth scan --simulate --out scan-0 --faults corrupt=0.05,drop=0.02,disconnect=1
     python -m refsynth scan --simulate --out scan-0 --resume
+    python -m refsynth scan --simulate --out scan-1 --pose 1.0,0.8,-20
     python -m refsynth scan --pan-port /dev/ttyUSB0 --laser-port /dev/ttyUSB1 --out scan-1
+
+``--resume`` checks the folder before trusting it
+(:mod:`refsynth.acquisition.resume`): files it cannot trust are set aside
+into ``rejected/`` and acquired again; a folder whose ``manifest.json`` is
+gone is resumed with the scan's settings given (``--strategy``, ...), the
+GS window (``--average``) defaulting to the one the slice files record.
+
+``--pose X,Z,HEADING`` says where the rig stands (metres, metres, degrees):
+refsynth's frame (x right, y up, z forward) with the heading turning the
+rig's pan angle 0 from z towards x, the convention of
+:class:`refsynth.model.Pose` (``y = 0``). The simulator scans its room from
+there (:class:`refsynth.acquisition.RigPose`); a real scan only records it.
+Either way it is saved in ``manifest.json`` as ``source.pose = {"x": …, "z":
+…, "heading": DEGREES}`` (an entry of ``model --poses``'s ``poses.json``); a
+scan without ``source.pose`` was taken at the origin (0, 0, 0).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from contextlib import ExitStack
 from dataclasses import replace
@@ -28,13 +45,21 @@ from refsynth.acquisition import (
     PanUnit,
     Rangefinder,
     RigError,
+    RigPose,
     RigSimulator,
     ScanSettings,
     run_scan,
 )
-from refsynth.acquisition.scan_folder import saved_manifest
+from refsynth.acquisition.link import MAX_BAUD, MAX_RETRIES, MAX_SECONDS
+from refsynth.acquisition.resume import resumed_manifest, slice_window
 
 __all__ = ["add_scan_parser", "run_scan_command", "main"]
+
+
+#: Bounds of the device options (the drivers' own): beyond them a deadline overflows the
+#: clock, or nothing sensible is asked for.
+_MAX_TIMEOUT, _MAX_RETRIES, _MAX_BAUD = MAX_SECONDS, MAX_RETRIES, MAX_BAUD
+_MAX_SWEEP = 60.0
 
 
 def _fraction(text: str) -> float:
@@ -69,51 +94,105 @@ def add_scan_parser(subparsers) -> None:
         description="Acquire a partial range scan (Torres-Mendez & Dudek 2008, sections 3.1 "
         "and 4): 500 slices over 180 degrees, of which a sampling strategy chooses some; "
         "pictures every 18 degrees. Every slice is saved as soon as it is validated, so an "
-        "interrupted scan resumes with --resume.",
+        "interrupted scan resumes with --resume, which checks every file first and never "
+        "deletes or overwrites one (what it cannot trust is moved into OUT/rejected/).",
     )
     where = scan.add_argument_group("devices")
     where.add_argument("--simulate", action="store_true",
-                       help="use the simulated rig (pseudo-terminals, the synthetic room)")
-    where.add_argument("--pan-port", help="the pan unit's port or pyserial URL")
-    where.add_argument("--laser-port", help="the rangefinder's port or pyserial URL")
-    where.add_argument("--pan-baud", type=_positive(int), default=9600,
-                       help="pan unit baud rate (default 9600)")
-    where.add_argument("--laser-baud", type=_positive(int), default=115200,
-                       help="rangefinder baud rate (default 115200)")
-    where.add_argument("--timeout", type=_positive(float), default=None,
-                       help="deadline of one request in seconds (default 0.2 simulated, 0.5 real)")
-    where.add_argument("--sweep-time", type=float, default=None,
+                       help="use the simulated rig (pseudo-terminals, the synthetic room) "
+                       "instead of ports (default: off)")
+    where.add_argument("--pan-port", metavar="PORT",
+                       help="the pan unit's port or pyserial URL (required without --simulate)")
+    where.add_argument("--laser-port", metavar="PORT",
+                       help="the rangefinder's port or pyserial URL (required without "
+                       "--simulate)")
+    where.add_argument("--pan-baud", type=_positive(int), default=9600, metavar="BAUD",
+                       help="pan unit baud rate (default: %(default)s)")
+    where.add_argument("--laser-baud", type=_positive(int), default=115200, metavar="BAUD",
+                       help="rangefinder baud rate (default: %(default)s)")
+    where.add_argument("--timeout", type=_positive(float), default=None, metavar="SECONDS",
+                       help=f"deadline of one request, at most {_MAX_TIMEOUT:g} s (default: "
+                       "0.2 simulated, 0.5 real)")
+    where.add_argument("--sweep-time", type=float, default=None, metavar="SECONDS",
                        help="seconds per mirror revolution, added per averaged sample to a "
-                       "slice's deadline (default 0 simulated, 0.25 real)")
+                       f"slice's deadline, at most {_MAX_SWEEP:g} (default: 0 simulated, "
+                       "0.25 real)")
     where.add_argument("--retries", type=int, default=8,
-                       help="times a failed request is sent again (default 8)")
-    scan.add_argument("--out", required=True, help="output folder")
+                       help="times a failed request is sent again, at most "
+                       f"{_MAX_RETRIES} (default: %(default)s)")
+    scan.add_argument("--out", required=True, metavar="DIR",
+                      help="output folder: slices/, images/, manifest.json, scan.npz (required)")
     scan.add_argument("--resume", action="store_true",
-                      help="continue the scan in --out (its saved settings are used)")
+                      help="continue the scan in --out with its saved settings; without a "
+                      "manifest.json, give the scan's settings to rebuild it from the slice "
+                      "files (default: off)")
     what = scan.add_argument_group("sampling (a new scan; default: stripes, 0.4)")
     what.add_argument("--strategy", choices=STRATEGIES, default=None,
-                      help="which slices: stripes (default), every n-th, distance-driven "
-                      "(Fig. 2, after a coarse pass), all")
+                      help="which slices: stripes, every n-th, distance-driven (Fig. 2, "
+                      "after a coarse pass over every 10th slice), all (default: stripes)")
     what.add_argument("--fraction", type=_fraction, default=None,
-                      help="fraction of the 500 slices to scan (default 0.4)")
+                      help="fraction of the 500 slices to scan, in (0, 1] (default: 0.4)")
     what.add_argument("--step", type=_positive(int), default=None,
-                      help="every: scan every STEP-th slice (default 1/fraction, rounded)")
-    what.add_argument("--stripe-width", type=_positive(int), default=None,
-                      help="stripes: slices per stripe (default 4)")
-    what.add_argument("--average", type=_positive(int), default=None,
-                      help="samples averaged per position (default 10)")
+                      help="every: scan every STEP-th slice (default: 1/fraction, rounded)")
+    what.add_argument("--stripe-width", type=_positive(int), default=None, metavar="SLICES",
+                      help="stripes: consecutive slices per stripe (default: 4)")
+    what.add_argument("--average", type=_positive(int), default=None, metavar="SAMPLES",
+                      help="samples averaged per position, 1-99 (default: 10; on --resume "
+                      "without manifest.json, the slice files' own)")
     what.add_argument("--no-camera", action="store_true", default=None,
-                      help="take no pictures")
+                      help="take no pictures (default: a picture every 18 degrees)")
     sim = scan.add_argument_group("simulator")
-    sim.add_argument("--seed", type=int, default=None, help="room and noise seed (default 0)")
-    sim.add_argument("--faults", default=None,
-                     help="faults on the wire, e.g. corrupt=0.05,drop=0.02,disconnect=1,"
-                     "delay=0.01 (also error=, disconnect_after=)")
-    scan.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    sim.add_argument("--seed", type=int, default=None,
+                     help="room and noise seed, >= 0 (default: 0; on --resume, the saved one)")
+    sim.add_argument("--pose", type=_pose, default=None, metavar="X,Z,HEADING",
+                     help="where the rig stands: metres right (x) and forward (z) of the "
+                     "simulated room's centre, heading in degrees from z towards x (as "
+                     "refsynth.model.Pose); the simulator scans from there, a real scan "
+                     "records it; saved in manifest.json; write --pose=-1,2,30 for a "
+                     "negative X (default: 0,0,0; on --resume, the saved one)")
+    sim.add_argument("--faults", default=None, metavar="SPEC",
+                     help="faults on the wire, each key at most once: corrupt=, drop=, error= "
+                     "(fractions of replies), delay= (seconds), disconnect= (a count), "
+                     "disconnect_after=; e.g. corrupt=0.05,drop=0.02,disconnect=1 "
+                     "(default: none)")
+    scan.add_argument("--quiet", action="store_true",
+                      help="no progress on stderr (default: off)")
     scan.set_defaults(func=run_scan_command)
 
 
-def _settings(args, out: Path) -> ScanSettings | None:
+def _pose(text: str) -> RigPose:
+    """An argparse type: ``X,Z,HEADING`` (metres, metres, degrees) as a RigPose."""
+    parts = text.split(",")
+    try:
+        x, z, heading = (float(part) for part in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"must be X,Z,HEADING (metres, metres, degrees), got {text!r}") from None
+    if not all(map(math.isfinite, (x, z, heading))) or abs(heading) > 360:
+        raise argparse.ArgumentTypeError(
+            f"must be finite, the heading within ±360 degrees, got {text!r}")
+    return RigPose(x=x, z=z, heading=math.radians(heading))
+
+
+def _scan_pose(args, saved: dict) -> RigPose | None:
+    """The pose asked for (``--pose``), or the saved scan's on --resume; None: the origin,
+    not recorded."""
+    recorded = saved.get("source", {}).get("pose") if saved else None
+    if recorded is not None:
+        recorded = RigPose.from_dict(recorded)
+        if args.pose is not None and args.pose.as_dict() != recorded.as_dict():
+            raise ValueError(f"cannot resume '{args.out}': --pose differs from the saved scan's "
+                             f"({recorded.as_dict()})")
+        return recorded
+    if args.pose is not None and saved:
+        raise ValueError(f"cannot resume '{args.out}' with --pose: the saved scan was taken "
+                         "at the origin (its manifest.json records no pose)")
+    return args.pose
+
+
+def _settings(args, out: Path, saved: dict) -> ScanSettings | None:
+    """The settings asked for: only what was given on the command line, over the saved
+    scan's (on --resume) or the slice files' GS window (on --resume without a manifest)."""
     given = {
         "strategy": args.strategy, "fraction": args.fraction, "step": args.step,
         "stripe_width": args.stripe_width, "average": args.average,
@@ -122,12 +201,10 @@ def _settings(args, out: Path) -> ScanSettings | None:
     given = {key: value for key, value in given.items() if value is not None}
     if args.resume and not given:
         return None  # the folder's own settings
-    saved = saved_manifest(out).get("settings") if args.resume else None
-    if isinstance(saved, dict):
-        try:  # only what was given on the command line is compared with the saved scan
-            return replace(ScanSettings.from_dict(saved), **given)
-        except (ValueError, TypeError):
-            pass  # run_scan reports the bad manifest
+    if saved:  # only what was given on the command line is compared with the saved scan
+        return replace(ScanSettings.from_dict(saved["settings"]), **given)
+    if args.resume:
+        given = {**(slice_window(out) or {}), **given}
     return ScanSettings(**given)
 
 
@@ -148,10 +225,12 @@ def _progress(quiet: bool):
     return report
 
 
-def run_scan_command(args) -> int:
-    """The ``scan`` subcommand: returns the exit status (0)."""
-    if args.retries < 0:
-        raise ValueError(f"--retries must be >= 0, got {args.retries}")
+def _check_options(args) -> None:
+    """The device and simulator options, in one line each (before any work)."""
+    if not args.out.strip():
+        raise ValueError("--out must name a folder, got an empty string")
+    if not 0 <= args.retries <= _MAX_RETRIES:
+        raise ValueError(f"--retries must be >= 0 and <= {_MAX_RETRIES}, got {args.retries}")
     if args.simulate:
         if args.pan_port or args.laser_port:
             raise ValueError("--simulate takes no --pan-port / --laser-port")
@@ -162,26 +241,44 @@ def run_scan_command(args) -> int:
             raise ValueError("--faults and --seed are for --simulate")
     if args.seed is not None and args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    if args.timeout is not None and not args.timeout <= _MAX_TIMEOUT:
+        raise ValueError(f"--timeout must be a finite number of seconds <= {_MAX_TIMEOUT:g}, "
+                         f"got {args.timeout:g}")
+    if args.sweep_time is not None and not (math.isfinite(args.sweep_time)
+                                            and 0 <= args.sweep_time <= _MAX_SWEEP):
+        raise ValueError(f"--sweep-time must be >= 0 and <= {_MAX_SWEEP:g} seconds, got "
+                         f"{args.sweep_time:g}")
+    for name in ("pan_baud", "laser_baud"):
+        if getattr(args, name) > _MAX_BAUD:
+            raise ValueError(f"--{name.replace('_', '-')} must be <= {_MAX_BAUD}, got "
+                             f"{getattr(args, name)}")
+
+
+def run_scan_command(args) -> int:
+    """The ``scan`` subcommand: returns the exit status (0)."""
+    _check_options(args)
     out = Path(args.out)
-    settings = _settings(args, out)
+    saved = resumed_manifest(out)[0] if args.resume else {}
+    settings = _settings(args, out, saved)
+    pose = _scan_pose(args, saved)
+    faults = Faults.parse(args.faults) if args.simulate else None
     sweep = args.sweep_time if args.sweep_time is not None else (0.0 if args.simulate else 0.25)
     timeout = args.timeout if args.timeout is not None else (0.2 if args.simulate else 0.5)
-    if sweep < 0:
-        raise ValueError(f"--sweep-time must be >= 0, got {sweep}")
 
     with ExitStack() as stack:
         if args.simulate:
-            faults = Faults.parse(args.faults)
             seed = 0 if args.seed is None else args.seed
             if args.resume and args.seed is None:
-                seed = saved_manifest(out).get("source", {}).get("seed", seed)
+                seed = saved.get("source", {}).get("seed", seed)
             simulator = stack.enter_context(
-                RigSimulator(seed=seed, faults=faults, camera_dir=out / "images"))
+                RigSimulator(seed=seed, faults=faults, camera_dir=out / "images", pose=pose))
             pan_port, laser_port = simulator.pan_port, simulator.laser_port
             source = {"simulated": True, "seed": seed, "faults": str(faults)}
         else:
             pan_port, laser_port = args.pan_port, args.laser_port
             source = {"simulated": False, "ports": [pan_port, laser_port]}
+        if pose is not None:
+            source["pose"] = pose.as_dict()
         pan = stack.enter_context(PanUnit(pan_port, baudrate=args.pan_baud,
                                           timeout=timeout, retries=args.retries))
         laser = stack.enter_context(Rangefinder(laser_port, baudrate=args.laser_baud,
