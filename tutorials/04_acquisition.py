@@ -27,28 +27,38 @@
 # speaks the same protocols on pseudo-terminals, and scans that survive
 # corrupted replies, lost replies and unplugged cables. This tutorial shows
 # the protocol on the wire, runs a simulated scan with faults, and looks at
-# the partial range it produced. The protocol page is `refsynth/rig/PROTOCOL.md`.
+# the partial range it produced. The protocol page is
+# `refsynth/acquisition/PROTOCOL.md`.
 #
-# Run it as plain Python (`python tutorials/04_acquisition.py`); figures go
-# to `tutorial-output/` (or `$REFSYNTH_TUTORIAL_OUT`), the scan folders to
+# **Before this tutorial**: tutorial 0 (samplings: why the robot measures
+# only some slices); bytes and strings in Python; what a serial port is (a
+# pipe of bytes with no message boundaries).
+#
+# **After it** you can read a request and a reply of the rangefinder's
+# protocol byte by byte and check its CRC, say why a corrupted reply can
+# never be taken for data, drive the simulated rig with pyserial, run a scan
+# with faults and interruptions and check that nothing was lost, and turn
+# the scan into the partial range and pictures that tutorial 3 registers.
+#
+# Open this file as a notebook, build it with
+# `python -m refsynth notebooks --out notebooks --only 04`, or run it as
+# plain Python (`python tutorials/04_acquisition.py`); figures go to
+# `tutorial-output/` (or `$REFSYNTH_TUTORIAL_OUT`), the scan folders to
 # `04_scans/` beside them. It needs pseudo-terminals (Linux, macOS).
 
 # %%
-import os
 import shutil
 import time
 from pathlib import Path
 
-import matplotlib
-
-if "ipykernel" not in os.environ.get("MPLBACKEND", "") and not os.environ.get("DISPLAY"):
-    matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import serial
+from _course import OUT, save
 
 from refsynth.acquisition import (
     PanUnit,
+    ProtocolError,
     Rangefinder,
     RigSimulator,
     RoomRig,
@@ -67,8 +77,7 @@ from refsynth.acquisition.geometry import (
     pan_angle,
     polar_angle,
 )
-from refsynth.acquisition.protocol import (
-    ProtocolError,
+from refsynth.acquisition.rangefinder_protocol import (
     crc16,
     encode_rangefinder_command,
     encode_rangefinder_reply,
@@ -76,16 +85,9 @@ from refsynth.acquisition.protocol import (
     parse_rangefinder_reply,
 )
 
-OUT = Path(os.environ.get("REFSYNTH_TUTORIAL_OUT", "tutorial-output"))
-OUT.mkdir(parents=True, exist_ok=True)
 WORK = OUT / "04_scans"  # the scan folders, to look at afterwards
 shutil.rmtree(WORK, ignore_errors=True)  # a new run starts new scans
 SEED = 0
-
-
-def save(fig, name):
-    fig.savefig(OUT / name, dpi=100)
-    plt.close(fig)
 
 
 def hexdump(data: bytes, width: int = 16) -> str:
@@ -292,3 +294,23 @@ for ax, picture in zip(axes, scans["stripes, 40 %"].images):
     ax.set_axis_off()
 save(fig, "04_pictures.png")
 print(f"{time.perf_counter() - start:.1f} s for the scans; figures written to {OUT}/")
+
+# %% [markdown]
+# ## Exercises
+#
+# Solutions: `tutorials/solutions/04_acquisition.py` (the test suite runs
+# it).
+#
+# 1. **Every single-byte corruption.** Replace each byte of the reply of
+#    section 2 by each of the 255 other values and parse it. How many are
+#    accepted? Which check catches a corrupted echo, status, data line or
+#    newline?
+# 2. **The CRC by hand.** Write CRC-16/CCITT bit by bit (start 0xFFFF,
+#    polynomial 0x1021, most significant bit first) and compare it with
+#    `crc16` and `binascii.crc_hqx`. Does swapping two characters of the data
+#    line change it?
+# 3. **Where does Fig. 2's rule spend its slices?** Take each slice's median
+#    true range (`RoomRig(seed=0).truth(i, SLICE_START, SLICE_COUNT)`) as the
+#    coarse pass and plan a distance-driven scan at 40 %
+#    (`plan_slices(ScanSettings("distance", fraction=0.4), coarse)`). How many
+#    slices fall where the room is far, how many where it is near?
