@@ -36,6 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from refsynth.scenes.portable import norm3, portable_cos, portable_sin, rotate3
+
 __all__ = [
     "PAN_SLICES",
     "PAN_STEP_DEG",
@@ -125,8 +127,9 @@ def directions(theta, phi) -> np.ndarray:
     ndarray of shape (..., 3)
     """
     theta, phi = np.broadcast_arrays(np.asarray(theta, float), np.asarray(phi, float))
-    sin_theta = np.sin(theta)
-    return np.stack([sin_theta * np.sin(phi), np.cos(theta), sin_theta * np.cos(phi)], axis=-1)
+    sin_theta = portable_sin(theta)  # the same bits on every machine (issue #11)
+    return np.stack([sin_theta * portable_sin(phi), portable_cos(theta),
+                     sin_theta * portable_cos(phi)], axis=-1)
 
 
 def camera_indices() -> np.ndarray:
@@ -149,10 +152,11 @@ def camera_rays(pan_index: int) -> np.ndarray:
     u = (np.arange(IMAGE_WIDTH) + 0.5 - IMAGE_WIDTH / 2) / FOCAL_PX
     v = (IMAGE_HEIGHT / 2 - (np.arange(IMAGE_HEIGHT) + 0.5)) / FOCAL_PX
     camera = np.stack(np.broadcast_arrays(u[None, :], v[:, None], 1.0), axis=-1)
-    cos, sin = np.cos(phi), np.sin(phi)
-    # columns of the rotation: camera x -> (cos φ, 0, −sin φ), camera z -> (sin φ, 0, cos φ)
-    rays = camera @ np.array([[cos, 0.0, -sin], [0.0, 1.0, 0.0], [sin, 0.0, cos]])
-    return rays / np.linalg.norm(rays, axis=-1, keepdims=True)
+    cos, sin = portable_cos(phi), portable_sin(phi)
+    # columns of the rotation: camera x -> (cos φ, 0, −sin φ), camera z -> (sin φ, 0, cos φ);
+    # camera @ that, as explicit 3-term sums (no BLAS: issue #11)
+    rays = rotate3(np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]]), camera)
+    return rays / norm3(rays)[..., None]
 
 
 def image_name(pan_index: int) -> str:

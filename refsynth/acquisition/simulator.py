@@ -1,9 +1,13 @@
 """A simulated rig on pseudo-terminals, speaking the drivers' protocols (§3.1, §4).
 
 - :class:`RoomRig`: the physics, with no port: what the rangefinder measures
-  and the camera sees from the centre of :func:`refsynth.scenes.synthetic_room`'s
-  room (the same seed gives the same room), by ray casting
-  (:func:`refsynth.scenes.cast_rays`).
+  and the camera sees in :func:`refsynth.scenes.synthetic_room`'s room (the
+  same seed gives the same room), by ray casting
+  (:func:`refsynth.scenes.cast_rays`), from the room's centre or from any
+  :class:`RigPose` in it;
+- :class:`~refsynth.acquisition.pose.RigPose` (its own module): where the
+  rig stands, ``(x, z, heading)``, the convention of
+  :class:`refsynth.model.Pose` (its ``y`` is 0);
 - :class:`~refsynth.acquisition.faults.Faults` (its own module): what goes
   wrong on the wire, parsed from ``"corrupt=0.05,drop=0.02,disconnect=1,delay=0.01"``;
   the servers below inject it.
@@ -13,6 +17,12 @@
   survive a simulated disconnect, as udev's ``/dev/serial/by-id`` links do.
   A context manager: leaving it stops the threads and closes every
   descriptor.
+
+The pose (:mod:`refsynth.acquisition.pose`): a :class:`RoomRig` at
+``RigPose(x, z, heading)`` casts each ray of its own frame from ``(x, 0, z)``
+along ``R_y(heading) d``, the convention of :class:`refsynth.model.Pose`; the
+default pose casts them exactly as before poses existed. The noise is drawn
+as at the origin: a seed's noise does not depend on the pose.
 
 The measurement model (documented choices, not the paper's):
 
@@ -72,12 +82,14 @@ from refsynth.acquisition.pan_protocol import (
     format_pan_reply,
     parse_pan_command,
 )
+from refsynth.acquisition.pose import RigPose, check_pose
 from refsynth.acquisition.rangefinder_protocol import (
     encode_rangefinder_reply,
     encode_samples,
     parse_rangefinder_command,
 )
 from refsynth.scenes import RoomGeometry, cast_rays, room_geometry
+from refsynth.scenes.portable import dot3
 
 __all__ = ["RoomRig", "RigSimulator", "MAX_RANGE_M"]
 
@@ -106,6 +118,9 @@ class RoomRig:
     seed : int, default 0
         The room (:func:`refsynth.scenes.room_geometry`) and every noise
         draw.
+    pose : RigPose, optional
+        Where the rig stands (default: the room's centre, facing z). It
+        must be inside the room, clear of the furniture.
 
     Examples
     --------
@@ -113,14 +128,30 @@ class RoomRig:
     >>> range_mm, amplitude = rig.measure(250, 500, 1, 10)
     >>> 1000 < int(range_mm[0]) < 9000     # straight ahead: the back wall or the divider
     True
+    >>> moved = RoomRig(seed=0, pose=RigPose(z=1.0))   # a metre nearer
+    >>> bool(abs(rig.truth(250, 500, 1)[0] - moved.truth(250, 500, 1)[0] - 1.0) < 1e-9)
+    True
     """
 
-    def __init__(self, seed: int = 0) -> None:
+    def __init__(self, seed: int = 0, pose: RigPose | None = None) -> None:
         if not is_int(seed) or seed < 0:
             raise TypeError(f"The parameter `seed` must be a non-negative integer, got {seed!r}")
+        if pose is None:
+            pose = RigPose()
+        if not isinstance(pose, RigPose):
+            raise TypeError(f"The parameter `pose` must be a RigPose, got {pose!r}")
         self.seed = int(seed)
         self.room: RoomGeometry = room_geometry(self.seed)
+        check_pose(self.room, pose)
+        self.pose = pose
         self._png: dict[int, bytes] = {}
+
+    def _cast(self, rays: np.ndarray):
+        """Rays of the rig's frame cast from the pose; returns ``(room rays, hits)``."""
+        if self.pose.is_origin:
+            return rays, cast_rays(self.room, rays)
+        rays = self.pose.rays(rays)
+        return rays, cast_rays(self.room, rays, origin=self.pose.origin)
 
     def _check(self, pan_index, seq, count, average) -> None:
         if not 0 <= pan_index < PAN_SLICES:
@@ -133,7 +164,7 @@ class RoomRig:
         """The noise-free distance in metres along each ray of a slice (inf: nothing hit)."""
         self._check(pan_index, seq, count, 1)
         rays = directions(polar_angle(np.arange(seq, seq + count)), pan_angle(pan_index))
-        return cast_rays(self.room, rays).distance
+        return self._cast(rays)[1].distance
 
     def measure(self, pan_index: int, seq: int, count: int,
                 average: int) -> tuple[np.ndarray, np.ndarray]:
@@ -148,7 +179,7 @@ class RoomRig:
         """
         self._check(pan_index, seq, count, average)
         rays = directions(polar_angle(np.arange(seq, seq + count)), pan_angle(pan_index))
-        hits = cast_rays(self.room, rays)
+        rays, hits = self._cast(rays)
         # the noise of every encoder position, drawn for the whole revolution so that
         # a slice's values do not depend on which positions were asked for
         rng = np.random.default_rng([self.seed, 0x5CA, int(pan_index), int(average)])
@@ -160,14 +191,17 @@ class RoomRig:
         distance = hits.distance
         valid = np.isfinite(distance) & (distance <= MAX_RANGE_M)
         distance = np.where(valid, distance, 1.0)
-        incidence = np.abs(np.sum(rays * hits.normal, axis=-1))
+        incidence = np.abs(dot3(rays, hits.normal))
         amplitude = 255.0 * hits.albedo * incidence / (1.0 + (distance / 12.0) ** 2)
         sigma = 0.002 + 0.006 * (1.0 - amplitude / 255.0)
         p_drop = np.clip(0.002 + (6.0 / np.maximum(amplitude, 1e-3)) ** 2, 0.0, 1.0)
         returned = (keep >= p_drop[:, None]) & valid[:, None]
         n = returned.sum(axis=1)
         samples = distance[:, None] + sigma[:, None] * noise
-        mean = (samples * returned).sum(axis=1) / np.maximum(n, 1)
+        total = np.zeros(samples.shape[0])
+        for k in range(samples.shape[1]):  # left to right over the averaged samples (#11)
+            total = total + np.where(returned[:, k], samples[:, k], 0.0)
+        mean = total / np.maximum(n, 1)
         ok = n >= (average + 1) // 2
         range_mm = np.where(ok, np.clip(np.rint(mean * 1000.0), 1, 0xFFFF), 0)
         level = np.where(ok, np.clip(np.rint(amplitude + 1.5 * amplitude_noise), 1, 255), 0)
@@ -176,7 +210,7 @@ class RoomRig:
     def picture(self, pan_index: int) -> np.ndarray:
         """The camera's grey picture at ``pan_index``: (240, 128) uint8."""
         self._check(pan_index, 0, 1, 1)
-        hits = cast_rays(self.room, camera_rays(pan_index))
+        hits = self._cast(camera_rays(pan_index))[1]
         rng = np.random.default_rng([self.seed, 0xCA3, int(pan_index)])
         noise = rng.normal(0.0, 0.01, size=(IMAGE_HEIGHT, IMAGE_WIDTH))
         grey = np.clip(hits.albedo * hits.shading + noise, 0.0, 1.0)
@@ -454,6 +488,9 @@ class RigSimulator:
         answers ``! No camera``.
     reconnect_delay : float, default 0.1
         Seconds a disconnected device stays away.
+    pose : RigPose, optional
+        Where the rig stands in the room (:class:`RoomRig`; default its
+        centre, facing z).
 
     Attributes
     ----------
@@ -474,12 +511,12 @@ class RigSimulator:
 
     def __init__(self, seed: int = 0, *, faults: Faults | str | None = None,
                  camera_dir: str | os.PathLike | None = None,
-                 reconnect_delay: float = 0.1) -> None:
+                 reconnect_delay: float = 0.1, pose: RigPose | None = None) -> None:
         if isinstance(faults, str) or faults is None:
             faults = Faults.parse(faults)
         if not isinstance(faults, Faults):
             raise TypeError(f"The parameter `faults` must be a Faults or a str, got {faults!r}")
-        self.rig = RoomRig(seed)
+        self.rig = RoomRig(seed, pose)
         self.seed = self.rig.seed
         self.faults = faults
         self.camera_dir = None if camera_dir is None else Path(camera_dir)

@@ -20,6 +20,7 @@ from refsynth.cli.evaluate import add_evaluate_parser
 from refsynth.cli.figures import add_figures_parser
 from refsynth.cli.model import add_model_parser
 from refsynth.cli.notebooks import add_notebooks_parser
+from refsynth.cli.oracle import add_oracle_parser
 from refsynth.cli.register import add_register_parser
 from refsynth.cli.scan import add_scan_parser
 from refsynth.cli.synth import add_synth_parser
@@ -84,6 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_figures_parser(sub)
     add_model_parser(sub)
     add_notebooks_parser(sub)
+    add_oracle_parser(sub)
     return parser
 
 

@@ -5,6 +5,7 @@ Two forms::
     python -m refsynth model DENSE.npy --intensity IMAGE --camera cylindrical --focal 300 \\
         --out room.ply [--confidence CONF.npy] [--partial PARTIAL.npy] \\
         [--max-jump FRACTION] [--ascii]
+    python -m refsynth model DENSE.npy --camera-file REGISTERED/camera.json --out room.ply
     python -m refsynth model DISP.npy --camera pinhole --focal F --cx CX --cy CY \\
         [--disparity --baseline B --doffs D] --out model.ply
     python -m refsynth model --merge a.ply b.ply --poses poses.json --out world.ply [--refine]
@@ -16,6 +17,28 @@ after :func:`refsynth.model.refine_poses`). ``poses.json`` is a list, one
 entry per PLY in order, of ``{"x": …, "z": …, "heading": DEGREES, "y": …}``
 (refsynth's frame: x right, y up, z forward; ``y`` optional) or of
 ``{"matrix": [[4 × 4]]}``.
+
+The camera file
+---------------
+A registered panorama's camera is not the centred one that ``--focal``
+alone gives: its pan angle 0 and horizon sit where the warp of Eq. 21 puts
+them in the crop. ``python -m refsynth register`` therefore writes
+``camera.json`` beside ``intensity.npy`` (:func:`write_registered_camera`), and
+``model --camera-file camera.json`` reads it (:func:`read_camera_file`)
+instead of ``--camera``, ``--focal``, ``--cx``, ``--cy``, ``--phi-step`` and
+``--h-step``. It holds::
+
+    {"format": "refsynth-camera/1", "camera": "cylindrical",
+     "focal": 300.0, "cx": …, "cy": …, "phi_step_rad": 0.00333…, "h_step": 1.0,
+     "shape": [H, W], "warp": {"a": …, "b": …, "alpha": …, "beta": …},
+     "crop": [row0, row1, col0, col1]}
+
+``cx``, ``cy``, ``phi_step_rad`` and ``h_step`` are those of
+:meth:`refsynth.model.CylindricalCamera.from_warp` (``Δφ = 1/a``, ``c_x = α −
+col0``, ``Δh = −1/b``, ``c_y = β − row0``); ``shape`` is the panorama's, which
+the dense range must have; ``warp`` and ``crop`` are a record of where they
+came from. A pinhole camera's file has ``"camera": "pinhole"``, ``focal``,
+``cx`` and ``cy``.
 
 :func:`add_model_parser` adds the subcommand to :mod:`refsynth.cli.main`'s
 parser. User errors are raised as ValueError / TypeError / OSError with a
@@ -48,7 +71,14 @@ from refsynth.model import (
     write_ply,
 )
 
-__all__ = ["add_model_parser", "read_poses"]
+__all__ = ["add_model_parser", "read_poses", "write_camera_file", "write_registered_camera",
+           "read_camera_file", "CAMERA_FORMAT"]
+
+#: The camera file's format tag.
+CAMERA_FORMAT = "refsynth-camera/1"
+#: A camera file is a few hundred bytes.
+_MAX_CAMERA_BYTES = 65536
+_CAMERA_OPTIONS = ("camera", "focal", "cx", "cy", "phi_step", "h_step")
 
 
 def _max_jump(text: str) -> float | None:
@@ -80,7 +110,94 @@ def _single(array: np.ndarray, what: str, shape=None) -> np.ndarray:
     return array.astype(np.float64)
 
 
+def write_camera_file(path, camera, shape, *, warp=None, crop=None) -> Path:
+    """Write ``camera`` (Cylindrical or Pinhole) of an image of ``shape`` as a camera file.
+
+    ``warp`` (anything with ``a``, ``b``, ``alpha``, ``beta``) and ``crop``
+    (``(row0, row1, col0, col1)``) are recorded as provenance. Returns the path.
+    """
+    record = {"format": CAMERA_FORMAT}
+    if isinstance(camera, CylindricalCamera):
+        record.update(camera="cylindrical", focal=camera.focal, cx=camera.cx, cy=camera.cy,
+                      phi_step_rad=camera.phi_step, h_step=camera.h_step)
+    elif isinstance(camera, PinholeCamera):
+        record.update(camera="pinhole", focal=camera.focal, cx=camera.cx, cy=camera.cy)
+    else:
+        raise TypeError(f"The parameter `camera` must be a CylindricalCamera or a "
+                        f"PinholeCamera, got {type(camera).__name__}")
+    record["shape"] = [int(n) for n in shape]
+    if warp is not None:
+        record["warp"] = {k: float(getattr(warp, k)) for k in ("a", "b", "alpha", "beta")}
+    if crop is not None:
+        record["crop"] = [int(v) for v in crop]
+    path = Path(path)
+    path.write_text(json.dumps(record, indent=1) + "\n")
+    return path
+
+
+def write_registered_camera(path, registration, focal: float) -> Path:
+    """The camera file of a registered panorama (a :class:`refsynth.registration.Registration`).
+
+    Its camera is :meth:`CylindricalCamera.from_warp` of the global warp
+    (Eq. 21) at the crop's origin, for the ``registration.intensity`` grid.
+    """
+    crop = registration.crop
+    camera = CylindricalCamera.from_warp(registration.warp, focal, origin=(crop[0], crop[2]))
+    return write_camera_file(path, camera, registration.intensity.shape[:2],
+                             warp=registration.warp, crop=crop)
+
+
+def read_camera_file(path) -> tuple[CylindricalCamera | PinholeCamera, tuple[int, int]]:
+    """The camera and the image shape of a camera file (module docstring for the format)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"camera file not found: {path}")
+    if path.stat().st_size > _MAX_CAMERA_BYTES:
+        raise ValueError(f"{path} is not a camera file ({path.stat().st_size} bytes)")
+    try:
+        record = json.loads(path.read_bytes().decode("utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as error:
+        raise ValueError(f"cannot read {path} as JSON: {error}") from None
+    if not isinstance(record, dict) or record.get("format") != CAMERA_FORMAT:
+        raise ValueError(f"{path} is not a camera file (format {CAMERA_FORMAT!r}, as "
+                         "'register' writes)")
+    kind = record.get("camera")
+    keys = {"cylindrical": ("focal", "cx", "cy", "phi_step_rad", "h_step"),
+            "pinhole": ("focal", "cx", "cy")}.get(kind)
+    if keys is None:
+        raise ValueError(f"{path}: camera must be 'cylindrical' or 'pinhole', got {kind!r}")
+    values = [record.get(key) for key in keys]
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+               for v in values):
+        raise ValueError(f"{path}: {', '.join(keys)} must be finite numbers")
+    shape = record.get("shape")
+    if not (isinstance(shape, list) and len(shape) == 2
+            and all(isinstance(n, int) and not isinstance(n, bool) and n > 0 for n in shape)):
+        raise ValueError(f"{path}: shape must be [rows, columns], got {shape!r}")
+    if kind == "pinhole":
+        camera = PinholeCamera(*values)
+    else:
+        focal, cx, cy, phi_step, h_step = values
+        camera = CylindricalCamera(focal, cx=cx, cy=cy, phi_step=phi_step, h_step=h_step)
+    return camera, (shape[0], shape[1])
+
+
 def _camera(args, shape):
+    if args.camera_file is not None:
+        given = [f"--{name.replace('_', '-')}" for name in _CAMERA_OPTIONS
+                 if getattr(args, name) is not None]
+        if given:
+            raise ValueError(f"--camera-file gives the camera: drop {', '.join(given)}")
+        camera, expected = read_camera_file(args.camera_file)
+        if tuple(expected) != tuple(shape):
+            raise ValueError(f"the range is {shape[0]}x{shape[1]} (rows x columns) but "
+                             f"{args.camera_file} is the camera of a {expected[0]}x{expected[1]} "
+                             "image")
+        if args.disparity and not isinstance(camera, PinholeCamera):
+            raise ValueError("--disparity needs a pinhole camera (a rectified pair)")
+        return camera
+    if args.focal is None:
+        raise ValueError("--focal is required to build a model (or give --camera-file)")
     rows, cols = shape
     cx = (cols - 1) / 2 if args.cx is None else args.cx
     cy = (rows - 1) / 2 if args.cy is None else args.cy
@@ -96,19 +213,22 @@ def _camera(args, shape):
 def _cmd_build(args) -> int:
     if args.poses or args.refine or args.voxel is not None or args.poses_out:
         raise ValueError("--poses, --refine, --voxel and --poses-out are for --merge")
-    if args.focal is None:
-        raise ValueError("--focal is required to build a model")
-    if args.disparity and args.camera != "pinhole":
-        raise ValueError("--disparity needs --camera pinhole (a rectified pair)")
+    if args.camera_file is None:
+        if args.focal is None:
+            raise ValueError("--focal is required to build a model (or give --camera-file)")
+        args.camera = args.camera or "cylindrical"
+        if args.disparity and args.camera != "pinhole":
+            raise ValueError("--disparity needs --camera pinhole (a rectified pair)")
     out = check_output(args.out, "--out", (".ply",))
     dense = _single(_read(args.dense, "range"), "range")
-    if args.disparity:
-        if args.baseline is None:
-            raise ValueError("--disparity needs --baseline (and --doffs if not 0)")
-        dense = disparity_to_depth(dense, args.focal, args.baseline, args.doffs)
-    elif args.baseline is not None or args.doffs != 0.0:
+    if not args.disparity and (args.baseline is not None or args.doffs != 0.0):
         raise ValueError("--baseline and --doffs are for --disparity")
+    if args.disparity and args.baseline is None:
+        raise ValueError("--disparity needs --baseline (and --doffs if not 0)")
     camera = _camera(args, dense.shape)
+    kind = "pinhole" if isinstance(camera, PinholeCamera) else "cylindrical"
+    if args.disparity:
+        dense = disparity_to_depth(dense, camera.focal, args.baseline, args.doffs)
     intensity = _read(args.intensity, "intensity")
     if intensity is not None and intensity.shape[:2] != dense.shape:
         raise ValueError(f"intensity shape {intensity.shape} differs from the range's "
@@ -128,7 +248,7 @@ def _cmd_build(args) -> int:
                         wrap=False if args.no_wrap else None)
     write_ply(make_parent(out), model, ascii=args.ascii,
               coordinates="float32" if args.float32 else "float64",
-              comments=[f"camera {args.camera} focal {args.focal}"])
+              comments=[f"camera {kind} focal {camera.focal}"])
     kept = np.zeros(dense.shape, dtype=bool)
     kept[model.pixels[:, 0], model.pixels[:, 1]] = True
     wrap = not args.no_wrap and camera.covers_360(dense.shape[1])
@@ -225,44 +345,66 @@ def add_model_parser(subparsers) -> argparse.ArgumentParser:
     )
     parser.add_argument("dense", nargs="?", help="dense range: NPY/PFM (Euclidean distance "
                         "for --camera cylindrical, depth or --disparity for pinhole)")
-    parser.add_argument("--out", required=True, help="the .ply file to write")
-    parser.add_argument("--intensity", help="the registered intensity (PNG/JPG/NPY), grey or RGB")
-    parser.add_argument("--camera", choices=["cylindrical", "pinhole"], default="cylindrical")
-    parser.add_argument("--focal", type=real, help="focal length f in pixels (the cylinder's "
-                        "radius)")
+    parser.add_argument("--out", required=True, metavar="PLY",
+                        help="the .ply file to write (required)")
+    parser.add_argument("--intensity", metavar="IMAGE",
+                        help="the registered intensity (PNG/JPG/NPY), grey or RGB (default: "
+                        "mid-grey points)")
+    parser.add_argument("--camera-file", metavar="JSON",
+                        help="the camera.json that 'register' writes beside intensity.npy: "
+                        "the registered panorama's focal, pan-angle-0 column and horizon row "
+                        "(instead of --camera, --focal, --cx, --cy, --phi-step, --h-step)")
+    parser.add_argument("--camera", choices=["cylindrical", "pinhole"], default=None,
+                        help="the range image's camera: a cylindrical panorama (Eqs. 14, 19) "
+                        "or a pinhole (default: cylindrical)")
+    parser.add_argument("--focal", type=real, metavar="PIXELS",
+                        help="focal length f in pixels, the cylinder's radius (required "
+                        "without --camera-file)")
     parser.add_argument("--cx", type=real, help="column of pan angle 0 / of the principal point "
-                        "(default: the centre)")
+                        "(default: the centre; a registered panorama's is in its camera.json)")
     parser.add_argument("--cy", type=real, help="row of the horizon / of the principal point "
-                        "(default: the centre)")
-    parser.add_argument("--phi-step", type=real, help="cylindrical: degrees of pan per column "
-                        "(default 180/(pi f), one pixel of arc)")
-    parser.add_argument("--h-step", type=real, help="cylindrical: pixels of height per row "
-                        "(default 1)")
+                        "(default: the centre; a registered panorama's is in its camera.json)")
+    parser.add_argument("--phi-step", type=real, metavar="DEGREES",
+                        help="cylindrical: degrees of pan per column (default 180/(pi f), one "
+                        "pixel of arc)")
+    parser.add_argument("--h-step", type=real, metavar="PIXELS",
+                        help="cylindrical: pixels of height per row (default 1)")
     parser.add_argument("--no-wrap", action="store_true",
-                        help="do not join the last column to the first of a 360° panorama")
+                        help="do not join the last column to the first of a 360° panorama "
+                        "(default: joined when the columns cover 360°)")
     parser.add_argument("--disparity", action="store_true",
-                        help="pinhole: DENSE is a disparity; depth = f B / (d + doffs)")
+                        help="pinhole: DENSE is a disparity; depth = f B / (d + doffs) "
+                        "(default: DENSE is the depth)")
     parser.add_argument("--baseline", type=real, help="with --disparity: the baseline B "
-                        "(the depth's unit, e.g. mm)")
-    parser.add_argument("--doffs", type=real, default=0.0, help="with --disparity: doffs (px)")
-    parser.add_argument("--confidence", help="per-pixel confidence in [0, 1] (NPY)")
-    parser.add_argument("--partial", help="the partial (measured) range, NaN where unknown: "
-                        "marks each point measured or synthesized")
+                        "(the depth's unit, e.g. mm; required with --disparity)")
+    parser.add_argument("--doffs", type=real, default=0.0, help="with --disparity: doffs in "
+                        "pixels (default 0)")
+    parser.add_argument("--confidence", metavar="NPY",
+                        help="per-pixel confidence in [0, 1] (default: 1 everywhere)")
+    parser.add_argument("--partial", metavar="NPY",
+                        help="the partial (measured) range, NaN where unknown: marks each "
+                        "point measured or synthesized (default: confidence 1 = measured)")
     parser.add_argument("--max-jump", type=_max_jump, default=DEFAULT_MAX_JUMP,
                         metavar="FRACTION", help="drop triangles whose edge jumps by more than "
                         "FRACTION x the nearer range per pixel (default 0.05; 'off' keeps all)")
     parser.add_argument("--min-confidence", type=real, default=0.0,
                         help="drop points whose confidence is below this (default 0)")
-    parser.add_argument("--ascii", action="store_true", help="write an ASCII PLY")
+    parser.add_argument("--ascii", action="store_true",
+                        help="write an ASCII PLY (default: binary little-endian)")
     parser.add_argument("--float32", action="store_true",
-                        help="write x, y, z as float (default double)")
+                        help="write x, y, z as float (default: double)")
     parser.add_argument("--merge", nargs="+", metavar="PLY",
-                        help="merge these models (in their scanners' frames) by --poses")
-    parser.add_argument("--poses", help="with --merge: poses.json, one pose per PLY")
+                        help="merge these models (in their scanners' frames) by --poses "
+                        "(instead of DENSE)")
+    parser.add_argument("--poses", metavar="JSON",
+                        help="with --merge: poses.json, one pose per PLY (required with --merge)")
     parser.add_argument("--refine", action="store_true",
-                        help="with --merge: refine the poses by point-to-plane ICP")
+                        help="with --merge: refine the poses by point-to-plane ICP (default: "
+                        "the poses as given)")
     parser.add_argument("--voxel", type=real,
                         help="with --merge: fusion voxel size (default 3x the point spacing)")
-    parser.add_argument("--poses-out", help="with --merge: write the (refined) poses as JSON")
+    parser.add_argument("--poses-out", metavar="JSON",
+                        help="with --merge: write the (refined) poses as JSON (default: not "
+                        "written)")
     parser.set_defaults(func=_cmd_model)
     return parser

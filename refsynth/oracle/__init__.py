@@ -1,23 +1,32 @@
-"""The correctness oracle: golden cases and step traces a port replays (issue #11).
+"""The correctness oracle: golden cases and step traces that a port replays (issue #11).
 
-- :mod:`refsynth.oracle.cases`: the versioned case set (whole NP and BP runs from 8×8 up, and
-  per-equation batches) and their expected outputs, from the literal reference
-  :mod:`refsynth.synthesis.reference`.
-- :mod:`refsynth.oracle.export`: ``oracle export DIR`` (NPZ + JSON, with a JSON Schema).
-- :mod:`refsynth.oracle.check`: ``oracle check MODULE:FUNCTION``, the first mismatch.
+- :mod:`refsynth.oracle.cases`: the versioned case set, whole NP and BP runs from 8×8 to
+  64×64, and per-equation batches (:mod:`refsynth.oracle.equations`: Eqs. 2, 5, 6, 7, 10–12,
+  13, Canny, 14–21), with their expected outputs from the literal reference
+  (:mod:`refsynth.synthesis.reference`; :mod:`refsynth.oracle.runs` flattens its step traces).
+- :mod:`refsynth.oracle.export`: ``python -m refsynth oracle export DIR`` (NPZ + JSON, with a
+  JSON Schema).
+- :mod:`refsynth.oracle.check`: ``python -m refsynth oracle check MODULE:FUNCTION``, the
+  first mismatch (case, step, pixel, expected, got).
+- :mod:`refsynth.oracle.adapters`: refsynth's own reference and fast code in the checker's
+  calling convention (templates for a port's adapter).
 
-The numeric contract behind the cases is stated in :mod:`refsynth.synthesis.reference`.
+The numeric contract behind the cases is stated in :mod:`refsynth.numeric` and in the
+README's section "The oracle".
 """
 
-from refsynth.oracle.cases import Case, build_cases, expected_outputs
+from refsynth.oracle.adapters import refsynth_fast, refsynth_reference
+from refsynth.oracle.cases import CASE_SET_VERSION, Case, build_cases, expected_outputs
 from refsynth.oracle.check import (
+    TOLERANCES,
+    CheckReport,
     Mismatch,
     check_function,
     load_case,
-    refsynth_fast,
-    refsynth_reference,
+    load_manifest,
     resolve_function,
 )
+from refsynth.oracle.equations import KINDS
 from refsynth.oracle.export import CONTRACT_VERSION, FORMAT_VERSION, SCHEMA, export_cases
 
 __all__ = [
@@ -26,12 +35,17 @@ __all__ = [
     "expected_outputs",
     "export_cases",
     "check_function",
+    "CheckReport",
+    "Mismatch",
     "load_case",
+    "load_manifest",
     "resolve_function",
     "refsynth_fast",
     "refsynth_reference",
-    "Mismatch",
+    "KINDS",
+    "TOLERANCES",
     "FORMAT_VERSION",
     "CONTRACT_VERSION",
+    "CASE_SET_VERSION",
     "SCHEMA",
 ]

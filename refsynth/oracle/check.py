@@ -1,36 +1,55 @@
-"""``oracle check MODULE:FUNCTION [--case NAME]``: run a function on the golden cases.
+"""``oracle check MODULE:FUNCTION``: run a function on the golden cases, report the first mismatch.
 
-The function under test is called as ``function(inputs, options) -> dict``: ``inputs`` holds the
-case's ``input`` and ``prepared`` arrays (a port with another random generator uses ``tie``
-and ``draws`` instead of its own), ``options`` the case's options with ``method`` (its kind)
-and ``seed``. It returns whichever outputs it has (at least ``range``, ``confidence`` and
-``order`` for NP and BP runs; ``distance_mean``/``distance_ignore`` for Eq. 2; ``members`` for
-Eq. 5), or None for a kind of case it does not handle (skipped); any ``step_*`` or
-``cand_*`` trace it returns is compared too.
+The function under test is called once per case as ``function(inputs, options)``:
 
-Comparison: exact for every array (the numeric contract makes the floats exact too), unless a
-float tolerance is asked for (``"float32"``: rtol 1e-6, atol 1e-7). Steps are compared in fill
-order, so the report names the *first* differing step and pixel, not its consequences.
+- ``inputs`` holds the case's ``input`` and ``prepared`` arrays (a port with another random
+  generator uses ``tie`` and ``draws`` instead of its own; a port may also start from the
+  quantised ``q_intensity``/``q_range``);
+- ``options`` holds the case's options plus ``method`` (the case's kind: ``"np"``, ``"bp"``,
+  ``"eq2"`` …) and ``seed``.
+
+It returns a dict of arrays, or None for a kind of case it does not handle (the case is
+skipped). A whole run must return at least ``range``, ``confidence`` and ``order``; any other
+output or trace array it returns (NP's ``step_*``/``cand_*``, BP's ``unary``, ``log_psi``,
+``messages``, ``sweep_messages`` …) is compared too. An equation case must return every
+output of that case.
+
+Comparison (:data:`TOLERANCES`): integer, boolean and index arrays are always compared
+exactly. Float arrays are compared exactly too by default (the numeric contract makes them
+exact), or within a stated tolerance: ``float64`` (rtol 1e-9, atol 1e-12) or ``float32``
+(rtol 1e-4, atol 1e-6). A case that is not under the contract (Eq. 13 and the registration
+stage, ``tolerance: float64`` in its JSON) is compared at least that loosely. NaN must match
+NaN. The report is the *first* difference, where it starts, not its consequences: NP's trace
+step by step (the earliest step at which any returned trace array differs), then ``order``,
+then the other outputs; BP's candidates, unary terms, compatibilities, messages sweep by
+sweep, beliefs, labels, then the outputs.
 """
 
 from __future__ import annotations
 
 import importlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Mismatch", "resolve_function", "load_case", "check_function", "refsynth_fast",
-           "refsynth_reference", "TOLERANCES"]
+__all__ = ["Mismatch", "CheckReport", "resolve_function", "load_manifest", "load_case",
+           "check_function", "TOLERANCES", "TOLERANCE_NAMES"]
 
-TOLERANCES = {"exact": (0.0, 0.0), "float64": (1e-12, 1e-15), "float32": (1e-6, 1e-7)}
+#: name → (rtol, atol) for float arrays; None is exact equality.
+TOLERANCES = {"exact": None, "float64": (1e-9, 1e-12), "float32": (1e-4, 1e-6)}
+#: From the strictest to the loosest.
+TOLERANCE_NAMES = ("exact", "float64", "float32")
+
+_RUN_REQUIRED = ("range", "confidence", "order")
+_BP_ORDER = ("candidates", "candidate_values", "unary", "pairs", "log_psi", "sweep_messages",
+             "messages", "beliefs", "labels", "iterations", "range", "confidence", "order")
 
 
 @dataclass(frozen=True)
 class Mismatch:
-    """The first difference found: where, and the two values."""
+    """The first difference found: which case and array, where, and the two values."""
 
     case: str
     key: str
@@ -38,23 +57,75 @@ class Mismatch:
     pixel: tuple | None
     expected: object
     got: object
+    where: str = ""
 
     def __str__(self) -> str:
-        where = "" if self.step is None else f" step {self.step}"
-        where += "" if self.pixel is None else f" pixel {self.pixel}"
-        return (f"case {self.case}: {self.key}{where}: expected {self.expected!r}, "
-                f"got {self.got!r}")
+        where = self.where
+        if not where:
+            where = "" if self.step is None else f"step {self.step}"
+            where += "" if self.pixel is None else f" pixel {self.pixel}"
+        where = f" {where.strip()}" if where.strip() else ""
+        return f"case {self.case}: {self.key}{where}: expected {self.expected!r}, got {self.got!r}"
+
+
+@dataclass
+class CheckReport:
+    """What :func:`check_function` found: the first mismatch (None: pass) and the case lists."""
+
+    mismatch: Mismatch | None
+    checked: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+    tolerance: str = "exact"
+
+    @property
+    def passed(self) -> bool:
+        return self.mismatch is None and bool(self.checked)
+
+    def __str__(self) -> str:
+        if self.mismatch is not None:
+            return f"FAIL {self.mismatch}"
+        if not self.checked:
+            return (f"FAIL the function handled none of the {len(self.skipped)} cases "
+                    "(it returned None for each)")
+        skipped = f", {len(self.skipped)} skipped (not handled)" if self.skipped else ""
+        return f"PASS {len(self.checked)} cases at tolerance {self.tolerance}{skipped}"
 
 
 def resolve_function(spec: str):
-    """``"package.module:function"`` → the callable."""
-    module, _, name = spec.partition(":")
+    """``"package.module:function"`` → the callable (ValueError, one line, if it is not one)."""
+    if not isinstance(spec, str) or spec.count(":") != 1:
+        raise ValueError(f"The function must be given as MODULE:FUNCTION, got {spec!r}")
+    module, name = spec.split(":")
     if not module or not name:
-        raise ValueError(f"The parameter `function` must read MODULE:FUNCTION, got {spec!r}")
-    function = getattr(importlib.import_module(module), name, None)
+        raise ValueError(f"The function must be given as MODULE:FUNCTION, got {spec!r}")
+    try:
+        loaded = importlib.import_module(module)
+    except ImportError as error:
+        raise ValueError(f"Cannot import module {module!r} of {spec!r}: {error}") from None
+    function = loaded
+    for part in name.split("."):
+        function = getattr(function, part, None)
     if not callable(function):
-        raise ValueError(f"{spec!r} is not a callable")
+        raise ValueError(f"{spec!r}: module {module!r} has no callable {name!r}")
     return function
+
+
+def load_manifest(directory) -> dict:
+    """The manifest of an exported case set (ValueError / FileNotFoundError, one line)."""
+    root = Path(directory)
+    if not root.is_dir():
+        raise FileNotFoundError(f"No such case folder: '{root}' (write it with "
+                                "`python -m refsynth oracle export DIR`)")
+    path = root / "manifest.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"'{root}' holds no manifest.json: not an exported case set")
+    try:
+        manifest = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as error:
+        raise ValueError(f"'{path}' is not valid JSON: {error}") from None
+    if not isinstance(manifest, dict) or manifest.get("format") != "refsynth-oracle":
+        raise ValueError(f"'{path}' is not a refsynth oracle manifest")
+    return manifest
 
 
 def load_case(directory, name: str) -> tuple[dict, dict]:
@@ -66,65 +137,214 @@ def load_case(directory, name: str) -> tuple[dict, dict]:
     return meta, arrays
 
 
-def _equal(expected, got, tolerance) -> np.ndarray:
+# ----------------------------------------------------------------------------- comparison
+
+
+def _is_float(array) -> bool:
+    return np.issubdtype(np.asarray(array).dtype, np.floating)
+
+
+def _agree(expected: np.ndarray, got: np.ndarray, tolerance: str) -> np.ndarray:
+    """Elementwise agreement (same shape assumed): exact, or within the float tolerance."""
+    if _is_float(expected):
+        got = got.astype(np.float64)
+        same = (expected == got) | (np.isnan(expected) & np.isnan(got))
+        if TOLERANCES[tolerance] is not None:
+            rtol, atol = TOLERANCES[tolerance]
+            same |= np.isclose(got, expected, rtol=rtol, atol=atol, equal_nan=True)
+        return same
+    if _is_float(got):   # an integer output returned as floats: equal values are fine
+        return expected == got
+    return expected == got
+
+
+def _value(array, index):
+    item = np.asarray(array)[index]
+    return item.tolist() if isinstance(item, np.ndarray) else item.item()
+
+
+def _first_difference(expected, got, tolerance):
+    """``None`` if equal; ``"shape"`` if the shapes differ; else the first differing index."""
     expected, got = np.asarray(expected), np.asarray(got)
     if expected.shape != got.shape:
-        return np.zeros(expected.shape, bool)
-    if tolerance == "exact" or not np.issubdtype(expected.dtype, np.floating):
-        return (expected == got) | (np.isnan(expected) & np.isnan(got)
-                                    if np.issubdtype(expected.dtype, np.floating) else False)
-    rtol, atol = TOLERANCES[tolerance]
-    return np.isclose(got, expected, rtol=rtol, atol=atol, equal_nan=True)
-
-
-def _first(case, key, expected, got, tolerance, pixels=None):
-    """The first mismatch of one array, in row order (steps first for traces), or None."""
-    ok = _equal(expected, got, tolerance)
-    if ok.all():
+        return "shape"
+    if got.dtype == object:
+        return (0,) * expected.ndim if expected.ndim else ()
+    ok = _agree(expected, got, tolerance)
+    if np.all(ok):
         return None
-    if np.shape(expected) != np.shape(got):
-        return Mismatch(case, key, None, None, f"shape {np.shape(expected)}",
+    return tuple(int(i) for i in np.argwhere(~np.asarray(ok))[0])
+
+
+class _Locator:
+    """Turns an array index into (step, pixel, detail) for the report."""
+
+    def __init__(self, kind, expected):
+        self.kind = kind
+        self.expected = expected
+        self.order = expected.get("order")
+        self.pairs = expected.get("pairs")
+
+    def _node(self, i):
+        return None if self.order is None or i >= len(self.order) else tuple(
+            int(v) for v in self.order[i])
+
+    def _message(self, row):
+        edges = 0 if self.pairs is None else len(self.pairs)
+        e = row % edges if edges else 0
+        a, b = (self.pairs[e] if row < edges else self.pairs[e][::-1]) if edges else (0, 0)
+        return self._node(int(a)), f"message {row} {self._node(int(a))} → {self._node(int(b))}"
+
+    def locate(self, key, index):
+        """``(step, pixel, where)``: the step (NP) or sweep (BP), the pixel, and the words."""
+        if key in ("range", "confidence") and len(index) == 2:
+            return None, index, f"pixel {index}"
+        if key == "order":
+            return index[0], self._node(index[0]), f"step {index[0]} pixel {self._node(index[0])}"
+        if self.kind == "bp" and key in ("candidates", "candidate_values", "unary", "beliefs",
+                                         "labels"):
+            pixel = self._node(index[0])
+            label = f", label {index[1]}" if len(index) >= 2 else ""
+            return None, pixel, f"node {index[0]} pixel {pixel}{label}"
+        if self.kind == "bp" and key in ("pairs", "log_psi"):
+            a, b = ((int(v) for v in self.pairs[index[0]]) if self.pairs is not None
+                    else (0, 0))
+            labels = f", labels {index[1:]}" if len(index) >= 3 else ""
+            return None, self._node(a), (f"pair {index[0]} {self._node(a)}–{self._node(b)}"
+                                         f"{labels}")
+        if self.kind == "bp" and key in ("messages", "sweep_messages"):
+            sweep = int(self.expected["sweeps"][index[0]]) if key == "sweep_messages" else None
+            rest = index[1:] if key == "sweep_messages" else index
+            pixel, text = self._message(rest[0])
+            label = f", label {rest[1]}" if len(rest) >= 2 else ""
+            prefix = f"sweep {sweep} " if sweep is not None else ""
+            return sweep, pixel, f"{prefix}{text}{label}"
+        if self.kind not in ("np", "bp") and index:
+            return None, None, f"item {index[0]}" + (f", index {index[1:]}" if len(index) > 1
+                                                     else "")
+        return None, None, f"index {index}" if index else ""
+
+
+def _compare_sweeps(name, expected, got, tolerance, locator):
+    """BP's messages sweep by sweep: the first differing one, or the first one missing."""
+    want = np.asarray(expected)
+    have = np.asarray(got)
+    if have.ndim != 3 or have.shape[1:] != want.shape[1:]:
+        return Mismatch(name, "sweep_messages", None, None, f"shape {want.shape}",
+                        f"shape {have.shape}")
+    for t in range(max(len(want), len(have))):
+        sweep = int(locator.expected["sweeps"][t]) if t < len(want) else None
+        if t >= len(want) or t >= len(have):
+            return Mismatch(name, "sweep_messages", sweep, None,
+                            "messages" if t < len(want) else "nothing",
+                            "messages" if t < len(have) else "nothing",
+                            f"sweep {sweep or len(want) + 1} (the run stopped after "
+                            f"{min(len(want), len(have))} of the exported sweeps)")
+        where = _first_difference(want[t], have[t], tolerance)
+        if where is not None:
+            step, pixel, detail = locator.locate("sweep_messages", (t, *where))
+            return Mismatch(name, "sweep_messages", step, pixel, _value(want[t], where),
+                            _value(have[t], where), detail)
+    return None
+
+
+def _compare(name, kind, key, expected, got, tolerance, locator):
+    if kind == "bp" and key == "sweep_messages":
+        return _compare_sweeps(name, expected, got, tolerance, locator)
+    where = _first_difference(expected, got, tolerance)
+    if where is None:
+        return None
+    if where == "shape":
+        return Mismatch(name, key, None, None, f"shape {np.shape(expected)}",
                         f"shape {np.shape(got)}")
-    index = tuple(np.argwhere(~ok)[0])
-    step = int(index[0]) if key.startswith("step_") or key == "order" else None
-    if step is not None and pixels is not None:
-        pixel = tuple(int(i) for i in pixels[step])
-    elif key in ("range", "confidence") and np.ndim(expected) == 2:
-        pixel = tuple(int(i) for i in index)
-    else:
-        pixel = None
-    return Mismatch(case, key, step, pixel, np.asarray(expected)[index].tolist(),
-                    np.asarray(got)[index].tolist())
+    step, pixel, detail = locator.locate(key, where)
+    return Mismatch(name, key, step, pixel, _value(expected, where), _value(got, where), detail)
 
 
-def _first_step(case, expected, got, tolerance, pixels):
-    """The earliest step at which any returned trace array (``step_*``, ``cand_*``) differs."""
+def _trace_step(name, expected, got, tolerance):
+    """The earliest NP step at which any returned ``step_*`` / ``cand_*`` array differs."""
+    starts = expected["cand_start"]
+    pixels = expected["step_pixel"]
     found = []
-    starts = expected.get("cand_start")
     for key in sorted(k for k in expected if k.startswith(("step_", "cand_")) and k in got):
         e, g = np.asarray(expected[key]), np.asarray(got[key])
         if e.shape[1:] != g.shape[1:]:
-            return Mismatch(case, key, None, None, f"shape {e.shape}", f"shape {g.shape}")
+            found.append((-1, key, f"shape {e.shape}", f"shape {g.shape}", ""))
+            continue
         rows = min(len(e), len(g))
-        ok = _equal(e[:rows], g[:rows], tolerance).reshape(rows, -1).all(axis=1)
+        ok = np.asarray(_agree(e[:rows], g[:rows], tolerance)).reshape(rows, -1).all(axis=1)
         if ok.all() and len(e) == len(g):
             continue
         row = int(np.argmin(ok)) if not ok.all() else rows
-        step = row
+        detail = ""
         if key.startswith("cand_") and key != "cand_start":
             step = int(np.searchsorted(starts, row, side="right") - 1)
+            detail = f"candidate {row - int(starts[step])}"
+            if row < len(expected["cand_pixel"]):
+                detail += f" {tuple(int(v) for v in expected['cand_pixel'][row])}"
         elif key == "cand_start":
             step = max(row - 1, 0)
-        found.append((step, key, _row(e, row), _row(g, row)))
+            detail = "the number of candidates"
+        else:
+            step = row
+        found.append((step, key, _row(e, row), _row(g, row), detail))
     if not found:
         return None
-    step, key, want, have = min(found)
-    pixel = None if pixels is None or step >= len(pixels) else tuple(int(i) for i in pixels[step])
-    return Mismatch(case, key, step, pixel, want, have)
+    step, key, want, have, detail = min(found, key=lambda item: (item[0], item[1]))
+    if step < 0:
+        return Mismatch(name, key, None, None, want, have)
+    pixel = tuple(int(v) for v in pixels[step]) if step < len(pixels) else None
+    where = f"step {step} pixel {pixel}" + (f", {detail}" if detail else "")
+    return Mismatch(name, key, step, pixel, want, have, where)
 
 
 def _row(array, row):
     return array[row].tolist() if row < len(array) else "nothing"
+
+
+def _sweeps_of(got, expected):
+    """The returned per-sweep messages at the exported sweeps (a port may return all sweeps)."""
+    messages = np.asarray(got["sweep_messages"])
+    sweeps = expected["sweeps"]
+    if messages.ndim == 3 and len(messages) != len(sweeps) and len(messages) >= sweeps.max(
+            initial=0):
+        return messages[sweeps - 1]
+    return messages
+
+
+def _check_case(meta, arrays, got, tolerance):
+    name, kind = meta["name"], meta["kind"]
+    role = {key: meta["arrays"][key]["role"] for key in arrays}
+    expected = {k: v for k, v in arrays.items() if role[k] in ("output", "trace")}
+    if kind in ("np", "bp"):
+        missing = [k for k in _RUN_REQUIRED if k not in got]
+    else:
+        missing = [k for k in expected if role[k] == "output" and k not in got]
+    if missing:
+        return Mismatch(name, missing[0], None, None, "an array", "nothing")
+    got = {k: np.asarray(v) for k, v in got.items() if k in expected}
+    if kind == "bp" and "sweep_messages" in got:
+        got["sweep_messages"] = _sweeps_of(got, expected)
+    locator = _Locator(kind, {**expected, "order": arrays.get("order")})
+    if kind == "np":
+        if any(k.startswith(("step_", "cand_")) for k in got):
+            mismatch = _trace_step(name, expected, got, tolerance)
+            if mismatch is not None:
+                return mismatch
+        keys = ["order", "range", "confidence"] + sorted(
+            k for k in got if k not in ("order", "range", "confidence")
+            and not k.startswith(("step_", "cand_")))
+    elif kind == "bp":
+        keys = [k for k in _BP_ORDER if k in got] + sorted(k for k in got if k not in _BP_ORDER)
+    else:
+        keys = [k for k in expected if k in got]
+    for key in keys:
+        if key not in got:
+            continue
+        mismatch = _compare(name, kind, key, expected[key], got[key], tolerance, locator)
+        if mismatch is not None:
+            return mismatch
+    return None
 
 
 def _inputs(meta, arrays) -> tuple[dict, dict]:
@@ -132,63 +352,49 @@ def _inputs(meta, arrays) -> tuple[dict, dict]:
     return inputs, dict(meta["options"], method=meta["kind"], seed=meta["seed"])
 
 
-def check_function(function, directory, *, case: str | None = None,
-                   tolerance: str = "exact") -> Mismatch | None:
-    """Run ``function`` on every case (or one) and return the first mismatch, or None.
+def _looser(a: str, b: str) -> str:
+    return max(a, b, key=TOLERANCE_NAMES.index)
 
-    Within a run, the step trace is compared first (in step order), then ``order``, then the
-    other outputs in the manifest's order of arrays.
+
+def check_function(function, directory, *, case: str | None = None,
+                   tolerance: str = "exact") -> CheckReport:
+    """Run ``function`` on every exported case (or the one named) and report the first mismatch.
+
+    Raises ``ValueError`` / ``FileNotFoundError`` (one line) for a missing or foreign folder,
+    an unknown case or tolerance. An exception raised by ``function`` is a mismatch (the case
+    and the exception). See the module's docstring for the calling convention and the order
+    of comparison.
     """
-    manifest = json.loads((Path(directory) / "manifest.json").read_text())
+    if tolerance not in TOLERANCES:
+        raise ValueError(f"The tolerance must be one of {', '.join(TOLERANCE_NAMES)}, "
+                         f"got {tolerance!r}")
+    manifest = load_manifest(directory)
     names = [c["name"] for c in manifest["cases"]]
     if case is not None:
         if case not in names:
-            raise ValueError(
-                f"The parameter `case` must be one of the exported cases, got {case!r}")
+            raise ValueError(f"No case {case!r} in '{directory}'; the cases are "
+                             + ", ".join(names))
         names = [case]
+    report = CheckReport(None, tolerance=tolerance)
     for name in names:
         meta, arrays = load_case(directory, name)
-        got = function(*_inputs(meta, arrays))
-        if got is None:   # the function does not handle this kind of case
+        try:
+            got = function(*_inputs(meta, arrays))
+        except Exception as error:   # a port's bug is a finding, not a crash of the checker
+            report.mismatch = Mismatch(name, "(the function raised)", None, None, "a result",
+                                       f"{type(error).__name__}: {error}")
+            return report
+        if got is None:
+            report.skipped.append(name)
             continue
-        expected = {k: v for k, v in arrays.items() if meta["arrays"][k]["role"] in
-                    ("output", "trace")}
-        pixels = arrays.get("step_pixel", arrays.get("order"))
-        mismatch = _first_step(name, expected, got, tolerance, pixels)
+        if not isinstance(got, dict):
+            report.mismatch = Mismatch(name, "(the result)", None, None, "a dict of arrays",
+                                       type(got).__name__)
+            return report
+        level = _looser(tolerance, meta.get("tolerance", "exact"))
+        mismatch = _check_case(meta, arrays, got, level)
+        report.checked.append(name)
         if mismatch is not None:
-            return mismatch
-        keys = sorted((k for k in expected if k in got and not k.startswith(("step_", "cand_"))),
-                      key=lambda k: k != "order")
-        for key in keys:
-            mismatch = _first(name, key, expected[key], got[key], tolerance, pixels)
-            if mismatch is not None:
-                return mismatch
-        missing = {"range", "confidence", "order"} - set(got)
-        if meta["kind"] in ("np", "bp") and missing:
-            return Mismatch(name, sorted(missing)[0], None, None, "an output", "nothing")
-    return None
-
-
-def refsynth_fast(inputs: dict, options: dict) -> dict:
-    """refsynth's own fast code (:func:`refsynth.synthesize`) in the checker's convention."""
-    import refsynth
-
-    options = dict(options)
-    method = options.pop("method")
-    if method not in ("np", "bp"):
-        return None   # per-equation cases: checked against the reference's own functions
-    result = refsynth.synthesize(inputs["intensity"], inputs["partial_range"], method=method,
-                                 edges=inputs["edges"] & options["use_edges"], **options)
-    return dict(range=result.range, confidence=result.confidence, order=result.order)
-
-
-def refsynth_reference(inputs: dict, options: dict) -> dict:
-    """The literal reference in the checker's convention (it passes by construction)."""
-    from refsynth.oracle.cases import Case, expected_outputs
-
-    options = dict(options)
-    kind, seed = options.pop("method"), options.pop("seed")
-    names = {"np": ("intensity", "partial_range", "edges"), "bp": ("intensity", "partial_range",
-             "edges"), "eq2": ("q_intensity", "q_range"), "eq5": ("distances",)}[kind]
-    case = Case("check", kind, {k: inputs[k] for k in names}, options, seed)
-    return expected_outputs(case)
+            report.mismatch = mismatch
+            return report
+    return report

@@ -1,13 +1,14 @@
-"""The demos: the main job on the synthetic room, and the paper's pipeline end to end.
+"""The demos: the quick comparison on the synthetic room, and the paper's story end to end.
 
 :func:`run_demo` fills the synthetic room's range on two samplings of the
 paper's experiments (Tables 1 and 4) with NP, two of its ablations (Table 3,
 Fig. 7), BP and the baselines, scores each fill with MAR (Eq. 13) and RMSE,
-and writes three figures; it returns the table's rows. :func:`run_pipeline_demo`
-acquires with the simulated rig (§3.1, §4), registers the pictures and the
-partial scan (Appendix A) and fills the panorama's missing range. Both are
-what ``python -m refsynth demo`` runs (:mod:`refsynth.cli.demo` prints the
-table); ``python -m refsynth figures`` writes the first demo's figures too.
+and writes three figures; it returns the table's rows: ``python -m refsynth
+demo --quick`` (:mod:`refsynth.cli.demo` prints the table), and ``python -m
+refsynth figures`` writes its figures too. :func:`run_pipeline_demo` (in
+:mod:`refsynth.plotting.story`, re-exported here) is the default ``demo``:
+the simulated rig scans from two positions (§3.1, §4), registration
+(Appendix A), NP and BP, and the merged 3-D model (stage 3).
 
 References
 ----------
@@ -19,25 +20,16 @@ Appendix A, doi:10.1007/s11263-007-0108-2.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from refsynth.acquisition import (
-    PanUnit,
-    Rangefinder,
-    RigSimulator,
-    ScanSettings,
-    load_scan,
-    run_scan,
-)
 from refsynth.acquisition.sampling import stripes, unknown_fraction, x_stripes_for_fraction
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.evaluation.metrics import evaluate
-from refsynth.io import read_array
 from refsynth.plotting.layouts import comparison_figure, methods_figure, result_figure
-from refsynth.registration import register_scan
+from refsynth.plotting.story import run_pipeline_demo
 from refsynth.scenes import synthetic_room
 from refsynth.synthesis.api import synthesize
 
@@ -139,54 +131,3 @@ def run_demo(out: Path, size: int = 128, seed: int = 0, *,
                             title=f"{scene.name}, seed {seed}: MAR (Eq. 13) per method")
     fig.savefig(out / DEMO_FIGURES[2], dpi=110)
     return rows
-
-
-def run_pipeline_demo(out: Path, seed: int = 0, methods: Sequence[str] = ("np", "bp"), *,
-                      progress: ProgressFactory | None = None) -> dict:
-    """Acquire (simulated) → register → synthesize: the paper's pipeline end to end.
-
-    Scans the simulated rig's room (40 % of the 500 slices, stripes; pictures
-    every 18°) into ``out/scan`` unless a scan is already there, registers the
-    pictures and the partial scan (Appendix A), fills the panorama's missing
-    range with each method and writes ``pipeline_<method>.png``.
-
-    Parameters
-    ----------
-    out : Path
-        The folder for the scan and the figures.
-    seed : int, default 0
-        The simulator's seed and NP's.
-    methods : sequence of str, default ("np", "bp")
-        The ``method`` of each :func:`refsynth.synthesize` run.
-    progress : callable, optional
-        A :data:`ProgressFactory`, for progress reports during each synthesis.
-
-    Returns
-    -------
-    dict
-        ``panorama`` (its shape), ``known`` (the fraction with range), ``warp``
-        (the registration's ``a, b, alpha, beta``) and ``seconds`` (method →
-        wall time of the fill).
-    """
-    progress = progress or _no_progress
-    scan_dir = out / "scan"
-    if not (scan_dir / "scan.npz").is_file():
-        with RigSimulator(seed=seed, camera_dir=scan_dir / "images") as sim, \
-                PanUnit(sim.pan_port) as pan, Rangefinder(sim.laser_port) as laser:
-            run_scan(scan_dir, pan, laser, ScanSettings("stripes", fraction=0.4))
-    scan = load_scan(scan_dir)
-    images = [read_array(picture.path) for picture in scan.images]
-    angles = [picture.pan_angle for picture in scan.images]
-    intensity, partial, info = register_scan(images, angles, 300.0, (scan.r, scan.theta, scan.phi))
-    summary = dict(panorama=intensity.shape, known=float(np.isfinite(partial).mean()),
-                   warp=tuple(float(v) for v in info.warp), seconds={})
-    out.mkdir(parents=True, exist_ok=True)
-    for method in methods:
-        start = time.perf_counter()
-        result = synthesize(intensity, partial, method=method, seed=seed,
-                            progress=progress(f"pipeline, {method}"))
-        summary["seconds"][method] = time.perf_counter() - start
-        fig = result_figure(intensity, result.edges, partial, result.range, units="m",
-                            title=f"simulated rig, registered panorama: {method.upper()}")
-        fig.savefig(out / f"pipeline_{method}.png", dpi=110)
-    return summary

@@ -36,6 +36,15 @@ One room model, one ray caster
         vignetting, noise) and :func:`texture_views` (views cut from a
         photograph on the cylinder).
 
+The same bits on every machine (issue #11)
+    :mod:`~refsynth.scenes.portable`
+        What the ray casters, textures and poses use instead of BLAS products,
+        ``np.linalg.norm``, ``hypot`` and numpy's SIMD trigonometry: explicit
+        3-term dot products, rotations and norms, and portable ``sin``,
+        ``cos``, ``tan``, ``arctan``, ``arctan2``. The resizes sum in a fixed
+        order. Every scene is bit-identical under any BLAS kernel, thread
+        count and SIMD width (``tests/test_determinism_scenes.py``).
+
 Scoring a registration against the rig's ground truth needs the registration
 stage and lives there: :mod:`refsynth.registration.scoring`.
 

@@ -28,19 +28,51 @@ __all__ = ["resize_area", "resize_disparity", "MIN_DISPARITY_COVERAGE"]
 MIN_DISPARITY_COVERAGE = 0.5
 
 
-def _area_matrix(old: int, new: int) -> np.ndarray:
-    """The (new, old) matrix of exact area weights of a 1-D box resize.
+def _area_weights(old: int, new: int) -> tuple[np.ndarray, np.ndarray]:
+    """The exact area weights of a 1-D box resize, as a band: ``(first, weights)``.
 
     Output cell ``i`` covers ``[i · old/new, (i + 1) · old/new)`` in source
-    pixel units; ``A[i, j]`` is the length of its overlap with source pixel
-    ``[j, j + 1)`` divided by the cell length, so every row sums to 1 and
-    every column to ``new / old``.
+    pixel units; ``weights[i, t]`` is the length of its overlap with source
+    pixel ``j = first[i] + t`` (``[j, j + 1)``) divided by the cell length, so
+    every row sums to 1 and every source pixel gets ``new / old`` in all. A
+    cell meets at most ``ceil(old / new) + 1`` source pixels; weights past the
+    last source pixel are 0.
     """
     edges = np.arange(new + 1) * old / new
     lo, hi = edges[:-1, None], edges[1:, None]
-    j = np.arange(old)[None, :]
+    first = np.minimum(np.floor(edges[:-1]).astype(np.int64), old - 1)
+    j = first[:, None] + np.arange(-(-old // new) + 1)[None, :]
     overlap = np.clip(np.minimum(hi, j + 1) - np.maximum(lo, j), 0.0, None)
-    return overlap / (old / new)
+    weights = np.where(j < old, overlap / (old / new), 0.0)
+    return first, weights
+
+
+def _box_resize(values: np.ndarray, new: int, axis: int) -> np.ndarray:
+    """Area-average ``values`` along ``axis`` to ``new`` cells, in a fixed order.
+
+    Per output cell, the sum over its source pixels in ascending order, each
+    ``weight · value``, as elementwise array operations over the other axes:
+    no BLAS product and no reduction whose order a library chooses, so the
+    result is the same bits on every machine (issue #11). Source pixels of
+    weight 0 are skipped, so a NaN or inf reaches only the cells it lies in.
+    """
+    values = np.moveaxis(values, axis, 0)
+    old = values.shape[0]
+    first, weights = _area_weights(old, new)
+    shape = (new,) + (1,) * (values.ndim - 1)
+    total = None
+    for t in range(weights.shape[1]):
+        w = weights[:, t].reshape(shape)
+        source = values[np.minimum(first + t, old - 1)]
+        with np.errstate(invalid="ignore"):
+            term = np.where(w > 0, w * source, 0.0)
+        total = term if total is None else total + term
+    return np.moveaxis(total, 0, axis)
+
+
+def _resize(values: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Rows first (each output row from its source rows), then columns."""
+    return _box_resize(_box_resize(values, height, 0), width, 1)
 
 
 def resize_area(image: np.ndarray, size: int | tuple[int, int]) -> np.ndarray:
@@ -56,10 +88,15 @@ def resize_area(image: np.ndarray, size: int | tuple[int, int]) -> np.ndarray:
     1). The image mean is preserved exactly (up to rounding) for any factor,
     since every source pixel contributes the same total weight.
 
+    The products are evaluated in a fixed order, not by BLAS: first each
+    output row as the sum over its source rows in ascending order, then each
+    output column likewise, so that the result is the same bits whatever the
+    BLAS library, kernel or thread count (issue #11).
+
     Parameters
     ----------
     image : ndarray of shape (H, W) or (H, W, C)
-        Real values; NaN and inf propagate into every output pixel whose
+        Real values; NaN and inf propagate into the output pixels whose
         footprint touches them (use :func:`resize_disparity` for data with
         holes).
     size : int or pair of int
@@ -77,12 +114,7 @@ def resize_area(image: np.ndarray, size: int | tuple[int, int]) -> np.ndarray:
     """
     image = check_real_array("image", image, (2, 3))
     width, height = check_size(size)
-    rows = _area_matrix(image.shape[0], height)
-    cols = _area_matrix(image.shape[1], width)
-    values = image.astype(np.float64, copy=False)
-    if values.ndim == 2:
-        return rows @ values @ cols.T
-    return np.stack([rows @ values[..., c] @ cols.T for c in range(values.shape[2])], axis=-1)
+    return _resize(image.astype(np.float64, copy=False), width, height)
 
 
 def resize_disparity(
@@ -124,11 +156,9 @@ def resize_disparity(
         raise TypeError(f"The parameter `min_coverage` must be a real number, got {min_coverage!r}")
     if not 0.0 < min_coverage <= 1.0:
         raise ValueError(f"The parameter `min_coverage` must be in (0, 1], got {min_coverage}")
-    rows = _area_matrix(disparity.shape[0], height)
-    cols = _area_matrix(disparity.shape[1], width)
     known = np.isfinite(disparity)
-    total = rows @ np.where(known, disparity, 0.0).astype(np.float64) @ cols.T
-    coverage = rows @ known.astype(np.float64) @ cols.T
+    total = _resize(np.where(known, disparity, 0.0).astype(np.float64), width, height)
+    coverage = _resize(known.astype(np.float64), width, height)
     enough = coverage >= min_coverage - 1e-12
     out = np.full((height, width), np.nan)
     out[enough] = total[enough] / coverage[enough] * (width / disparity.shape[1])

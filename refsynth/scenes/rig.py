@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from refsynth._checks import check_int, check_real
+from refsynth.scenes.portable import hypot2, norm3, portable_cos, portable_sin
 from refsynth.scenes.room import Intersections, RoomGeometry, cast_rays
 
 __all__ = [
@@ -112,14 +113,14 @@ class RigTexture:
         for index in range(4):
             on = np.nonzero(wall == index)
             a, h = along[on], y[on]
-            amplitude, fa, fy, phase = np.moveaxis(self.waves[index], -1, 0)
-            value = albedo[on] + (
-                amplitude * np.sin(2 * np.pi * (a[:, None] * fa + h[:, None] * fy) + phase)
-            ).sum(axis=-1)
+            waves = np.zeros(a.shape)
+            for amplitude, fa, fy, phase in self.waves[index]:  # left to right (issue #11)
+                waves = waves + amplitude * portable_sin(2 * np.pi * (a * fa + h * fy) + phase)
+            value = albedo[on] + waves
             for _, a0, a1, y0, y1, poster, stripes in self.posters[self.posters[:, 0] == index]:
                 inside = (a >= a0) & (a <= a1) & (h >= y0) & (h <= y1)
                 canvas = (a >= a0 + 0.04) & (a <= a1 - 0.04) & (h >= y0 + 0.04) & (h <= y1 - 0.04)
-                pattern = poster * (0.75 + 0.25 * np.sin(2 * np.pi * stripes * (a + h)))
+                pattern = poster * (0.75 + 0.25 * portable_sin(2 * np.pi * stripes * (a + h)))
                 value = np.where(inside, np.where(canvas, pattern, 0.1), value)
             albedo[on] = np.where(h < room.lower[1] + 0.12, 0.2, value)  # skirting board
         floor = (axis == 1) & (sign < 0)
@@ -131,10 +132,10 @@ class RigTexture:
 def _box_albedo(box: np.ndarray, point: np.ndarray) -> np.ndarray:
     """A box's albedo with a wood-like grain: waves along its own x and z, wavy with height."""
     offset = point - box[:3]
-    cos, sin = np.cos(box[6]), np.sin(box[6])
+    cos, sin = portable_cos(box[6]), portable_sin(box[6])
     along = offset[:, 0] * cos - offset[:, 2] * sin + offset[:, 0] * sin + offset[:, 2] * cos
-    along = along + 0.04 * np.sin(2 * np.pi * offset[:, 1] / 0.5)
-    return box[7] * (0.8 + 0.2 * np.sin(2 * np.pi * along / 0.15 + 7 * box[7]))
+    along = along + 0.04 * portable_sin(2 * np.pi * offset[:, 1] / 0.5)
+    return box[7] * (0.8 + 0.2 * portable_sin(2 * np.pi * along / 0.15 + 7 * box[7]))
 
 
 def rig_room(seed: int | None = 0) -> RoomGeometry:
@@ -207,12 +208,11 @@ def rig_room(seed: int | None = 0) -> RoomGeometry:
             distance = rng.uniform(1.5, 4.5)
             half = np.array([rng.uniform(0.15, 0.6), 0.0, rng.uniform(0.15, 0.5)])
             half[1] = rng.uniform(0.25, 1.0)
-            centre = np.array(
-                [distance * np.sin(azimuth), lower[1] + half[1], distance * np.cos(azimuth)]
-            )
-            radius = float(np.hypot(half[0], half[2]))
+            centre = np.array([distance * portable_sin(azimuth), lower[1] + half[1],
+                               distance * portable_cos(azimuth)])
+            radius = hypot2(half[0], half[2])
             clear = all(
-                np.hypot(*(centre - b[:3])[[0, 2]]) > radius + np.hypot(b[3], b[5]) + 0.1
+                hypot2(*(centre - b[:3])[[0, 2]]) > radius + hypot2(b[3], b[5]) + 0.1
                 for b in boxes
             )
             inside = np.all(centre[[0, 2]] - radius > lower[[0, 2]] + 0.2) and np.all(
@@ -226,7 +226,7 @@ def rig_room(seed: int | None = 0) -> RoomGeometry:
         lower=lower,
         upper=upper,
         boxes=np.array(boxes),
-        light=light / np.linalg.norm(light),
+        light=light / norm3(light),
         texture=RigTexture(wall_albedo=wall_albedo, waves=waves, posters=np.array(posters)),
         seed=seed,
     )
@@ -257,7 +257,7 @@ def cast_rig_rays(
     """
     origin = np.asarray(origin, dtype=np.float64)
     rays = np.asarray(directions, dtype=np.float64)
-    rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
+    rays = rays / norm3(rays)[..., None]
     hits = cast_rays(room, rays, origin=origin, cull=True)
     return hits.distance, np.clip(hits.albedo * hits.shading, 0.0, 1.0)
 
@@ -349,9 +349,10 @@ def laser_scan(
     if phi.size < 2 or theta.size < 2:
         raise ValueError("The parameters `phi_range` and `theta_range` must span 2 steps or more")
     world = phi[:, None] + pan_offset
+    sin_theta, cos_theta = portable_sin(theta), portable_cos(theta)
     directions = np.stack(
         np.broadcast_arrays(
-            np.sin(theta) * np.sin(world), np.cos(theta), np.sin(theta) * np.cos(world)
+            sin_theta * portable_sin(world), cos_theta, sin_theta * portable_cos(world)
         ),
         axis=-1,
     )

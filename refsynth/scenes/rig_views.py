@@ -37,6 +37,14 @@ import numpy as np
 from scipy import ndimage as ndi
 
 from refsynth._checks import check_image, check_int, check_real, grey
+from refsynth.scenes.portable import (
+    hypot2,
+    portable_arctan,
+    portable_arctan2,
+    portable_cos,
+    portable_sin,
+    portable_tan,
+)
 from refsynth.scenes.rig import CAMERA_STEP, FOCAL, cast_rig_rays
 from refsynth.scenes.room import RoomGeometry
 
@@ -49,9 +57,11 @@ def _cylinder_coordinates(x, y, focal: float) -> tuple[np.ndarray, np.ndarray]:
     .. math:: x_c = f \arctan\frac{x}{f}, \qquad y_c = \frac{f\,y}{\sqrt{x^2 + f^2}}
 
     The formula of :func:`refsynth.registration.cylinder.cylinder_coordinates`,
-    restated so that the scenes do not depend on the registration stage.
+    restated so that the scenes do not depend on the registration stage; with
+    :mod:`refsynth.scenes.portable`'s arctan and square root, the same bits on
+    every machine.
     """
-    return focal * np.arctan2(x, focal), focal * y / np.hypot(x, focal)
+    return focal * portable_arctan2(x, focal), focal * y / hypot2(x, focal)
 
 
 def view_width(focal: float, pan_step: float, overlap: float) -> int:
@@ -74,7 +84,7 @@ def view_width(focal: float, pan_step: float, overlap: float) -> int:
     covered = focal * pan_step / (1 - overlap)
     if covered >= np.pi * focal:
         raise ValueError("The views would need a field of view of 180° or more")
-    return 2 * int(round(focal * np.tan(covered / (2 * focal))))
+    return 2 * int(round(focal * portable_tan(covered / (2 * focal))))
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,7 +146,7 @@ def _view_rays(shape, focal, pan, jitter, supersample, rng):
     x_c, y_c = _cylinder_coordinates(x, y, focal)
     psi = pan + x_c / focal
     v = y_c + jitter
-    directions = np.stack([np.sin(psi), -v / focal, np.cos(psi)], axis=-1)
+    directions = np.stack([portable_sin(psi), -v / focal, portable_cos(psi)], axis=-1)
     return directions.reshape(height, width, -1, 3)
 
 
@@ -144,7 +154,8 @@ def _vignetting(shape, focal, strength):
     """Natural vignetting ``1 − s (1 − cos⁴ θ)``, θ the angle off the optical axis."""
     rows, cols = np.indices(shape, dtype=np.float64)
     r2 = (cols - (shape[1] - 1) / 2) ** 2 + (rows - (shape[0] - 1) / 2) ** 2
-    cos4 = (focal**2 / (focal**2 + r2)) ** 2
+    f2 = focal * focal
+    cos4 = (f2 / (f2 + r2)) ** 2
     return 1.0 - strength * (1.0 - cos4)
 
 
@@ -228,7 +239,10 @@ def render_views(
     for k in range(n_views):
         rays = _view_rays((height, width), focal, true_pan[k], shifts[k], supersample, rng)
         _, intensity = cast_rig_rays(room, np.zeros(3), rays)
-        images[k] = intensity.mean(axis=-1) * shade
+        total = intensity[..., 0]
+        for sample in range(1, intensity.shape[-1]):  # left to right (issue #11)
+            total = total + intensity[..., sample]
+        images[k] = (total / intensity.shape[-1]) * shade
     images = np.clip(images + rng.normal(0.0, noise, images.shape), 0.0, 1.0)
     return _rig_views(images, nominal, true_pan, shifts, focal)
 
@@ -300,7 +314,7 @@ def texture_views(
     if height is None:
         height = int(photo.shape[0] - 2 * np.ceil(margin / 2 + jitter))
     height = check_int("height", height, 8)
-    half_c = focal * np.arctan((width / 2) / focal)  # half the cylindrical width
+    half_c = focal * portable_arctan((width / 2) / focal)  # half the cylindrical width
     first = half_c + 2 + focal * pan_error
     fits = int((photo.shape[1] - 2 * first) // (focal * pan_step)) + 1
     if n_views is None:

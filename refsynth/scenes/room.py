@@ -43,6 +43,8 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from refsynth.scenes.portable import dot3, norm3, portable_cos, portable_sin, rotate3
+
 __all__ = [
     "RoomGeometry",
     "Texture",
@@ -190,9 +192,13 @@ class RayHits:
 
 
 def _slab(rays: np.ndarray, offset: np.ndarray, half: np.ndarray, to_local: np.ndarray):
-    """The slab method on every ray given: hit distance (inf on a miss) and world normal."""
-    start = to_local @ (-offset)  # the rays' origin in the box's frame
-    local = rays @ to_local.T
+    """The slab method on every ray given: hit distance (inf on a miss) and world normal.
+
+    The products with ``to_local`` are explicit 3-term sums (:func:`~refsynth.scenes.
+    portable.rotate3`), not BLAS: the same bits on every machine (issue #11).
+    """
+    start = rotate3(to_local, -offset)  # the rays' origin in the box's frame
+    local = rotate3(to_local, rays)
     with np.errstate(divide="ignore", invalid="ignore"):
         t1 = (-half - start) / local
         t2 = (half - start) / local
@@ -205,7 +211,7 @@ def _slab(rays: np.ndarray, offset: np.ndarray, half: np.ndarray, to_local: np.n
     component = np.take_along_axis(local, axis[..., None], axis=-1)[..., 0]
     face = np.zeros_like(local)
     np.put_along_axis(face, axis[..., None], -np.sign(component)[..., None], axis=-1)
-    return np.where(hit, t_enter, np.inf), face @ to_local  # R · n
+    return np.where(hit, t_enter, np.inf), rotate3(to_local.T, face)  # R · n
 
 
 def ray_box(
@@ -241,18 +247,19 @@ def ray_box(
     normal : ndarray of shape (..., 3)
         World-frame unit normal of the face hit (zero on a culled ray).
     """
-    cos, sin = np.cos(yaw), np.sin(yaw)
+    cos, sin = portable_cos(yaw), portable_sin(yaw)
     to_local = np.array([[cos, 0.0, -sin], [0.0, 1.0, 0.0], [sin, 0.0, cos]])  # Rᵀ
     offset = centre - origin
     if not cull:
         return _slab(rays, offset, half, to_local)
     distance = np.full(rays.shape[:-1], np.inf)
     normal = np.zeros(rays.shape)
-    reach = float(np.linalg.norm(half))
-    gap = float(np.linalg.norm(offset))
+    reach = float(norm3(half))
+    gap = float(norm3(offset))
     if gap > reach:
-        along = rays @ (offset / gap)
-        candidate = along > np.sqrt(1.0 - (reach / gap) ** 2)
+        along = dot3(rays, offset / gap)
+        ratio = reach / gap
+        candidate = along > np.sqrt(1.0 - ratio * ratio)
     else:
         candidate = np.ones(rays.shape[:-1], dtype=bool)
     if candidate.any():
@@ -311,7 +318,7 @@ def intersect(
 
 def shading(room: RoomGeometry, normal: np.ndarray) -> np.ndarray:
     """Lambertian shading under the room's light, ``a + (1 − a) max(0, n·l)``, ``a = 0.35``."""
-    return AMBIENT + (1 - AMBIENT) * np.clip(normal @ room.light, 0.0, None)
+    return AMBIENT + (1 - AMBIENT) * np.clip(dot3(normal, room.light), 0.0, None)
 
 
 def cast_rays(

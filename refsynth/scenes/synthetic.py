@@ -25,10 +25,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from refsynth._checks import check_seed, is_int
+from refsynth.scenes.portable import (
+    hypot2,
+    norm3,
+    portable_cos,
+    portable_sin,
+    portable_tan,
+    rotate3,
+)
 from refsynth.scenes.room import Intersections, RoomGeometry, cast_rays
 from refsynth.scenes.scene import Scene
 
 __all__ = ["SyntheticTexture", "room_geometry", "synthetic_room"]
+
+#: tan 30° (half the camera's 60° field of view) = √3 / 3: two correctly rounded IEEE
+#: operations, the same bits everywhere (and those of ``np.tan(np.radians(30))`` here).
+_TAN_30 = float(np.sqrt(3.0)) / 3.0
 
 
 # ----------------------------------------------------------------------------- texture
@@ -111,9 +123,10 @@ class SyntheticTexture:
             if index == self.grain:
                 # wood grain along the box's own x axis, slightly wavy with height
                 offset = origin + rays * np.where(on, hits.distance, 0.0)[..., None] - box[:3]
-                along = offset[..., 0] * np.cos(box[6]) - offset[..., 2] * np.sin(box[6])
-                along = along + 0.03 * np.sin(2 * np.pi * offset[..., 1] / 0.4)
-                value = value * (0.8 + 0.2 * np.sin(2 * np.pi * along / 0.12))
+                cos, sin = portable_cos(box[6]), portable_sin(box[6])
+                along = offset[..., 0] * cos - offset[..., 2] * sin
+                along = along + 0.03 * portable_sin(2 * np.pi * offset[..., 1] / 0.4)
+                value = value * (0.8 + 0.2 * portable_sin(2 * np.pi * along / 0.12))
             albedo[on] = value[on]
         return albedo
 
@@ -130,7 +143,7 @@ def _draw_room(rng: np.random.Generator, seed) -> RoomGeometry:
     yaw = rng.uniform(-0.1, 0.1)
     wall_albedo = rng.uniform(0.6, 0.8)
     light = np.array([rng.uniform(-0.5, -0.2), rng.uniform(0.6, 0.9), rng.uniform(-0.7, -0.4)])
-    light /= np.linalg.norm(light)
+    light /= norm3(light)
     side = rng.choice([-1.0, 1.0])  # the divider on this side, the painting on the other
 
     # the divider: a thin panel parallel to the back wall, with its albedo
@@ -144,10 +157,10 @@ def _draw_room(rng: np.random.Generator, seed) -> RoomGeometry:
     for _ in range(int(rng.integers(3, 6))):
         half = np.array([rng.uniform(0.2, 0.6), 0.0, rng.uniform(0.2, 0.6)])
         half[1] = rng.uniform(0.2, 0.75)
-        radius = float(np.hypot(half[0], half[2]))
+        radius = hypot2(half[0], half[2])
         for _ in range(100):
             z = rng.uniform(2.5, back - 1.0)
-            reach = min(half_width - radius, z * np.tan(np.radians(28)))
+            reach = min(half_width - radius, z * portable_tan(np.radians(28)))
             x = rng.uniform(-reach, reach)
             if abs(x - divider_x) > divider_width / 2 + radius + 0.2:
                 break
@@ -296,13 +309,14 @@ def synthetic_room(shape: tuple[int, int] = (128, 128), seed=0) -> Scene:
     noise = rng.normal(0.0, 0.01, size=(height, width))
 
     # --- the rays --------------------------------------------------------------------
-    focal = (width / 2) / np.tan(np.radians(30))
+    focal = (width / 2) / _TAN_30
     u = (np.arange(width) + 0.5 - width / 2) / focal
     v = (height / 2 - (np.arange(height) + 0.5)) / focal
     camera = np.stack(np.broadcast_arrays(u[None, :], v[:, None], 1.0), axis=-1)
-    cos, sin = np.cos(room.yaw), np.sin(room.yaw)
-    rays = camera @ np.array([[cos, 0.0, -sin], [0.0, 1.0, 0.0], [sin, 0.0, cos]])
-    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
+    cos, sin = portable_cos(room.yaw), portable_sin(room.yaw)
+    # camera @ R, as explicit 3-term sums (no BLAS: issue #11)
+    rays = rotate3(np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]]), camera)
+    rays /= norm3(rays)[..., None]
 
     hits = cast_rays(room, rays)
     intensity = np.clip(hits.albedo * hits.shading + noise, 0.0, 1.0)

@@ -1,0 +1,301 @@
+"""Mutation check: do the tests catch wrong assembly of the equations? (issue #11)
+
+Applies single-line mutations to the code that puts the paper's equations together — NP
+(refsynth/synthesis/nonparametric.py), BP (bp.py), the fill order (priority.py) and
+registration (refsynth/registration/*.py): operators, indices, dropped terms, swapped
+arguments, among them the seven of issue #11 — one at a time, in a *copy* of the project
+(never the working tree), runs the relevant test files there with ``pytest -x -q``, and prints
+killed / survived per mutation.
+
+A mutation is (file, an exact substring of one original line, its replacement). If the
+original is not found (the code moved on), the mutation is skipped with a message. A
+mutation known to be *equivalent* (it cannot change any result) says why; a survivor that is
+not known to be equivalent is a gap in the tests.
+
+Usage::
+
+    python benchmarks/mutation_check.py                 # every mutation (20-40 min)
+    python benchmarks/mutation_check.py --only np-eq5-draw bp-fixed-removed
+    python benchmarks/mutation_check.py --list
+
+Exit status: 0 if every non-equivalent mutation was killed, 1 otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+NP = "refsynth/synthesis/nonparametric.py"
+BP = "refsynth/synthesis/bp.py"
+PRIORITY = "refsynth/synthesis/priority.py"
+REG = "refsynth/registration"
+
+ORACLE_FAST = "tests/test_oracle.py::test_the_fast_code_passes_every_case_it_handles"
+TESTS = {
+    "np": ["tests/test_np_sampling.py", "tests/test_priority.py", "tests/test_synthesis.py",
+           ORACLE_FAST, "tests/test_reference.py"],
+    "bp": ["tests/test_bp.py", "tests/test_synthesis.py", ORACLE_FAST,
+           "tests/test_reference.py"],
+    "priority": ["tests/test_priority.py", "tests/test_np_sampling.py", ORACLE_FAST,
+                 "tests/test_reference.py"],
+    "registration": ["tests/test_panorama.py", "tests/test_laser_camera.py",
+                     "tests/test_registration_scenes.py"],
+}
+
+
+@dataclass(frozen=True)
+class Mutation:
+    """One single-line change: where, what it replaces, which tests must catch it."""
+
+    id: str
+    area: str                 # a key of TESTS
+    file: str
+    original: str
+    replacement: str
+    what: str
+    issue: bool = False       # one of the seven of issue #11
+    equivalent: str = ""      # why it cannot change a result (expected to survive)
+
+
+MUTATIONS = [
+    # -- the seven of issue #11 ------------------------------------------------------
+    Mutation("np-radius-ignored", "np", NP, "dr, dc = disc_offsets(radius)",
+             "dr, dc = disc_offsets(10.0)", "Eq. 3's radius ignored in the gather", True),
+    Mutation("np-eq5-draw", "np", NP,
+             "q = int(candidates[members[int(draws[step] * members.size)]])",
+             "q = int(candidates[best])", "the Eq. 5 draw replaced by the best match", True),
+    Mutation("np-confidence-factor", "np", NP,
+             "confidence = float(front.confidence_at(p)) * confidence",
+             "confidence = 1.0 * confidence",
+             "a factor (C(p)) dropped from the confidence assigned", True),
+    Mutation("bp-fixed-sides", "bp", BP, "ms = fixed_neighbour_terms(cp, fp, direction, side)",
+             'ms = fixed_neighbour_terms(cp, fp, direction, "left" if side == "right" '
+             'else "right")', "BP's fixed-neighbour sides swapped", True),
+    Mutation("bp-eq6-order", "bp", BP,
+             "out[s] = psi(pair_compatibilities(pj, pk, direction), sigma_s)",
+             "out[s] = psi(pair_compatibilities(pk, pj, direction), sigma_s)",
+             "the Eq. 6 pair order swapped", True),
+    Mutation("bp-fixed-removed", "bp", BP, "unary[node[s]] += psi(ms, sigma_s)",
+             "unary[node[s]] += 0.0 * psi(ms, sigma_s)", "the fixed-neighbour terms removed",
+             True),
+    Mutation("bp-distance-alone", "bp", BP,
+             "d = d + (proximity / (radius * radius)) * (dr * dr + dc * dc).astype(np.float64)",
+             "d = d", "candidates ranked by distance alone (no proximity prior)", True),
+    # -- NP ----------------------------------------------------------------------------
+    Mutation("np-eq4-argmax", "np", NP, "best = int(np.argmin(d))", "best = int(np.argmax(d))",
+             "Eq. 4's argmin replaced by argmax (the best match's confidence)"),
+    Mutation("np-eq5-strict", "np", NP,
+             "return np.flatnonzero(distances <= (1.0 + epsilon) * distances.min())",
+             "return np.flatnonzero(distances < (1.0 + epsilon) * distances.min())",
+             "Eq. 5's ≤ replaced by <"),
+    Mutation("np-eq5-minus", "np", NP,
+             "return np.flatnonzero(distances <= (1.0 + epsilon) * distances.min())",
+             "return np.flatnonzero(distances <= (1.0 - epsilon) * distances.min())",
+             "Eq. 5's (1 + ε) replaced by (1 − ε)"),
+    Mutation("np-draw-index", "np", NP,
+             "q = int(candidates[members[int(draws[step] * members.size)]])",
+             "q = int(candidates[members[int(draws[step] * (members.size - 1))]])",
+             "the draw's index floor(u |Γ'|) off by one member"),
+    Mutation("np-set-range-index", "np", NP, "table.set_range(p, value)",
+             "table.set_range(q, value)", "the synthesized range written at the source"),
+    Mutation("np-copy-value", "np", NP, "original[p] = original[q]", "original[p] = original[p]",
+             "the source's range not copied to the output"),
+    Mutation("np-widened", "np", NP, "return flat[dist <= dist.min() + radius]",
+             "return flat[dist <= dist.min()]", "the widened search loses its + r"),
+    Mutation("np-onion-update", "np", NP,
+             'front.fill(p, value, on_confidence_grid(confidence), update=ordering != "onion")',
+             "front.fill(p, value, on_confidence_grid(confidence), update=True)",
+             "priorities updated during the onion order",
+             equivalent="the onion order never pops the priority heap, so re-prioritising "
+             "the front changes nothing the onion order reads"),
+    # -- the fill order (Eqs. 10-12) --------------------------------------------------
+    Mutation("pr-clip-d", "priority", PRIORITY,
+             "return c * np.maximum(d, 0.0) + block[..., _EDGE]",
+             "return c * d + block[..., _EDGE]", "Eq. 10 without max(D, 0)"),
+    Mutation("pr-count", "priority", PRIORITY, "c = block[..., _CONF] / block[..., _COUNT]",
+             "c = block[..., _CONF]", "Eq. 11 without |N_p|"),
+    Mutation("pr-isophote", "priority", PRIORITY,
+             "d = 1.0 - np.abs(g_row * m_col - g_col * m_row) / norm",
+             "d = 1.0 - np.abs(g_row * m_row + g_col * m_col) / norm",
+             "Eq. 12 with the gradient in place of the isophote"),
+    Mutation("pr-tier", "priority", PRIORITY, "tiered = use_edges and edges_last",
+             "tiered = False", "edge pixels not filled last"),
+    Mutation("pr-template-index", "priority", PRIORITY,
+             "t[3][1 : n + 1, 2 : n + 1, _DCOL] = 1.0", "t[3][1 : n + 1, 1:n, _DCOL] = 1.0",
+             "a running-sum template off by one column"),
+    Mutation("pr-pair-sign", "priority", PRIORITY, "coef[3], coef[4] = r[i, j + 1] - value, 1.0",
+             "coef[3], coef[4] = value - r[i, j + 1], 1.0", "a range difference's sign swapped"),
+    Mutation("pr-stale", "priority", PRIORITY, "if not filled[p] and current[p] == -neg_p:",
+             "if not filled[p]:", "stale heap entries accepted"),
+    Mutation("pr-edge-window", "priority", PRIORITY,
+             "state[..., _EDGE] = 1.0 / (1.0 + box_sum(edge_pad, n)) if use_edges else 1.0",
+             "state[..., _EDGE] = 1.0 / (1.0 + box_sum(edge_pad, 3)) if use_edges else 1.0",
+             "E counted on 3×3 instead of N_p"),
+    Mutation("pr-front", "priority", PRIORITY,
+             "front = self.inside & ~self.filled & (state[..., _NEIGH] > 0)",
+             "front = self.inside & ~self.filled & (state[..., _NEIGH] > 1)",
+             "the initial front needs two filled neighbours"),
+    Mutation("pr-onion-keys", "priority", PRIORITY,
+             "return unknown[np.lexsort((tie, layer.ravel()[unknown]))]",
+             "return unknown[np.lexsort((layer.ravel()[unknown], tie))]",
+             "the onion order's keys swapped"),
+    # -- BP (Eqs. 6-9) ----------------------------------------------------------------
+    Mutation("bp-own-message", "bp", BP, "h = beliefs()[src] - messages[rev]",
+             "h = beliefs()[src]", "the receiver's own message not left out"),
+    Mutation("bp-normalise", "bp", BP, "m -= m.max(axis=1, keepdims=True)",
+             "m -= 0.0 * m.max(axis=1, keepdims=True)", "max-product messages not normalised"),
+    Mutation("bp-send-axis", "bp", BP, "t = log_psi[sl] + h[sl, :, None]",
+             "t = log_psi[sl] + h[sl, None, :]", "the sender's labels on the wrong axis"),
+    Mutation("bp-map-argmin", "bp", BP, "best = np.argmax(belief, axis=1)",
+             "best = np.argmin(belief, axis=1)", "Eq. 8's argmax replaced by argmin"),
+    Mutation("bp-pool-span", "bp", BP,
+             "same = np.abs(cand_values - chosen[:, None]) <= VALUE_TOLERANCE * span",
+             "same = np.abs(cand_values - chosen[:, None]) <= VALUE_TOLERANCE",
+             "the confidence's pooling tolerance without the span"),
+    Mutation("bp-silent-receivers", "bp", BP, "sends &= ~np.asarray(silent, dtype=bool)[src]",
+             "sends &= ~np.asarray(silent, dtype=bool)[dst]",
+             "the edge rule silences receivers instead of senders"),
+    Mutation("bp-unstable-rank", "bp", BP, 'best = np.argsort(d, axis=1, kind="stable")[:, :kk]',
+             "best = np.argsort(d, axis=1)[:, :kk]", "ties ranked by an unstable sort"),
+    Mutation("bp-phi-sigma", "bp", BP, "unary = phi(dist, sigma_i)", "unary = phi(dist, sigma_s)",
+             "Eq. 7 with σ_s in place of σ_i"),
+    # -- registration (Eqs. 14-21) ----------------------------------------------------
+    Mutation("reg-gn-sign", "registration", f"{REG}/translation.py", "rhs = -(columns @ e)",
+             "rhs = (columns @ e)", "Eq. 17's right-hand side without its minus"),
+    Mutation("reg-gn-update", "registration", f"{REG}/translation.py", "t = t + delta",
+             "t = t - delta", "the Gauss-Newton update subtracted"),
+    Mutation("reg-hat-args", "registration", f"{REG}/mosaicking.py",
+             "wy = 1.0 - np.abs(y - height / 2) / (height / 2)",
+             "wy = 1.0 - np.abs(y - width / 2) / (height / 2)", "Eq. 18 with w for h"),
+    Mutation("reg-fit-swap", "registration", f"{REG}/warp.py",
+             'b, beta = fit_line(laser[:, 1], camera[:, 1], "h")',
+             'b, beta = fit_line(camera[:, 1], laser[:, 1], "h")',
+             "Eq. 21's v-line fitted the wrong way round"),
+    Mutation("reg-eq20-index", "registration", f"{REG}/warp.py",
+             "rho = r * focal / np.hypot(focal, laser[:, 1])",
+             "rho = r * focal / np.hypot(focal, laser[:, 0])", "Eq. 20's ρ from φ instead of h"),
+    Mutation("reg-eq14-args", "registration", f"{REG}/cylinder.py",
+             "return focal * np.arctan2(x, focal), focal * y / np.hypot(x, focal)",
+             "return focal * np.arctan2(focal, x), focal * y / np.hypot(x, focal)",
+             "Eq. 14's arctan arguments swapped"),
+    Mutation("reg-eq19-tan", "registration", f"{REG}/range_image.py",
+             "np.asarray(focal / np.tan(theta))", "np.asarray(focal * np.tan(theta))",
+             "Eq. 19's f / tan θ as f · tan θ"),
+]
+
+
+def _copy_project(target: Path) -> None:
+    """A plain copy of what the tests need: the package, the tests, the project files."""
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".hypothesis", ".pytest_cache")
+    for name in ("refsynth", "tests"):
+        shutil.copytree(ROOT / name, target / name, ignore=ignore)
+    for name in ("pyproject.toml", "setup.cfg", "pytest.ini", "conftest.py", "README.md"):
+        if (ROOT / name).is_file():
+            shutil.copy2(ROOT / name, target / name)
+
+
+def _run_tests(copy: Path, tests: list[str], timeout: float) -> tuple[bool, str, float]:
+    """``pytest -x -q`` on the tests in the copy: (all passed, the first failure, seconds)."""
+    env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1")
+    env.pop("PYTEST_ADDOPTS", None)
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", *tests],
+            cwd=copy, env=env, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return False, f"timeout after {timeout:.0f} s", time.perf_counter() - start
+    seconds = time.perf_counter() - start
+    failed = re.findall(r"^(?:FAILED|ERROR) (\S+)", done.stdout, flags=re.M)
+    if done.returncode == 0:
+        return True, "", seconds
+    return False, failed[0] if failed else f"pytest exit {done.returncode}", seconds
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--only", nargs="+", metavar="ID", help="only these mutations")
+    parser.add_argument("--list", action="store_true", help="list the mutations and exit")
+    parser.add_argument("--timeout", type=float, default=900.0, help="seconds per test run")
+    parser.add_argument("--keep", action="store_true", help="keep the temporary copy")
+    args = parser.parse_args(argv)
+    chosen = [m for m in MUTATIONS if not args.only or m.id in args.only]
+    if args.list:
+        for m in chosen:
+            print(f"{m.id:22s} {m.area:12s} {m.file}: {m.what}")
+        return 0
+    unknown = set(args.only or ()) - {m.id for m in MUTATIONS}
+    if unknown:
+        parser.error(f"unknown mutation(s): {', '.join(sorted(unknown))}")
+    work = Path(tempfile.mkdtemp(prefix="refsynth-mutants-"))
+    copy = work / "project"
+    _copy_project(copy)
+    print(f"copy of {ROOT} in {copy}", flush=True)
+    results = []
+    try:
+        for area in sorted({m.area for m in chosen}):   # the unmutated copy must pass
+            ok, failure, seconds = _run_tests(copy, TESTS[area], args.timeout)
+            print(f"baseline {area:12s} {'pass' if ok else 'FAIL ' + failure} ({seconds:.0f} s)",
+                  flush=True)
+            if not ok:
+                print("the unmutated tests fail: fix that first", file=sys.stderr)
+                return 2
+        for m in chosen:
+            path = copy / m.file
+            source = path.read_text()
+            count = source.count(m.original)
+            if count != 1:
+                state = "not found" if count == 0 else f"found {count} times"
+                print(f"SKIP     {m.id:22s} the original line is {state} in {m.file}",
+                      flush=True)
+                results.append((m, "skipped", state, 0.0))
+                continue
+            path.write_text(source.replace(m.original, m.replacement))
+            try:
+                ok, failure, seconds = _run_tests(copy, TESTS[m.area], args.timeout)
+            finally:
+                path.write_text(source)
+            state = "survived" if ok else "killed"
+            print(f"{state.upper():8s} {m.id:22s} {m.what}" + (f"  [{failure}]" if failure else "")
+                  + f" ({seconds:.0f} s)", flush=True)
+            results.append((m, state, failure, seconds))
+    finally:
+        if args.keep:
+            print(f"kept {work}")
+        else:
+            shutil.rmtree(work, ignore_errors=True)
+    applied = [r for r in results if r[1] != "skipped"]
+    killed = [r for r in applied if r[1] == "killed"]
+    survivors = [r for r in applied if r[1] == "survived"]
+    equivalent = [r for r in survivors if r[0].equivalent]
+    gaps = [r for r in survivors if not r[0].equivalent]
+    flagged = [r for r in applied if r[0].equivalent and r[1] == "killed"]
+    non_equivalent = [r for r in applied if not r[0].equivalent]
+    print()
+    print(f"{len(killed)} killed, {len(survivors)} survived, "
+          f"{len(results) - len(applied)} skipped, of {len(results)} mutations")
+    print(f"non-equivalent mutations killed: {len(non_equivalent) - len(gaps)} of "
+          f"{len(non_equivalent)}; of the seven of issue #11: "
+          f"{sum(1 for r in killed if r[0].issue)} of {sum(1 for r in applied if r[0].issue)}")
+    for m, _, _, _ in equivalent:
+        print(f"  survived, equivalent: {m.id}: {m.equivalent}")
+    for m, _, _, _ in gaps:
+        print(f"  SURVIVED, not equivalent (a gap in the tests): {m.id}: {m.what}")
+    for m, _, failure, _ in flagged:
+        print(f"  killed although listed as equivalent: {m.id} [{failure}]")
+    return 1 if gaps else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
