@@ -141,10 +141,9 @@ def copy_tutorials() -> None:
 write_api_pages()
 copy_tutorials()
 
-#: Stopgap: modules whose docstring docutils cannot parse yet, shown as plain text
-#: (refsynth/acquisition/pan_protocol.py: a simple table whose middle column is narrower
-#: than "speed, positions per second"). Remove an entry once its docstring is fixed.
-LITERAL_DOCSTRINGS = {"refsynth.acquisition.pan_protocol"}
+#: Stopgap: modules whose docstring docutils cannot parse yet, shown as plain text.
+#: Remove an entry once its docstring is fixed (none left).
+LITERAL_DOCSTRINGS: set[str] = set()
 
 
 def literal_docstring(app, what, name, obj, options, lines):
@@ -161,7 +160,11 @@ VERBATIM = re.compile(r"(``.*?``|:[a-z:]+:`[^`]*`|`[^`]*`)")
 
 def escape_bars(app, what, name, obj, options, lines):
     block_indent = None  # indentation of the math/literal block being skipped
+    in_doctest = False  # inside a ">>>" block: left as written
     for index, line in enumerate(lines):
+        if in_doctest or (block_indent is None and line.lstrip().startswith(">>>")):
+            in_doctest = bool(line.strip())
+            continue
         indent = len(line) - len(line.lstrip())
         if block_indent is not None:
             if not line.strip() or indent > block_indent:

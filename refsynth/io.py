@@ -116,6 +116,14 @@ def read_pfm(path: str | Path) -> np.ndarray:
         If there is no such file.
     ValueError
         If the file is not a valid PFM (the message names the path).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "disparity.pfm"
+    >>> write_pfm(path, np.array([[1.0, 2.0], [3.0, np.inf]]))
+    >>> read_pfm(path).tolist()
+    [[1.0, 2.0], [3.0, inf]]
     """
     path = _check_path(path)
     data = _read_bytes(path)
@@ -162,6 +170,14 @@ def write_pfm(path: str | Path, array: np.ndarray) -> None:
         If ``array`` is not a real numeric numpy array.
     ValueError
         If its shape is not (H, W) or (H, W, 3) with H, W >= 1.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "range.pfm"
+    >>> write_pfm(path, np.zeros((2, 3, 3)))
+    >>> read_pfm(path).shape, path.read_bytes()[:2]
+    ((2, 3, 3), b'PF')
     """
     path = _check_path(path)
     if not isinstance(array, np.ndarray):
@@ -227,6 +243,15 @@ def read_image(path: str | Path, *, raw: bool = False) -> np.ndarray:
         If there is no such file.
     ValueError
         If Pillow cannot read it (the message names the path).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from PIL import Image
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "grey.png"
+    >>> Image.fromarray(np.array([[0, 255]], dtype=np.uint8)).save(path)
+    >>> read_image(path).tolist(), read_image(path, raw=True).dtype
+    ([[0.0, 1.0]], dtype('uint8'))
     """
     path = _check_path(path)
     if not path.is_file():
@@ -285,6 +310,14 @@ def read_array(path: str | Path, *, raw: bool = False) -> np.ndarray:
     ValueError
         If the suffix is not one of those above, or the file cannot be read
         (the message names the path).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "range.npy"
+    >>> np.save(path, np.array([[1.5, np.nan]]))
+    >>> read_array(path).tolist()
+    [[1.5, nan]]
     """
     path = _check_path(path)
     suffix = path.suffix.lower()
@@ -309,6 +342,7 @@ def read_npy(path: str | Path) -> np.ndarray:
     Parameters
     ----------
     path : str or Path
+        The ``.npy`` file to read (any suffix is accepted).
 
     Returns
     -------
@@ -323,6 +357,14 @@ def read_npy(path: str | Path) -> np.ndarray:
         If the file is not a ``.npy`` file, its header is malformed, its data
         is shorter or longer than the header says, or its dtype holds objects
         or structured fields (the message names the path).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "mask.npy"
+    >>> np.save(path, np.eye(2, dtype=bool))
+    >>> read_npy(path).tolist()
+    [[True, False], [False, True]]
     """
     path = _check_path(path)
     if not path.is_file():
@@ -360,6 +402,7 @@ def write_png16(path: str | Path, array: np.ndarray, scale: float = 1.0) -> None
     Parameters
     ----------
     path : str or Path
+        The file to write (overwritten if it exists).
     array : ndarray of shape (H, W), real
         NaN (and non-finite values) mark unknown pixels and are stored as 0.
     scale : float, default 1
@@ -371,6 +414,14 @@ def write_png16(path: str | Path, array: np.ndarray, scale: float = 1.0) -> None
     ValueError
         If a finite value, scaled and rounded, falls outside 1…65535 (0 is
         reserved for "unknown"), or the shape is not (H, W).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "range.png"
+    >>> write_png16(path, np.array([[1.25, np.nan]]), scale=100)
+    >>> read_array(path, raw=True).tolist()
+    [[125, 0]]
     """
     path = _check_path(path)
     if not isinstance(array, np.ndarray) or array.ndim != 2 or 0 in array.shape:
@@ -400,6 +451,8 @@ def write_array(path: str | Path, array: np.ndarray, *, png_scale: float = 1.0) 
     path : str or Path
         Its suffix (case-insensitive) must be one of :data:`WRITE_SUFFIXES`.
     array : ndarray
+        Any numeric array for ``.npy``; of shape (H, W) or (H, W, 3) for
+        ``.pfm``; of shape (H, W) for ``.png``.
     png_scale : float, default 1
         For ``.png`` only (see :func:`write_png16`).
 
@@ -412,6 +465,13 @@ def write_array(path: str | Path, array: np.ndarray, *, png_scale: float = 1.0) 
     ------
     ValueError
         If the suffix is not one of :data:`WRITE_SUFFIXES`.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "range.npy"
+    >>> write_array(path, np.ones((2, 2))) == path
+    True
     """
     path = _check_path(path)
     suffix = check_write_suffix(path)
@@ -426,7 +486,30 @@ def write_array(path: str | Path, array: np.ndarray, *, png_scale: float = 1.0) 
 
 
 def check_write_suffix(path: str | Path, name: str = "path") -> str:
-    """The lower-case suffix of ``path`` if :func:`write_array` writes it, or ``ValueError``."""
+    """The lower-case suffix of ``path`` if :func:`write_array` writes it, or ``ValueError``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file name to check (it need not exist).
+    name : str, default "path"
+        The argument name the error message gives.
+
+    Returns
+    -------
+    str
+        One of :data:`WRITE_SUFFIXES`, lower-case.
+
+    Raises
+    ------
+    ValueError
+        If the suffix is not one of :data:`WRITE_SUFFIXES`.
+
+    Examples
+    --------
+    >>> check_write_suffix("out/range.PFM")
+    '.pfm'
+    """
     path = _check_path(path)
     suffix = path.suffix.lower()
     if not path.name or suffix not in WRITE_SUFFIXES:

@@ -79,14 +79,23 @@ def assemble(records: dict[int, SliceRecord], indices, settings: ScanSettings) -
 
 @dataclass(frozen=True)
 class CameraImage:
-    """A picture of the scan.
+    """A picture of the scan: one of the views the mosaic is built from (§4, App. A.1).
 
     Attributes
     ----------
     path : Path
+        The PNG file (``images/pan-<i>.png``).
     pan_index : int
+        The pan position it was taken at (25, 75, …, 475).
     pan_angle : float
         Radians (``φ`` of the optical axis).
+
+    Examples
+    --------
+    >>> from refsynth.acquisition.geometry import pan_angle
+    >>> image = CameraImage(Path("images/pan-0025.png"), 25, float(pan_angle(25)))
+    >>> image.path.name, image.pan_index, round(image.pan_angle, 4)
+    ('pan-0025.png', 25, -1.4137)
     """
 
     path: Path
@@ -118,6 +127,20 @@ class Scan:
         Whether every planned slice is there.
     focal : float
         The camera's focal length in pixels (300).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from refsynth.acquisition import PanUnit, Rangefinder, RigSimulator, ScanSettings, run_scan
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> with RigSimulator(seed=0) as rig:
+    ...     with PanUnit(rig.pan_port) as pan, Rangefinder(rig.laser_port) as laser:
+    ...         settings = ScanSettings("every", step=100, count=8, camera=False)
+    ...         summary = run_scan(folder, pan, laser, settings)
+    >>> scan = load_scan(folder)
+    >>> scan.r.shape, scan.pan_index.tolist(), scan.complete
+    ((5, 8), [0, 100, 200, 300, 400], True)
     """
 
     r: np.ndarray
@@ -231,7 +254,7 @@ def _read_slices(folder: Path, manifest: dict, settings: ScanSettings, indices) 
 
 
 def load_scan(folder: str | os.PathLike) -> Scan:
-    """Load a scan folder written by :func:`run_scan`.
+    """Load a scan folder written by :func:`run_scan` (§3.1.1, §4).
 
     A complete scan is read from ``scan.npz``; an incomplete one is
     assembled from the slice files of its plan that are on disk
@@ -239,6 +262,17 @@ def load_scan(folder: str | os.PathLike) -> Scan:
     is trusted unchecked: the manifest in full, ``scan.npz`` against the
     plan and the geometry, each slice file against the CRC the manifest
     recorded, each picture (when its file is there) for being a whole PNG.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The scan folder (``manifest.json``, ``slices/``, ``images/``, and
+        ``scan.npz`` once complete).
+
+    Returns
+    -------
+    Scan
+        The samples of every slice on disk, in pan order.
 
     Raises
     ------

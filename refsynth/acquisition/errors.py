@@ -36,7 +36,17 @@ __all__ = [
 
 
 class ProtocolError(ValueError):
-    """A reply (or command) that does not follow the protocol: reject it."""
+    """A reply (or command) that does not follow the protocol: reject it.
+
+    Examples
+    --------
+    >>> from refsynth.acquisition.pan_protocol import parse_pan_reply
+    >>> try:
+    ...     parse_pan_reply(b"* abc\\r\\n", "int")
+    ... except ProtocolError as error:
+    ...     print(type(error).__name__, isinstance(error, ValueError))
+    ProtocolError True
+    """
 
 
 class RigError(OSError):
@@ -50,6 +60,14 @@ class RigError(OSError):
         The command as sent (terminator removed), or a short description.
     detail : str
         What went wrong.
+
+    Examples
+    --------
+    >>> error = RigError("pan unit", "PP600", "! Maximum allowable pan position exceeded")
+    >>> print(error)
+    pan unit: PP600: ! Maximum allowable pan position exceeded
+    >>> isinstance(error, OSError)
+    True
     """
 
     def __init__(self, device: str, command: str, detail: str) -> None:
@@ -76,6 +94,15 @@ class DeviceError(RigError):
         The pan unit's message, or the status code's meaning.
     transient : bool
         Whether the same request may well succeed if sent again.
+
+    Examples
+    --------
+    >>> error = DeviceError("rangefinder", "GS0379024310", "status 02 (laser off)",
+    ...                     code=2, message="laser off")
+    >>> print(error)
+    rangefinder: GS0379024310: status 02 (laser off)
+    >>> error.code, error.transient
+    (2, False)
     """
 
     def __init__(
@@ -97,16 +124,46 @@ def _rebuild_device_error(device, command, detail, code, message, transient):
 
 
 class ReplyError(RigError):
-    """A reply that breaks the protocol (wrong echo, bad status, wrong length, CRC mismatch)."""
+    """A reply that breaks the protocol (wrong echo, bad status, wrong length, CRC mismatch).
+
+    Examples
+    --------
+    >>> print(ReplyError("rangefinder", "GS0379024310", "echo mismatch"))
+    rangefinder: GS0379024310: echo mismatch
+    """
 
 
 class DeviceTimeout(RigError):
-    """No complete reply before the command's deadline."""
+    """No complete reply before the command's deadline.
+
+    Examples
+    --------
+    >>> print(DeviceTimeout("pan unit", "A", "no reply within 5.0 s"))
+    pan unit: A: no reply within 5.0 s
+    """
 
 
 class PortLost(RigError):
-    """The port failed (the device vanished), or could not be reopened."""
+    """The port failed (the device vanished), or could not be reopened.
+
+    Examples
+    --------
+    >>> isinstance(PortLost("rangefinder", "open", "no such port"), RigError)
+    True
+    """
 
 
 class RetriesExhausted(RigError):
-    """The same request failed every time it was tried; ``__cause__`` holds the last failure."""
+    """The same request failed every time it was tried; ``__cause__`` holds the last failure.
+
+    Examples
+    --------
+    >>> try:
+    ...     try:
+    ...         raise DeviceTimeout("pan unit", "PP", "no reply within 1.0 s")
+    ...     except DeviceTimeout as last:
+    ...         raise RetriesExhausted("pan unit", "PP", "3 tries failed") from last
+    ... except RetriesExhausted as error:
+    ...     print(error, "|", error.__cause__)
+    pan unit: PP: 3 tries failed | pan unit: PP: no reply within 1.0 s
+    """

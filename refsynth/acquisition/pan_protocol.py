@@ -12,21 +12,21 @@ command set (terse, no echo). A command is a name, an optional decimal
 argument, and a delimiter (the driver sends a space; the device accepts
 space, CR or LF):
 
-=========  ==========================  =====================================
-command    meaning                     success reply
-=========  ==========================  =====================================
-``PR``     resolution                  ``* 1296.0000`` (seconds of arc/step)
-``PN``     minimum position            ``* 0``
-``PX``     maximum position            ``* 499``
-``PP<n>``  absolute move to ``n``      ``*``
-``PP``     current position            ``* <n>``
-``PS<n>``  speed, positions per second ``*``
-``PS``     current speed               ``* <n>``
-``A``      await the end of the move   ``*`` (sent when the move is done)
-``R``      reset (re-home to 0)        ``*``
-``V``      version                     ``* <text>``
-``C``      take a picture              ``* <n>`` (the position it was taken at)
-=========  ==========================  =====================================
+=========  ===========================  ========================================
+command    meaning                      success reply
+=========  ===========================  ========================================
+``PR``     resolution                   ``* 1296.0000`` (seconds of arc/step)
+``PN``     minimum position             ``* 0``
+``PX``     maximum position             ``* 499``
+``PP<n>``  absolute move to ``n``       ``*``
+``PP``     current position             ``* <n>``
+``PS<n>``  speed, positions per second  ``*``
+``PS``     current speed                ``* <n>``
+``A``      await the end of the move    ``*`` (sent when the move is done)
+``R``      reset (re-home to 0)         ``*``
+``V``      version                      ``* <text>``
+``C``      take a picture               ``* <n>`` (the position it was taken at)
+=========  ===========================  ========================================
 
 Every reply is one line ending in CR LF: ``*`` or ``* <value>`` on success,
 ``! <message>`` on error. The pan protocol has no checksum: a corrupted

@@ -35,7 +35,7 @@ MAX_REPLY = 128
 
 @dataclass(frozen=True)
 class PanInfo:
-    """What :meth:`PanUnit.initialise` learned from the unit.
+    """What :meth:`PanUnit.initialise` learned from the unit (§4: 0.36° steps over 180°).
 
     Attributes
     ----------
@@ -47,6 +47,14 @@ class PanInfo:
         Position limits (``PN``, ``PX``).
     speed : int
         Positions per second (``PS``).
+
+    Examples
+    --------
+    >>> from refsynth.acquisition import RigSimulator
+    >>> with RigSimulator(seed=0) as rig, PanUnit(rig.pan_port) as pan:
+    ...     info = pan.initialise()
+    >>> info.resolution / 3600, info.minimum, info.maximum
+    (0.36, 0, 499)
     """
 
     version: str

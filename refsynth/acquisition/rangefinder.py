@@ -66,6 +66,14 @@ class Rangefinder(Device):
         Seconds per mirror revolution, at most 60: a GS request's deadline is
         ``timeout + average * sweep_time`` (the paper's slices took about
         2.4 s for 10 samples; the simulator answers at once).
+
+    Examples
+    --------
+    >>> from refsynth.acquisition import RigSimulator
+    >>> with RigSimulator(seed=0) as rig, Rangefinder(rig.laser_port) as laser:
+    ...     version = laser.initialise()
+    >>> version["PROD"]
+    'AccuRange 4000 (simulated)'
     """
 
     name = "rangefinder"

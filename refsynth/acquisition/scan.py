@@ -67,7 +67,7 @@ __all__ = ["ScanSummary", "run_scan"]
 
 @dataclass
 class ScanSummary:
-    """What one :func:`run_scan` session did.
+    """What one :func:`run_scan` session did (the acquisition of §3.1.1, §4).
 
     Attributes
     ----------
@@ -91,6 +91,19 @@ class ScanSummary:
         manifest recorded) and acquired again.
     rebuilt : int
         The slice files a missing manifest was rebuilt from.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from refsynth.acquisition import PanUnit, Rangefinder, RigSimulator, ScanSettings, run_scan
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> with RigSimulator(seed=0) as rig:
+    ...     with PanUnit(rig.pan_port) as pan, Rangefinder(rig.laser_port) as laser:
+    ...         settings = ScanSettings("every", step=100, count=8, camera=False)
+    ...         summary = run_scan(folder, pan, laser, settings)
+    >>> summary.planned, summary.acquired, summary.images, summary.complete
+    (5, 5, 0, True)
     """
 
     folder: Path
@@ -201,6 +214,21 @@ def run_scan(
     pan position again, write ``slices/pan-<i>.slice``, rewrite the
     manifest; a picture is taken when the pan passes its index. A slice
     whose position cannot be confirmed after the request is acquired again.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from refsynth.acquisition import PanUnit, Rangefinder, RigSimulator, ScanSettings, run_scan
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> with RigSimulator(seed=0) as rig:
+    ...     with PanUnit(rig.pan_port) as pan, Rangefinder(rig.laser_port) as laser:
+    ...         settings = ScanSettings("every", step=100, count=8, camera=False)
+    ...         summary = run_scan(folder, pan, laser, settings)
+    >>> print(summary)  # doctest: +ELLIPSIS
+    5/5 slices (1.0 % of 500; 5 acquired now, 0 already on disk), 0 pictures; ...
+    >>> sorted(path.name for path in folder.iterdir())
+    ['images', 'manifest.json', 'scan.npz', 'slices']
     """
     started = time.perf_counter()
     folder = Path(folder)

@@ -167,7 +167,18 @@ def parse_slice(data: bytes, path: str | os.PathLike) -> SliceRecord:
 
 
 def read_slice(path: str | os.PathLike) -> SliceRecord:
-    """Read and check a slice file (header, CRC, sample count).
+    """Read and check a slice file (header, CRC, sample count): one vertical slice (§3.1.1).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``slices/pan-<i>.slice`` file written by
+        :func:`refsynth.acquisition.run_scan`.
+
+    Returns
+    -------
+    SliceRecord
+        The slice's pan index, GS window and samples.
 
     Raises
     ------
@@ -175,6 +186,20 @@ def read_slice(path: str | os.PathLike) -> SliceRecord:
         If the file is not a valid slice file (the message names it).
     FileNotFoundError
         If it does not exist.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from refsynth.acquisition import PanUnit, Rangefinder, RigSimulator, ScanSettings, run_scan
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> with RigSimulator(seed=0) as rig:
+    ...     with PanUnit(rig.pan_port) as pan, Rangefinder(rig.laser_port) as laser:
+    ...         settings = ScanSettings("every", step=100, count=8, camera=False)
+    ...         summary = run_scan(folder, pan, laser, settings)
+    >>> record = read_slice(folder / "slices" / "pan-0100.slice")
+    >>> record.pan_index, record.count, record.range_mm.shape
+    (100, 8, (8,))
     """
     return parse_slice(Path(path).read_bytes(), path)
 

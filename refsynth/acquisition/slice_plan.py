@@ -53,6 +53,9 @@ class ScanSettings:
     Parameters
     ----------
     strategy : {"stripes", "every", "distance", "all"}
+        Which slices to scan (§3.3, Fig. 2): stripes of ``stripe_width``
+        slices, every ``step``-th slice, denser where a coarse pass finds
+        the scene far, or all 500.
     fraction : float, default 0.4
         Fraction of the 500 slices to scan, in (0, 1] (the paper: 0.3–0.5);
         ignored by ``"all"``, and by ``"every"`` when ``step`` is given.
@@ -68,6 +71,12 @@ class ScanSettings:
         averaged (defaults: 379, 243 and 10, see :mod:`refsynth.acquisition.geometry`).
     camera : bool, default True
         Take the ten pictures (``C`` at pan indices 25, 75, …, 475).
+
+    Examples
+    --------
+    >>> settings = ScanSettings("every", step=100, count=8)
+    >>> settings.fraction, settings.average, plan_slices(settings).tolist()
+    (0.4, 10, [0, 100, 200, 300, 400])
     """
 
     strategy: str = "stripes"
@@ -157,6 +166,7 @@ def plan_slices(settings: ScanSettings, coarse_range: np.ndarray | None = None) 
     Parameters
     ----------
     settings : ScanSettings
+        The strategy and its parameters.
     coarse_range : ndarray of shape (500,), optional
         ``"distance"`` only (and required there): a representative range
         (metres) per slice, NaN where the first pass did not scan; in

@@ -33,12 +33,28 @@ TIMING_FIELDS = ("seconds",)
 
 
 def fsum_mean(values: Sequence[float]) -> float:
-    """The mean, summed with :func:`math.fsum` (correctly rounded, whatever the order)."""
+    """The mean, summed with :func:`math.fsum` (correctly rounded, whatever the order).
+
+    Parameters
+    ----------
+    values : sequence of float
+        At least one value.
+
+    Returns
+    -------
+    float
+        ``fsum(values) / len(values)``.
+
+    Examples
+    --------
+    >>> fsum_mean([0.1] * 10), sum([0.1] * 10) / 10
+    (0.1, 0.09999999999999999)
+    """
     return float(math.fsum(values) / len(values))
 
 
 def aggregate(runs: Sequence[dict]) -> list[dict]:
-    """One row per scene × size × sampling × method: the mean and spread over seeds.
+    """One row per scene × size × sampling × method: the mean and spread over seeds (§3.3).
 
     Parameters
     ----------
@@ -100,7 +116,23 @@ def aggregate(runs: Sequence[dict]) -> list[dict]:
 
 
 def without_timing(rows: Sequence[dict]) -> list[dict]:
-    """The rows without their :data:`TIMING_FIELDS`: what must be identical across runs."""
+    """The rows without their :data:`TIMING_FIELDS`: what must be identical across runs.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Results of :func:`refsynth.evaluation.runner.run_case` or :func:`aggregate`.
+
+    Returns
+    -------
+    list of dict
+        New dicts; ``rows`` is not changed.
+
+    Examples
+    --------
+    >>> without_timing([{"method": "np", "mar": 0.2, "seconds": 1.5}])
+    [{'method': 'np', 'mar': 0.2}]
+    """
     return [{k: v for k, v in row.items() if k not in TIMING_FIELDS} for row in rows]
 
 
@@ -131,12 +163,25 @@ def findings(rows: Sequence[dict]) -> list[dict]:
     with the unknown fraction" is checked per scene × method over the
     x-stripe samplings, which differ only in their fraction.
 
+    Parameters
+    ----------
+    rows : sequence of dict
+        Rows of :func:`aggregate` (``scene``, ``sampling``, ``method``,
+        ``mar``, ``mar_sd`` are used).
+
     Returns
     -------
     list of dict
         ``finding``, ``source``, ``scene``, ``sampling``, ``better`` (the MAR
         of the method the paper finds better, or the sequence of MARs),
         ``worse`` and ``verdict`` (``"holds"``, ``"tie"`` or ``"fails"``).
+
+    Examples
+    --------
+    >>> rows = [dict(scene="room", sampling="g5_25", unknown_percent=70.0, method=m, mar=e,
+    ...              mar_sd=None) for m, e in [("np", 0.2), ("bp", 0.1)]]
+    >>> [(f["finding"], f["better"], f["worse"], f["verdict"]) for f in findings(rows)]
+    [('BP < NP', 0.1, 0.2, 'holds')]
     """
     index = {(r["scene"], r["sampling"], r["method"]): r for r in rows}
     out = []

@@ -65,7 +65,9 @@ def nearest_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarray
     Parameters
     ----------
     intensity : ndarray of shape (H, W) or (H, W, 3)
+        Validated (as by :func:`refsynth.synthesize`) but not used.
     partial_range : ndarray of shape (H, W), NaN where unknown
+        The measured range; the NaN pixels are filled.
 
     Returns
     -------
@@ -99,7 +101,9 @@ def linear_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     intensity : ndarray of shape (H, W) or (H, W, 3)
+        Validated (as by :func:`refsynth.synthesize`) but not used.
     partial_range : ndarray of shape (H, W), NaN where unknown
+        The measured range; the NaN pixels are filled.
 
     Returns
     -------
@@ -134,7 +138,9 @@ def harmonic_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarra
     Parameters
     ----------
     intensity : ndarray of shape (H, W) or (H, W, 3)
+        Validated (as by :func:`refsynth.synthesize`) but not used.
     partial_range : ndarray of shape (H, W), NaN where unknown
+        The measured range; the NaN pixels are filled.
 
     Returns
     -------
@@ -219,6 +225,12 @@ def colorization_affinities(grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     part of Levin et al.'s :math:`2\\sigma_r^2`; the middle bound (the
     toolbox's) makes the most similar neighbour weigh at least 0.01 before
     normalisation.
+
+    Examples
+    --------
+    >>> weights, offsets = colorization_affinities(np.array([[0.0, 0.5], [0.5, 1.0]]))
+    >>> weights.shape, offsets.shape, weights.sum(axis=0).round(12).tolist()
+    ((8, 2, 2), (8, 2), [[1.0, 1.0], [1.0, 1.0]])
     """
     H, W = grey.shape
     padded = np.pad(grey, 1, constant_values=np.nan)
@@ -257,6 +269,7 @@ def colorization_fill(
         weights (0.2989, 0.5870, 0.1140), as the toolbox does; integer images
         are scaled to [0, 1] (the toolbox expects [0, 1]).
     partial_range : ndarray of shape (H, W), NaN where unknown
+        The measured range; the NaN pixels are filled.
     alpha : float, default 1
         Weight of the data term on the known pixels (the toolbox's
         ``alpha``), > 0.
@@ -360,6 +373,7 @@ def joint_bilateral_fill(
     intensity : ndarray of shape (H, W) or (H, W, 3)
         The guide; integer images are scaled to [0, 1].
     partial_range : ndarray of shape (H, W), NaN where unknown
+        The measured range; the NaN pixels are filled.
     sigma_spatial : float, optional
         σ of the spatial Gaussian, in pixels. Default: half the largest gap
         ``g`` (the largest distance from an unknown pixel to the nearest known

@@ -100,7 +100,22 @@ _MAX_DIGITS = 9
 
 
 def method_names() -> tuple[str, ...]:
-    """Every method name: the synthesis variants, then the baselines."""
+    """Every method name: the synthesis variants, then the baselines.
+
+    The variants are those of §3.3 (NP with and without the edge term and
+    isophotes, in the priority order of Eq. 12 or onion order; BP, §3.2);
+    the baselines are not in the paper.
+
+    Returns
+    -------
+    tuple of str
+        The names :func:`parse_method` accepts.
+
+    Examples
+    --------
+    >>> method_names()[:2], "nearest" in method_names()
+    (('np', 'np-noedges'), True)
+    """
     return (*SYNTHESIS_METHODS, *BASELINES)
 
 
@@ -127,6 +142,8 @@ QUICK_GRID: tuple[tuple[str, str, str, str | None], ...] = (
 class Case:
     """One run: a scene at a size, a sampling, a method and a seed, all as spec strings.
 
+    One cell of the experiments of §3.3 (Tables 1–4).
+
     Attributes
     ----------
     scene : str
@@ -140,6 +157,11 @@ class Case:
         A name of :func:`method_names`.
     seed : int
         The synthesis seed (0 for deterministic methods).
+
+    Examples
+    --------
+    >>> Case("synthetic-0", "16x16", "x20", "nearest", 0).method
+    'nearest'
     """
 
     scene: str
@@ -256,6 +278,11 @@ def parse_scene(text: str) -> str:
 def parse_size(text: str) -> str:
     """Validate a size spec: ``128`` (square), ``450x375`` (W×H) or ``native``.
 
+    Parameters
+    ----------
+    text : str
+        The spec; width and height must be at least 16 pixels.
+
     Returns
     -------
     str
@@ -283,7 +310,23 @@ def parse_size(text: str) -> str:
 
 
 def size_tuple(size: str) -> tuple[int, int] | None:
-    """``"450x375"`` → ``(450, 375)`` (width, height); ``"native"`` → None."""
+    """``"450x375"`` → ``(450, 375)`` (width, height); ``"native"`` → None.
+
+    Parameters
+    ----------
+    size : str
+        A spec in the canonical form :func:`parse_size` returns.
+
+    Returns
+    -------
+    tuple of (int, int) or None
+        ``(width, height)``, or None for ``native``.
+
+    Examples
+    --------
+    >>> size_tuple("450x375"), size_tuple("native")
+    ((450, 375), None)
+    """
     if size == "native":
         return None
     width, height = size.split("x")
@@ -322,6 +365,16 @@ def case_memory(case: Case) -> int | None:
 
 def parse_sampling(text: str) -> str:
     """Validate a sampling spec: ``gRW_XW``, ``xNN``, ``distance`` or ``distanceNN``.
+
+    The samplings of §3.3 (see :func:`known_mask`): ``gRW_XW`` is a grid of
+    known stripes RW pixels wide and unknown stripes XW wide along both
+    axes, ``xNN`` vertical stripes leaving NN % of the range unknown
+    (Table 4), ``distance`` the distance-driven sampling of Fig. 2.
+
+    Parameters
+    ----------
+    text : str
+        The spec (leading zeros allowed).
 
     Returns
     -------
@@ -366,6 +419,21 @@ def parse_sampling(text: str) -> str:
 def parse_method(text: str) -> str:
     """Validate a method name (see :func:`method_names`).
 
+    Parameters
+    ----------
+    text : str
+        The name, exactly as :func:`method_names` spells it.
+
+    Returns
+    -------
+    str
+        ``text``.
+
+    Raises
+    ------
+    ValueError
+        If ``text`` is not a method name.
+
     Examples
     --------
     >>> parse_method("np-onion"), parse_method("colorization")
@@ -378,6 +446,21 @@ def parse_method(text: str) -> str:
 
 def parse_list(text: str, parse: Callable[[str], str], what: str) -> list[str]:
     """Parse a comma-separated list with ``parse``, dropping duplicates, keeping order.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated items.
+    parse : callable
+        ``parse(item) -> str``, e.g. :func:`parse_sampling`; raises
+        ``ValueError`` on a bad item.
+    what : str
+        What an item is, for the error message (``"sampling"``).
+
+    Returns
+    -------
+    list of str
+        The parsed items, each once, in order of first appearance.
 
     Raises
     ------
@@ -411,6 +494,8 @@ def build_cases(
 ) -> list[Case]:
     """The product scenes × sizes × samplings × methods (× seeds for NP), in that order.
 
+    The grid of experiments of §3.3 (Tables 1–4), as :class:`Case` objects.
+
     Parameters
     ----------
     scenes, sizes, samplings, methods : sequence of str
@@ -421,6 +506,12 @@ def build_cases(
     Returns
     -------
     list of Case
+
+    Examples
+    --------
+    >>> cases = build_cases(["synthetic"], ["16"], ["x20"], ["np", "nearest"], seeds=2)
+    >>> [(case.method, case.seed) for case in cases]
+    [('np', 0), ('np', 1), ('nearest', 0)]
     """
     seeds = check_int("seeds", seeds, minimum=1)
     scenes = [parse_scene(s) for s in scenes]
@@ -445,7 +536,29 @@ def grid_cases(
 ) -> list[Case]:
     """The cases of a grid given as blocks ``(scenes, sizes, samplings, methods)`` of lists.
 
-    ``methods`` (a comma-separated list) replaces every block's methods.
+    Parameters
+    ----------
+    blocks : iterable of (str, str, str, str or None)
+        Each ``(scenes, sizes, samplings, methods)`` as comma-separated
+        lists (see :func:`parse_list`); a block's methods None means every
+        name of :func:`method_names`.
+    seeds : int, default 3
+        As in :func:`build_cases`.
+    methods : str or None, default None
+        A comma-separated list that replaces every block's methods.
+
+    Returns
+    -------
+    list of Case
+        The cases of :func:`build_cases` for each block, in order, each once.
+
+    Examples
+    --------
+    >>> blocks = [("synthetic", "16", "x20,x40", "nearest")]
+    >>> [case.sampling for case in grid_cases(blocks)]
+    ['x20', 'x40']
+    >>> [case.method for case in grid_cases(blocks, methods="linear")]
+    ['linear', 'linear']
     """
     cases: list[Case] = []
     for scenes, sizes, samplings, block_methods in blocks:
@@ -490,6 +603,7 @@ def known_mask(scene, sampling: str) -> np.ndarray:
     Parameters
     ----------
     scene : refsynth.scenes.Scene
+        The scene (its range image, the ground truth, gives the shape).
     sampling : str
         A spec of :func:`parse_sampling`.
 
@@ -503,6 +617,13 @@ def known_mask(scene, sampling: str) -> np.ndarray:
     ``distance`` uses the ground truth's per-column median as the coarse
     range of Fig. 2 (for disparity, its inverse, which grows with
     distance), standing in for the rig's coarse pass.
+
+    Examples
+    --------
+    >>> from refsynth.scenes import synthetic_room
+    >>> mask = known_mask(synthetic_room(shape=(16, 16)), "x20")
+    >>> mask.shape, mask.dtype
+    ((16, 16), dtype('bool'))
     """
     sampling = parse_sampling(sampling)
     shape = scene.range.shape

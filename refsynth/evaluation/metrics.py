@@ -40,7 +40,7 @@ BAD_THRESHOLDS = {"bad1": 1.0, "bad3": 3.0}
 
 
 def evaluated_pixels(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray) -> np.ndarray:
-    """Validate the inputs and return the mask of pixels to evaluate.
+    """Validate the inputs and return the mask of pixels to evaluate (Eq. 13, §3.3.1).
 
     Parameters
     ----------
@@ -64,6 +64,13 @@ def evaluated_pixels(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray)
     ValueError
         If the shapes differ, ``estimate`` is not finite on an evaluated
         pixel, or there is no pixel to evaluate.
+
+    Examples
+    --------
+    >>> truth = np.array([[1.0, 2.0], [np.inf, 4.0]])
+    >>> known = np.array([[True, False], [False, False]])
+    >>> evaluated_pixels(np.ones((2, 2)), truth, known).tolist()
+    [[False, True], [False, True]]
     """
     estimate = check_real_array("estimate", estimate).astype(np.float64, copy=False)
     truth = check_real_array("truth", truth).astype(np.float64, copy=False)
@@ -163,6 +170,12 @@ def rmse(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray) -> float:
     -------
     float
         ``sqrt(mean((estimate - truth)²))``; always >= :func:`mar`.
+
+    Examples
+    --------
+    >>> known = np.array([[True, False, False]])
+    >>> rmse(np.array([[9.0, 1.0, 1.0]]), np.array([[0.0, 2.0, 4.0]]), known)
+    2.23606797749979
     """
     return _root_mean_square(_residuals(estimate, truth, known))
 
@@ -187,6 +200,12 @@ def bad_pixel_rate(
     -------
     float
         In [0, 1].
+
+    Examples
+    --------
+    >>> known = np.array([[True, False, False]])
+    >>> bad_pixel_rate(np.array([[9.0, 1.0, 1.0]]), np.array([[0.0, 1.5, 4.0]]), known, 1.0)
+    0.5
     """
     if not is_real(threshold):
         raise TypeError(f"The parameter `threshold` must be a real number, got {threshold!r}")

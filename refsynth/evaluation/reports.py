@@ -40,11 +40,38 @@ def _fmt_mar(row: dict) -> str:
 
 
 def format_results(rows: Sequence[dict], *, timing: bool = True) -> str:
-    """Markdown tables, one per scene, of the aggregated rows.
+    """Markdown tables, one per scene, of the aggregated rows (MAR: Eq. 13, §3.3.1).
 
     Columns: sampling, unknown %, method, seeds, MAR (mean ± sd over seeds),
     RMSE, bad > 1 and bad > 3 (% of the evaluated pixels, in the scene's
     units), and, with ``timing``, the mean wall time of one fill.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+    timing : bool, default True
+        Add the ``seconds`` column (which differs between runs).
+
+    Returns
+    -------
+    str
+        The tables, separated by blank lines.
+
+    Examples
+    --------
+    >>> row = dict(scene="room", size="16x16", units="m", sampling="x78", unknown_percent=75.0,
+    ...            seeds=[0], mar_sd=None, bad1=0.0, bad3=0.01, seconds=0.5)
+    >>> rows = [dict(row, method=m, mar=e, rmse=e)
+    ...         for m, e in [("np", 0.2), ("bp", 0.1), ("nearest", 0.3)]]
+    >>> print(format_results(rows, timing=False))
+    ### room (m)
+    <BLANKLINE>
+    | sampling | unknown | method | seeds | MAR (m) | RMSE | bad>1 | bad>3 |
+    |---|---|---|---|---|---|---|---|
+    | x78 | 75.0 % | np | 1 | 0.200 | 0.200 | 0.0 % | 1.0 % |
+    | x78 | 75.0 % | bp | 1 | 0.100 | 0.100 | 0.0 % | 1.0 % |
+    | x78 | 75.0 % | nearest | 1 | 0.300 | 0.300 | 0.0 % | 1.0 % |
     """
     blocks = []
     for scene in dict.fromkeys(r["scene"] for r in rows):
@@ -67,7 +94,31 @@ def format_results(rows: Sequence[dict], *, timing: bool = True) -> str:
 
 def format_pivot(rows: Sequence[dict]) -> str:
     """Markdown: one table per scene, a row per sampling, a column per method (mean MAR ± sd
-    over seeds), in the scene's units."""
+    over seeds), in the scene's units.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+
+    Returns
+    -------
+    str
+        The tables; ``–`` where a method did not run on a sampling.
+
+    Examples
+    --------
+    >>> row = dict(scene="room", size="16x16", units="m", sampling="x78", unknown_percent=75.0,
+    ...            seeds=[0], mar_sd=None, bad1=0.0, bad3=0.01, seconds=0.5)
+    >>> rows = [dict(row, method=m, mar=e, rmse=e)
+    ...         for m, e in [("np", 0.2), ("bp", 0.1), ("nearest", 0.3)]]
+    >>> print(format_pivot(rows))
+    MAR, room (m)
+    <BLANKLINE>
+    | sampling | unknown | np | bp | nearest |
+    |---|---|---|---|---|
+    | x78 | 75.0 % | 0.200 | 0.100 | 0.300 |
+    """
     blocks = []
     for scene in dict.fromkeys(r["scene"] for r in rows):
         members = [r for r in rows if r["scene"] == scene]
@@ -88,7 +139,30 @@ def format_pivot(rows: Sequence[dict]) -> str:
 
 def format_runtimes(rows: Sequence[dict]) -> str:
     """Markdown: mean wall time of one fill per scene size × method (over samplings and
-    seeds), from the rows' ``seconds``."""
+    seeds), from the rows' ``seconds``.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+
+    Returns
+    -------
+    str
+        The table, or ``""`` if no row has ``seconds``.
+
+    Examples
+    --------
+    >>> row = dict(scene="room", size="16x16", units="m", sampling="x78", unknown_percent=75.0,
+    ...            seeds=[0], mar_sd=None, bad1=0.0, bad3=0.01, seconds=0.5)
+    >>> rows = [dict(row, method=m, mar=e, rmse=e)
+    ...         for m, e in [("np", 0.2), ("bp", 0.1), ("nearest", 0.3)]]
+    >>> print(format_runtimes(rows[:2]))
+    | method | 16x16 |
+    |---|---|
+    | np | 0.50 s |
+    | bp | 0.50 s |
+    """
     timed = [r for r in rows if r.get("seconds") is not None]
     if not timed:
         return ""
@@ -113,7 +187,27 @@ def _finding_group(item: dict) -> str:
 
 def format_findings(items: Sequence[dict], *, detail: bool = True) -> str:
     """Markdown: a summary (finding × scene: holds / ties / fails), then, with ``detail``,
-    one line per check."""
+    one line per check.
+
+    Parameters
+    ----------
+    items : sequence of dict
+        The checks of :func:`refsynth.evaluation.aggregation.findings`.
+    detail : bool, default True
+        Add the table of every check after the summary.
+
+    Returns
+    -------
+    str
+        The tables, or a sentence saying no finding could be checked.
+
+    Examples
+    --------
+    >>> items = [dict(finding="BP < NP", source="Tables 1–4", scene="room", sampling="x78",
+    ...               better=0.1, worse=0.2, verdict="holds")]
+    >>> print(format_findings(items, detail=False).splitlines()[-1])
+    | BP < NP (Tables 1–4) | 1 / 0 / 0 | 1 / 0 / 0 |
+    """
     if not items:
         return "(no finding can be checked: the grid lacks the methods to compare)"
     scenes = list(dict.fromkeys(f["scene"] for f in items))
@@ -156,7 +250,30 @@ def _best(group: Sequence[dict]) -> str:
 def format_winners(rows: Sequence[dict]) -> str:
     """Markdown: per scene × sampling, the best method by mean MAR, NP and BP with the
     paper's defaults, the best of refsynth's variants, the best baseline and the nearest
-    fill — where refsynth wins and where it loses."""
+    fill — where refsynth wins and where it loses.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+
+    Returns
+    -------
+    str
+        The table (the scene × samplings where a refsynth variant and a
+        baseline both ran), or ``""``.
+
+    Examples
+    --------
+    >>> row = dict(scene="room", size="16x16", units="m", sampling="x78", unknown_percent=75.0,
+    ...            seeds=[0], mar_sd=None, bad1=0.0, bad3=0.01, seconds=0.5)
+    >>> rows = [dict(row, method=m, mar=e, rmse=e)
+    ...         for m, e in [("np", 0.2), ("bp", 0.1), ("nearest", 0.3)]]
+    >>> print(format_winners(rows))
+    | scene | sampling | best | np | bp | best refsynth variant | best baseline | nearest |
+    |---|---|---|---|---|---|---|---|
+    | room | x78 | bp 0.100 | 0.200 | 0.100 | bp 0.100 | nearest 0.300 | 0.300 |
+    """
     lines = ["| scene | sampling | best | np | bp | best refsynth variant | best baseline "
              "| nearest |", "|---|---|---|---|---|---|---|---|"]
     for scene, sampling in dict.fromkeys((r["scene"], r["sampling"]) for r in rows):
@@ -209,6 +326,24 @@ def format_paper_comparison(rows: Sequence[dict]) -> str:
     450×375 on x-stripes; Fig. 16 ↔ the Motorcycle 450×375 at x63 (no
     isophotes / NP). The paper's scenes and units differ from ours, so
     compare the orderings, not the numbers.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+
+    Returns
+    -------
+    str
+        The tables the rows have analogues for, or ``""``.
+
+    Examples
+    --------
+    >>> row = dict(scene="synthetic-room-0", size="128x128", units="m", sampling="g5_25",
+    ...            unknown_percent=70.0, seeds=[0], mar_sd=None)
+    >>> rows = [dict(row, method="np", mar=0.4), dict(row, method="bp", mar=0.2)]
+    >>> print(format_paper_comparison(rows).splitlines()[0])
+    Table 1 analogue: synthetic room 0, 128×128 (m) — paper: USF images (cm)
     """
     index = {(r["scene"], r["sampling"], r["method"]): r for r in rows}
 

@@ -23,7 +23,30 @@ def _json_value(value):
 
 
 def write_json(path: str | Path, rows: Sequence[dict]) -> None:
-    """Write the rows as a JSON list (one object per scene × sampling × method)."""
+    """Write the rows as a JSON list (one object per scene × sampling × method).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (overwritten if it exists).
+    rows : sequence of dict
+        Rows of :func:`refsynth.evaluation.aggregation.aggregate`; NaN is
+        written as ``null``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "rows.json"
+    >>> write_json(path, [{"method": "np", "mar": float("nan")}])
+    >>> print(path.read_text())
+    [
+     {
+      "method": "np",
+      "mar": null
+     }
+    ]
+    <BLANKLINE>
+    """
     clean = [{k: _json_value(v) for k, v in row.items()} for row in rows]
     Path(path).write_text(json.dumps(clean, indent=1, ensure_ascii=False) + "\n",
                           encoding="utf-8")
@@ -90,6 +113,16 @@ def _row(path, index: int, row) -> dict:
 def read_json(path: str | Path) -> list[dict]:
     """Read rows written by :func:`write_json` (``--json``), checking every field.
 
+    Parameters
+    ----------
+    path : str or Path
+        A JSON file of :func:`write_json`.
+
+    Returns
+    -------
+    list of dict
+        The rows, with ``null`` reals read back as NaN.
+
     Raises
     ------
     OSError
@@ -98,6 +131,17 @@ def read_json(path: str | Path) -> list[dict]:
         If it is not UTF-8 JSON, nests too deeply, or is not a list of rows
         with the fields and types of :data:`ROW_FIELDS` (the message names
         the file, and the row and field at fault).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "rows.json"
+    >>> row = dict(scene="room", scene_spec="synthetic-0", size="16x16", units="m", sampling="x78",
+    ...            unknown_percent=75.0, known=64, evaluated=192, method="np", seeds=[0],
+    ...            mar=0.2, mar_sd=float("nan"), mar_min=0.2, mar_max=0.2, mar_per_seed=[0.2],
+    ...            rmse=0.3, bad1=0.0, bad3=0.0)
+    >>> write_json(path, [row])
+    >>> read_json(path)[0]["mar_sd"]
     """
     try:
         text = Path(path).read_text(encoding="utf-8")
@@ -122,7 +166,24 @@ CSV_FIELDS = ("scene", "size", "units", "sampling", "unknown_percent", "known", 
 
 
 def write_csv(path: str | Path, rows: Sequence[dict]) -> None:
-    """Write the rows as CSV, one line per scene × sampling × method."""
+    """Write the rows as CSV, one line per scene × sampling × method.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (overwritten if it exists).
+    rows : sequence of dict
+        Rows of :func:`refsynth.evaluation.aggregation.aggregate`; the
+        columns are :data:`CSV_FIELDS`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "rows.csv"
+    >>> write_csv(path, [dict.fromkeys(CSV_FIELDS, 1)])
+    >>> path.read_text().splitlines()[0].split(",")[:4]
+    ['scene', 'size', 'units', 'sampling']
+    """
     fields = [f for f in CSV_FIELDS if not rows or f in rows[0]]
     with open(path, "w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle, lineterminator="\n")

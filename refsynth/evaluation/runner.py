@@ -53,6 +53,7 @@ def score(scene, known: np.ndarray, method: str, seed: int = 0) -> dict:
     Parameters
     ----------
     scene : refsynth.scenes.Scene
+        Intensity, ground-truth range (NaN or inf where there is none) and units.
     known : ndarray of shape (H, W), bool
         The pixels whose range the method is given.
     method : str
@@ -67,6 +68,15 @@ def score(scene, known: np.ndarray, method: str, seed: int = 0) -> dict:
         unknown pixels with ground truth), ``known`` (the number of known
         pixels), ``unknown_percent`` (of the image) and ``seconds`` (wall
         time of the fill alone).
+
+    Examples
+    --------
+    >>> from refsynth.evaluation.cases import known_mask
+    >>> from refsynth.scenes import synthetic_room
+    >>> scene = synthetic_room(shape=(16, 16))
+    >>> result = score(scene, known_mask(scene, "x20"), "nearest")
+    >>> result["evaluated"], round(result["mar"], 4)
+    (64, 0.2914)
     """
     method = parse_method(method)
     partial = np.where(known, scene.range, np.nan)
@@ -93,10 +103,23 @@ def score(scene, known: np.ndarray, method: str, seed: int = 0) -> dict:
 def run_case(case: Case) -> dict:
     """Run one case; the result is a pure function of ``case`` apart from ``seconds``.
 
+    Fill the scene's range outside the sampling's mask and score it (Eq. 13, §3.3.1).
+
+    Parameters
+    ----------
+    case : Case
+        The scene, size, sampling, method and seed to run.
+
     Returns
     -------
     dict
         The case's fields, the scene's name and units, and :func:`score`'s.
+
+    Examples
+    --------
+    >>> result = run_case(Case("synthetic-0", "16x16", "x20", "nearest", 0))
+    >>> result["scene"], result["units"], round(result["mar"], 4)
+    ('synthetic-room-0', 'm', 0.2914)
     """
     scene = load_scene(case.scene, case.size)
     known = known_mask(scene, case.sampling)
@@ -131,7 +154,24 @@ def _check_cases(cases: Sequence[Case]) -> None:
 
 
 def case_cost(case: Case) -> float:
-    """A rough relative cost of a case (pixels × a method factor), to start the longest first."""
+    """A rough relative cost of a case (pixels × a method factor), to start the longest first.
+
+    Parameters
+    ----------
+    case : Case
+        The case to cost (nothing is run).
+
+    Returns
+    -------
+    float
+        Comparable between cases only.
+
+    Examples
+    --------
+    >>> case_cost(Case("synthetic-0", "16x16", "x20", "np", 0)) > case_cost(
+    ...     Case("synthetic-0", "16x16", "x20", "nearest", 0))
+    True
+    """
     dims = size_tuple(case.size) or (741, 500)
     factor = {"bp": 2.0, "bp-noedges": 2.0, "np-onion": 0.5}.get(case.method, 1.0)
     if case.method not in SYNTHESIS_METHODS:
@@ -179,9 +219,12 @@ def run_cases(
 ) -> list[dict]:
     """Run cases, in this process, in local processes or on a Dask cluster.
 
+    Each case is scored with the MAR of Eq. 13 (§3.3.1) and more (:func:`score`).
+
     Parameters
     ----------
     cases : sequence of Case
+        The runs (:func:`refsynth.evaluation.cases.build_cases`).
     jobs : int, default 1
         Local worker processes (spawned); 1 runs every case in this process.
     scheduler : str, optional
@@ -198,6 +241,13 @@ def run_cases(
     list of dict
         :func:`run_case`'s results, in the order of ``cases`` (whatever order
         they finished in).
+
+    Examples
+    --------
+    >>> cases = [Case("synthetic-0", "16x16", sampling, "nearest", 0)
+    ...          for sampling in ("x20", "x40")]
+    >>> [row["sampling"] for row in run_cases(cases)]
+    ['x20', 'x40']
     """
     jobs = check_int("jobs", jobs, minimum=1)
     cases = list(cases)

@@ -34,7 +34,7 @@ __all__ = ["Model", "build_model", "intensity_colours"]
 
 @dataclass(frozen=True, eq=False)
 class Model:
-    """A coloured point set with triangles: one scan position's model, or several merged.
+    """A coloured point set with triangles: one scan position's model, or several merged (stage 3).
 
     Attributes
     ----------
@@ -53,6 +53,13 @@ class Model:
         The ``(row, col)`` each vertex came from (not written to PLY).
     source : ndarray of shape (N,), int64, or None
         For a merged model, which input model each vertex came from.
+
+    Examples
+    --------
+    >>> from refsynth.model import PinholeCamera, build_model
+    >>> model = build_model(np.full((2, 2), 3.0), PinholeCamera(100.0, 0.5, 0.5))
+    >>> model.vertices.shape, model.faces.shape, model.colours.dtype
+    ((4, 3), (2, 3), dtype('uint8'))
     """
 
     vertices: np.ndarray
@@ -106,11 +113,23 @@ class Model:
 def intensity_colours(intensity) -> np.ndarray:
     """8-bit RGB of an intensity image: (H, W) grey or (H, W, 3) colour → (H, W, 3) uint8.
 
+    The vertex colours of :func:`build_model` (stage 3).
+
     Integer images are first divided by their dtype's maximum (refsynth's
     convention; 8-bit values come back unchanged); floating images are taken
     in [0, 1] as given and clipped; NaN becomes 0. Values are scaled by 255
     and rounded to the nearest integer. A single channel (H, W) or (H, W, 1)
     is repeated in R, G and B.
+
+    Parameters
+    ----------
+    intensity : ndarray of shape (H, W), (H, W, 1) or (H, W, 3)
+        The intensity image the model's vertices take their colours from.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3), uint8
+        RGB.
 
     Examples
     --------
@@ -150,6 +169,8 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
         depth ``z`` for a :class:`~refsynth.model.cameras.PinholeCamera`.
         Pixels whose range is not finite and > 0 give no vertex.
     camera : CylindricalCamera or PinholeCamera
+        The ray of each pixel: the panorama's cylinder of radius ``f``
+        (Eqs. 14, 19) or a pinhole view (e.g. a Middlebury image).
     intensity : ndarray of shape (H, W) or (H, W, 3), optional
         The registered intensity, grey or RGB, integer or float
         (:func:`intensity_colours`); default mid-grey (128).

@@ -101,7 +101,29 @@ class Pose:
 
 
 def pose_matrix(pose) -> np.ndarray:
-    """A :class:`Pose` or a 4×4 rigid transform as a float64 4×4 array (validated)."""
+    """A :class:`Pose` or a 4×4 rigid transform as a float64 4×4 array (validated, stage 3).
+
+    Parameters
+    ----------
+    pose : Pose or array_like of shape (4, 4)
+        A scan position (stage 3), or ``[[R, t], [0, 1]]`` with ``R`` a
+        rotation.
+
+    Returns
+    -------
+    ndarray of shape (4, 4), float64
+        The transform from the scan's frame to the world's.
+
+    Raises
+    ------
+    ValueError
+        If ``pose`` is not a 4×4 rigid transform.
+
+    Examples
+    --------
+    >>> pose_matrix(Pose(x=1.0, z=2.0))[:3, 3].tolist()
+    [1.0, 0.0, 2.0]
+    """
     if isinstance(pose, Pose):
         return pose.matrix()
     matrix = np.asarray(pose, dtype=np.float64)
@@ -115,7 +137,28 @@ def pose_matrix(pose) -> np.ndarray:
 
 
 def transform_model(model: Model, pose) -> Model:
-    """``model`` with its vertices moved into the world frame by ``pose``."""
+    """``model`` with its vertices moved into the world frame by ``pose`` (stage 3).
+
+    Parameters
+    ----------
+    model : Model
+        In its scanner's frame.
+    pose : Pose or array_like of shape (4, 4)
+        Where it was scanned from (see :func:`pose_matrix`).
+
+    Returns
+    -------
+    Model
+        A new model; only the vertices differ.
+
+    Examples
+    --------
+    >>> from refsynth.model import PinholeCamera, build_model
+    >>> model = build_model(np.full((2, 2), 3.0), PinholeCamera(100.0, 0.5, 0.5))
+    >>> moved = transform_model(model, Pose(x=1.0))
+    >>> (moved.vertices - model.vertices).tolist()[0], moved.n_faces
+    ([1.0, 0.0, 0.0], 2)
+    """
     if not isinstance(model, Model):
         raise TypeError(f"The parameter `model` must be a Model, got {type(model).__name__}")
     return Model(vertices=apply_transform(pose_matrix(pose), model.vertices),
@@ -125,7 +168,27 @@ def transform_model(model: Model, pose) -> Model:
 
 
 def point_spacing(points, samples: int = 2000) -> float:
-    """The median distance from a point to its nearest neighbour (an even subsample's)."""
+    """The median distance from a point to its nearest neighbour (an even subsample's).
+
+    The sample spacing that sets :func:`merge_models`' default fusion voxel (stage 3).
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        The points (a model's vertices).
+    samples : int, default 2000
+        At most this many points, evenly spaced in ``points``, are measured.
+
+    Returns
+    -------
+    float
+        In the points' unit.
+
+    Examples
+    --------
+    >>> point_spacing(np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 2.0, 0.0]]))
+    0.5
+    """
     points = np.asarray(points, dtype=np.float64)
     if len(points) < 2:
         raise ValueError("The parameter `points` must hold at least 2 points")
@@ -149,7 +212,7 @@ def _check_inputs(models, poses) -> tuple[list[Model], list[np.ndarray]]:
 
 
 def merge_models(models, poses, *, voxel: float | None = None) -> Model:
-    """Several scans' models in one world frame, the overlap fused (module docstring).
+    """Several scans' models in one world frame, the overlap fused (stage 3; module docstring).
 
     Parameters
     ----------
@@ -168,6 +231,14 @@ def merge_models(models, poses, *, voxel: float | None = None) -> Model:
         Vertices of scan 0, then scan 1, … (those that stay), with
         ``Model.source`` saying which; ``pixels`` as in the inputs when all
         have them.
+
+    Examples
+    --------
+    >>> from refsynth.model import PinholeCamera, build_model
+    >>> model = build_model(np.full((4, 4), 3.0), PinholeCamera(4.0, 1.5, 1.5))
+    >>> merged = merge_models([model, model], [Pose(), Pose()])
+    >>> len(model.vertices), len(merged.vertices), np.unique(merged.source).tolist()
+    (16, 16, [0])
     """
     models, matrices = _check_inputs(models, poses)
     world = [transform_model(m, t) for m, t in zip(models, matrices)]
@@ -234,7 +305,7 @@ class _VoxelGrid:
 
 def refine_poses(models, poses, *, voxel: float | None = None, dof: int = 6,
                  **options) -> tuple[list[np.ndarray], list[IcpResult | None]]:
-    """Refine the poses of scans 1, 2, … by ICP against the model merged so far.
+    """Refine the poses of scans 1, 2, … by ICP against the model merged so far (stage 3).
 
     Scan 0 stays where its pose puts it (it defines the world frame). Scan
     ``k`` is aligned by :func:`refsynth.model.pose_refinement.icp` (point-to-plane),
@@ -259,6 +330,16 @@ def refine_poses(models, poses, *, voxel: float | None = None, dof: int = 6,
         The refined poses (scan 0's unchanged).
     results : list of IcpResult or None
         ICP's report per scan (None for scan 0).
+
+    Examples
+    --------
+    >>> from refsynth.model import PinholeCamera, build_model
+    >>> rows, cols = np.mgrid[0:12, 0:12]
+    >>> model = build_model(3.0 + 0.3 * np.sin(rows) + 0.2 * np.cos(1.3 * cols),
+    ...                     PinholeCamera(6.0, 5.5, 5.5))
+    >>> transforms, results = refine_poses([model, model], [Pose(), Pose(x=0.05)])
+    >>> bool(np.allclose(transforms[1], np.eye(4))), results[0], results[1].converged
+    (True, None, True)
     """
     models, matrices = _check_inputs(models, poses)
     refined, results = [matrices[0]], [None]

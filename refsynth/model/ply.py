@@ -103,6 +103,7 @@ def write_ply(path, model: Model, *, ascii: bool = False, coordinates: str = "fl
     path : str or Path
         The file to write (its folder must exist).
     model : Model
+        The model to write (vertices, colours, confidence, synthesized, faces).
     ascii : bool, default False
         Write ``format ascii 1.0`` instead of ``binary_little_endian``.
     coordinates : {"float64", "float32"}, default "float64"
@@ -273,7 +274,7 @@ def _read_ascii(data: bytes, offset: int, elements, path: Path):
 
 
 def read_ply(path) -> Model:
-    """Read a PLY file into a :class:`~refsynth.model.build.Model`.
+    """Read a PLY file into a :class:`~refsynth.model.build.Model` (stage 3's output format).
 
     Reads ASCII and binary (either byte order) files with a ``vertex``
     element of scalar properties, at least ``x``, ``y``, ``z``, and
@@ -285,11 +286,24 @@ def read_ply(path) -> Model:
     Parameters
     ----------
     path : str or Path
+        The PLY file to read.
 
     Returns
     -------
     Model
         float64 vertices and confidences, uint8 colours, int64 faces.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> text = ("ply\\nformat ascii 1.0\\nelement vertex 3\\nproperty float x\\n"
+    ...         "property float y\\nproperty float z\\nend_header\\n0 0 1\\n1 0 1\\n0 1 1\\n")
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "points.ply"
+    ...     _ = path.write_text(text)
+    ...     model = read_ply(path)
+    >>> model.vertices.shape, model.colours[0].tolist(), model.n_faces
+    ((3, 3), [128, 128, 128], 0)
     """
     if not isinstance(path, (str, Path)):
         raise TypeError(f"The parameter `path` must be a str or a Path, got {type(path).__name__}")

@@ -33,6 +33,30 @@ def panel(ax, image, title: str, *, fontsize: float = 9, **kwargs):
     A 2-D image (or one channel, (H, W, 1)) is drawn in grey unless ``cmap``
     is given; ``kwargs`` go to ``ax.imshow``. Returns its image handle (for a
     colour bar).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Where to draw.
+    image : ndarray of shape (H, W), (H, W, 1) or (H, W, 3)
+        Intensity, range (NaN is left blank) or a boolean mask.
+    title : str
+        The panel's title.
+    fontsize : float, default 9
+        Of the title.
+    **kwargs
+        Passed to ``ax.imshow`` (``cmap``, ``vmin``, ``vmax`` …).
+
+    Returns
+    -------
+    matplotlib.image.AxesImage
+
+    Examples
+    --------
+    >>> figure = Figure()
+    >>> handle = panel(figure.add_subplot(), np.eye(3), "identity", cmap="viridis")
+    >>> type(handle).__name__, handle.axes.get_title()
+    ('AxesImage', 'identity')
     """
     image = np.asarray(image)
     if image.ndim == 3 and image.shape[2] == 1:
@@ -61,8 +85,11 @@ def result_figure(
     Parameters
     ----------
     intensity : ndarray of shape (H, W) or (H, W, 3)
+        The intensity image, in [0, 1].
     edges : ndarray of shape (H, W), bool
+        Its Canny edges (the edge term of Eq. 10, §3.2.4).
     partial_range : ndarray of shape (H, W), NaN where unknown
+        The measured range given to the synthesis.
     result : ndarray of shape (H, W)
         The synthesized range.
     truth : ndarray of shape (H, W), optional
@@ -70,10 +97,22 @@ def result_figure(
     units : str
         Range unit, for the colour bars.
     title : str, optional
+        The figure's title.
 
     Returns
     -------
     matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> truth = 1.0 + np.add.outer(np.arange(8.0), np.arange(8.0)) / 10
+    >>> partial = truth.copy()
+    >>> partial[:, 3:6] = np.nan  # three unknown columns
+    >>> filled = np.where(np.isnan(partial), 1.5, partial)
+    >>> edges = np.zeros((8, 8), dtype=bool)
+    >>> figure = result_figure(truth / 2.5, edges, partial, filled, truth, units="m")
+    >>> print("; ".join(ax.get_title() for ax in figure.axes[2:6]))
+    partial range (38 % unknown); synthesized range; ground truth; |residual|, MAR 0.283 m
     """
     panels = 6 if truth is not None else 4
     aspect = partial_range.shape[1] / partial_range.shape[0]
@@ -119,15 +158,30 @@ def comparison_figure(
     Parameters
     ----------
     truth : ndarray of shape (H, W)
+        Ground-truth range (NaN or inf where there is none).
     partials : mapping of sampling name to partial range
+        Each an ndarray of shape (H, W), NaN where unknown.
     results : mapping of (sampling name, method name) to synthesized range
+        Each an ndarray of shape (H, W).
     units : str
+        Range unit, for the colour bars.
     title : str, optional
+        The figure's title.
 
     Returns
     -------
     matplotlib.figure.Figure
         Each result panel's title gives its MAR (Eq. 13) over the unknown pixels.
+
+    Examples
+    --------
+    >>> truth = 1.0 + np.add.outer(np.arange(8.0), np.arange(8.0)) / 10
+    >>> partial = truth.copy()
+    >>> partial[:, 3:6] = np.nan  # three unknown columns
+    >>> filled = np.where(np.isnan(partial), 1.5, partial)
+    >>> figure = comparison_figure(truth, {"x38": partial}, {("x38", "constant"): filled})
+    >>> [ax.get_title() for ax in figure.axes[:2]]
+    ['x38: 38 % unknown', 'constant: MAR 0.283']
     """
     methods = list(dict.fromkeys(m for _, m in results))
     rows, cols = len(partials), len(methods) + 2
@@ -166,15 +220,30 @@ def methods_figure(
     Parameters
     ----------
     truth : ndarray of shape (H, W)
+        Ground-truth range (NaN or inf where there is none).
     partial_range : ndarray of shape (H, W), NaN where unknown
+        The measured range given to every method.
     results : mapping of method name to (range, confidence)
+        Each two ndarrays of shape (H, W): the synthesized range and a confidence in [0, 1].
     units : str
+        Range unit, for the colour bars.
     title : str, optional
+        The figure's title.
 
     Returns
     -------
     matplotlib.figure.Figure
         Residual panels share one colour scale, so the methods compare at a glance.
+
+    Examples
+    --------
+    >>> truth = 1.0 + np.add.outer(np.arange(8.0), np.arange(8.0)) / 10
+    >>> partial = truth.copy()
+    >>> partial[:, 3:6] = np.nan  # three unknown columns
+    >>> filled = np.where(np.isnan(partial), 1.5, partial)
+    >>> figure = methods_figure(truth, partial, {"constant": (filled, np.ones((8, 8)))})
+    >>> len(figure.axes)
+    6
     """
     rows = len(results)
     fig = Figure(figsize=(3.3 * 3, 3.0 * rows))

@@ -112,11 +112,14 @@ def align_global(
     image : ndarray of shape (H, W) or (H, W, 3)
         The mosaic.
     cylinder : CylindricalRange
+        The (partial) range image on the cylinder (Eq. 19).
     initial : Warp
         From the rig's nominal geometry: ``(f, −1/h_step·h_step, column of
         φ = 0, horizon row)``.
     search : int, default 12
+        The chamfer search range of the shift, ±px.
     radii : sequence of int, default (3, 2)
+        The matching radius of each refitting round, px.
     fit_scale : bool, default False
         Also fit ``a`` and ``b`` (else keep those of ``initial`` and fit
         the offsets only; see :func:`~refsynth.registration.pipeline.register` for why that is the
@@ -137,6 +140,21 @@ def align_global(
     info : dict
         ``shift`` (the chamfer shift), ``matches`` (per round), and
         ``misalignment`` (mean |offset| of the matches of the last round, px).
+
+    Examples
+    --------
+    >>> from refsynth.scenes import laser_scan, render_views, rig_room
+    >>> room = rig_room(0)
+    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
+    ...                      supersample=1)
+    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
+    ...                   stripes=None)
+    >>> from refsynth.registration.pipeline import register
+    >>> result = register(views.images, views.pan_angles, views.focal,
+    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> warp, info = align_global(result.mosaic.image, result.cylinder, result.initial)
+    >>> warp.a == result.initial.a, sorted(info)  # a is kept unless fit_scale
+    (True, ['matches', 'misalignment', 'shift'])
     """
     edge_map, gx, gy = intensity_edges(image) if edges is None else edges
     found = range_edges(cylinder, jump=jump)
@@ -282,6 +300,7 @@ def refine_local(
     warp : Warp
         The global warp (:func:`align_global` or :func:`~refsynth.registration.warp.fit_warp`).
     max_iter : int, default 6
+        At most this many stretches.
     radius : int, default 5
         Search radius (px).
     axes : {"v", "uv", "u"}, default "v"
@@ -310,6 +329,21 @@ def refine_local(
         Per iteration: ``misalignment`` (mean |offset| over the points of
         the matched segments, px), ``matched`` (their fraction of all range
         edge points) and ``controls`` (control points that moved).
+
+    Examples
+    --------
+    >>> from refsynth.scenes import laser_scan, render_views, rig_room
+    >>> room = rig_room(0)
+    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
+    ...                      supersample=1)
+    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
+    ...                   stripes=None)
+    >>> from refsynth.registration.pipeline import register
+    >>> result = register(views.images, views.pan_angles, views.focal,
+    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> displacement, history = refine_local(result.mosaic.image, result.cylinder, result.warp)
+    >>> displacement.shape == (2,) + result.mosaic.image.shape, sorted(history[0])
+    (True, ['controls', 'matched', 'misalignment'])
     """
     check_choice("axes", axes, ("v", "u", "uv"))
     edge_map, gx, gy = intensity_edges(image) if edges is None else edges
@@ -366,12 +400,35 @@ def resample_range(
     """The range image on the mosaic's grid: ``R(x) = range(warp⁻¹(x + d(x)))``.
 
     Nearest-sample lookup: range is not interpolated across the jumps of
-    depth edges, and unscanned slices stay NaN.
+    depth edges, and unscanned slices stay NaN (App. A, the last step
+    before synthesis).
+
+    Parameters
+    ----------
+    cylinder : CylindricalRange
+        The range image on the cylinder (Eq. 19).
+    warp : Warp
+        The global warp of Eq. 21, range cylinder → mosaic.
+    shape : tuple of int
+        ``(H, W)`` of the mosaic.
+    displacement : ndarray of shape (2, H, W), optional
+        The local field ``d = (d_u, d_v)`` of :func:`refine_local`, px;
+        default none.
 
     Returns
     -------
     ndarray of shape ``shape``
         NaN where nothing was scanned.
+
+    Examples
+    --------
+    >>> from refsynth.registration.range_image import CylindricalRange
+    >>> cylinder = CylindricalRange(np.array([[5.0, 6.0], [2.0, np.nan]]), np.array([0.0, 0.01]),
+    ...                             np.array([0.5, -0.5]), 100.0)
+    >>> warp = Warp(a=100.0, b=-1.0, alpha=0.0, beta=0.5)
+    >>> resample_range(cylinder, warp, (2, 2))
+    array([[ 5.,  6.],
+           [ 2., nan]])
     """
     rows, cols = np.indices(shape, dtype=np.float64)
     if displacement is not None:

@@ -46,7 +46,7 @@ __all__ = ["RangeEdges", "range_edges", "intensity_edges", "match_edges", "match
 
 
 class RangeEdges(NamedTuple):
-    """Depth discontinuities of a cylindrical range image (:func:`range_edges`).
+    """Depth discontinuities of a cylindrical range image (:func:`range_edges`, App. A.2).
 
     Attributes
     ----------
@@ -62,6 +62,13 @@ class RangeEdges(NamedTuple):
         Edge points of one axis that touch (8-connected in the range image)
         form a segment, cut into pieces of at most ``segment_length``
         points; one id per piece.
+
+    Examples
+    --------
+    >>> found = RangeEdges(phi=np.array([0.1, 0.1]), h=np.array([2.5, 1.5]), axis=np.array([0, 0]),
+    ...                    r=np.array([2.0, 2.0]), segment=np.array([0, 0]))
+    >>> len(found.phi), found.axis.tolist()
+    (2, [0, 0])
     """
 
     phi: np.ndarray
@@ -78,7 +85,7 @@ def range_edges(
     relative: float = 0.1,
     segment_length: int = 12,
 ) -> RangeEdges:
-    """Depth discontinuities ("3-D edges") of a partial cylindrical range image.
+    """Depth discontinuities ("3-D edges") of a partial cylindrical range image (App. A.2).
 
     Two adjacent samples (in a row or a column), both measured, are across a
     depth discontinuity if their ranges differ by more than ``jump`` and by
@@ -88,9 +95,11 @@ def range_edges(
     Parameters
     ----------
     cylinder : CylindricalRange
+        The range image on the cylinder (Eq. 19); NaN where not scanned.
     jump : float, default 0.2
         In the range's unit (m).
     relative : float, default 0.1
+        The jump must also exceed this fraction of the nearer range.
     segment_length : int, default 12
         Most points per segment (:attr:`RangeEdges.segment`).
 
@@ -148,7 +157,7 @@ def range_edges(
 def intensity_edges(
     image: np.ndarray, *, sigma: float = 1.0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Canny edges of the mosaic and the direction of its gradient ("2-D edges").
+    """Canny edges of the mosaic and the direction of its gradient ("2-D edges", App. A.2).
 
     Parameters
     ----------
@@ -161,8 +170,17 @@ def intensity_edges(
     Returns
     -------
     edges : ndarray of shape (H, W), bool
+        The Canny edge pixels.
     gx, gy : ndarray of shape (H, W)
         Sobel derivatives of the smoothed image along columns and rows.
+
+    Examples
+    --------
+    >>> image = np.zeros((9, 9))
+    >>> image[:, 5:] = 1.0
+    >>> edges, gx, gy = intensity_edges(image)
+    >>> edges.any(axis=0).nonzero()[0].tolist(), bool(abs(gx[4, 4]) > abs(gy[4, 4]))
+    ([4], True)
     """
     luminance = grey(np.asarray(image, dtype=np.float64))
     valid = np.isfinite(luminance)
@@ -223,7 +241,7 @@ def match_edges(
     gy: np.ndarray,
     radius: int,
 ) -> np.ndarray:
-    """Match each range edge to the nearest compatible intensity edge along its normal.
+    """Match each range edge to the nearest compatible intensity edge along its normal (App. A.2).
 
     A range edge at mosaic position ``(u, v)`` with ``axis = 0`` (vertical
     edge) is searched along its row, ``axis = 1`` along its column, within
@@ -237,9 +255,11 @@ def match_edges(
     positions : ndarray of shape (N, 2)
         ``(u, v)`` of the range edges in the mosaic.
     axis : ndarray of shape (N,)
+        0 for a vertical edge (searched along its row), 1 for a horizontal one.
     edges, gx, gy : ndarray of shape (H, W)
         From :func:`intensity_edges`.
     radius : int
+        Search ``±radius`` px.
 
     Returns
     -------
@@ -286,6 +306,23 @@ def match_segments(
     intensity edge (a texture line, a skirting board beside a box top that
     blends into the floor) rarely runs along a whole segment at one
     offset, and a parallel one two pixels off makes the segment ambiguous.
+
+    Parameters
+    ----------
+    positions : ndarray of shape (N, 2)
+        ``(u, v)`` of the range edges ``found`` in the mosaic (by the warp of
+        Eq. 21).
+    found : RangeEdges
+        The range edges (:func:`range_edges`): their ``axis`` and ``segment``.
+    edges, gx, gy : ndarray of shape (H, W)
+        From :func:`intensity_edges`.
+    radius : int
+        Search ``±radius`` px along each point's normal.
+    support : float, default 0.5
+        The fraction of a segment's points that must vote for its offset.
+    distinct : float, default 0.7
+        A segment is ambiguous (unmatched) if an offset two or more pixels
+        from the winner gets at least this fraction of its votes.
 
     Returns
     -------

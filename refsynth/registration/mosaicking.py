@@ -102,6 +102,16 @@ def hat_weights(shape: tuple[int, int]) -> np.ndarray:
     pixel inside the image's edge): ``w = (1/W) (1/H)`` in the corners, the
     largest at the centre.
 
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(H, W)`` of the view.
+
+    Returns
+    -------
+    ndarray of shape (H, W), float64
+        The weights of Eq. 18.
+
     Examples
     --------
     >>> hat_weights((1, 4)) * 4
@@ -247,6 +257,15 @@ class Mosaic:
         The pan angle (radians) of view 0, as given.
     period : float or None
         ``2πf`` for a 360° mosaic, else None.
+
+    Examples
+    --------
+    >>> from refsynth.scenes import render_views, rig_room
+    >>> views = render_views(rig_room(0), focal=150.0, n_views=2, start_angle=-0.3, height=80,
+    ...                      supersample=1)
+    >>> result = mosaic(views.images, views.focal, views.pan_angles[1] - views.pan_angles[0])
+    >>> result.image.shape, result.offsets.shape, result.translations.shape, result.period
+    ((81, 107), (2, 2), (1, 2), None)
     """
 
     image: np.ndarray

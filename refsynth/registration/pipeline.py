@@ -59,8 +59,23 @@ class Registration:
         The local field of :func:`~refsynth.registration.alignment.refine_local`
         on the whole mosaic.
     global_info : dict
+        What :func:`~refsynth.registration.alignment.align_global` reports
+        (``shift``, ``matches``, ``misalignment``).
     history : list of dict
         The local refinement's iterations (misalignment before → after).
+
+    Examples
+    --------
+    >>> from refsynth.scenes import laser_scan, render_views, rig_room
+    >>> room = rig_room(0)
+    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
+    ...                      supersample=1)
+    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
+    ...                   stripes=None)
+    >>> result = register(views.images, views.pan_angles, views.focal,
+    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> result.displacement is None, result.warp.a == result.initial.a, sorted(result.global_info)
+    (True, True, ['matches', 'misalignment', 'shift'])
     """
 
     intensity: np.ndarray
@@ -147,6 +162,7 @@ def register(
         :func:`~refsynth.registration.range_image.scan_to_cylinder`); NaN =
         not measured.
     refine : bool, default True
+        Run the local stretch (App. A.2) after the global warp.
     fit_scale : bool, default False
         Also fit ``a``, ``b`` of Eq. 21 to the automatic edge matches. Off
         by default: both images are cylinders of radius ``f`` with pixels
@@ -164,6 +180,19 @@ def register(
     Returns
     -------
     Registration
+
+    Examples
+    --------
+    >>> from refsynth.scenes import laser_scan, render_views, rig_room
+    >>> room = rig_room(0)
+    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
+    ...                      supersample=1)
+    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
+    ...                   stripes=None)
+    >>> result = register(views.images, views.pan_angles, views.focal,
+    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> result.intensity.shape == result.partial_range.shape, result.crop
+    (True, (1, 79, 1, 106))
     """
     focal = check_real("focal", focal, positive=True)
     angles = np.asarray(pan_angles, dtype=np.float64)
@@ -212,19 +241,46 @@ def register(
 def register_scan(images, pan_angles, focal: float, scan, **options):
     """Camera views + partial scan → ``(intensity, partial_range, info)`` for ``synthesize()``.
 
+    App. A (Eqs. 14–21), as :func:`register` computes it.
+
     A thin front end to :func:`register` (same parameters): the intensity is
     the cropped mosaic (finite everywhere), the partial range is on the same
     grid with NaN where the laser did not scan, and ``info`` is the
     :class:`Registration`.
 
+    Parameters
+    ----------
+    images : sequence of ndarray of shape (H, W) or (H, W, 3)
+        The camera views in pan order.
+    pan_angles : array_like of shape (N,)
+        Their nominal pan angles, radians.
+    focal : float
+        Focal length, pixels.
+    scan : tuple ``(r, theta, phi)``
+        The spherical scan; NaN = not measured.
+    **options
+        The keyword arguments of :func:`register` (``refine``,
+        ``fit_scale``, ``search``, ``jump``, ``full_circle``).
+
+    Returns
+    -------
+    intensity : ndarray of shape (H', W') or (H', W', C)
+        :attr:`Registration.intensity`.
+    partial_range : ndarray of shape (H', W')
+        :attr:`Registration.partial_range`.
+    info : Registration
+        Everything else.
+
     Examples
     --------
     >>> from refsynth.scenes import laser_scan, render_views, rig_room
     >>> room = rig_room(0)
-    >>> views = render_views(room, n_views=3, start_angle=-0.3, height=96, supersample=1)
-    >>> scan = laser_scan(room, phi_range=(-0.5, 0.5), stripes=None)
+    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
+    ...                      supersample=1)
+    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
+    ...                   stripes=None)
     >>> intensity, partial, info = register_scan(
-    ...     views.images, views.pan_angles, 300.0, (scan.r, scan.theta, scan.phi))
+    ...     views.images, views.pan_angles, views.focal, (scan.r, scan.theta, scan.phi))
     >>> intensity.shape == partial.shape and bool(np.isfinite(intensity).all())
     True
     """

@@ -48,7 +48,23 @@ def spherical_to_cartesian(r, theta, phi) -> np.ndarray:
 
     .. math:: (x, y, z) = r\,(\sin\theta \sin\phi,\; \cos\theta,\; \sin\theta \cos\phi)
 
-    ``θ`` from the vertical (y, up) axis, ``φ`` from z towards x.
+    ``θ`` from the vertical (y, up) axis, ``φ`` from z towards x: the
+    spherical samples of Eq. 19 (App. A.2).
+
+    Parameters
+    ----------
+    r : array_like
+        Range (the scan's unit).
+    theta : array_like
+        Polar angle from the vertical axis, radians (``π/2`` is level).
+    phi : array_like
+        Azimuth (pan angle), radians. ``r``, ``theta`` and ``phi``
+        broadcast together.
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+        ``(x, y, z)`` on the last axis.
 
     Examples
     --------
@@ -66,6 +82,18 @@ def spherical_to_cartesian(r, theta, phi) -> np.ndarray:
 
 def cartesian_to_spherical(points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points ``(x, y, z)`` → ``(r, θ, φ)``, the inverse of :func:`spherical_to_cartesian`.
+
+    The spherical coordinates of Eq. 19 (App. A.2).
+
+    Parameters
+    ----------
+    points : array_like of shape (..., 3)
+        ``(x, y, z)`` in the laser's frame.
+
+    Returns
+    -------
+    r, theta, phi : ndarray of shape (...)
+        Range, polar angle from the vertical axis and azimuth (radians).
 
     Examples
     --------
@@ -129,6 +157,14 @@ class CylindricalRange:
         Height of each row on the cylinder, pixels, decreasing (row 0 on
         top).
     focal : float
+        The cylinder's radius ``f``, pixels.
+
+    Examples
+    --------
+    >>> image = CylindricalRange(np.array([[5.0, 5.0], [2.0, np.nan]]), np.array([0.0, 0.01]),
+    ...                          np.array([1.0, 0.0]), 300.0)
+    >>> image.range.shape, float(image.phi[1] - image.phi[0]), image.focal
+    ((2, 2), 0.01, 300.0)
     """
 
     range: np.ndarray

@@ -53,11 +53,22 @@ def mosaic_position(points: np.ndarray, mosaic: Mosaic, views: RigViews) -> np.n
     mosaic : Mosaic
         Built from ``views.images``.
     views : RigViews
+        The rendered views, with their true pan angles and jitter.
 
     Returns
     -------
     ndarray of shape (..., 2)
         ``(col, row)`` in mosaic pixels.
+
+    Examples
+    --------
+    >>> from refsynth.registration.mosaicking import mosaic
+    >>> from refsynth.scenes import render_views, rig_room
+    >>> views = render_views(rig_room(0), focal=150.0, n_views=2, start_angle=-0.3, height=80,
+    ...                      supersample=1)
+    >>> result = mosaic(views.images, views.focal, views.pan_angles[1] - views.pan_angles[0])
+    >>> mosaic_position(np.array([[0.0, 0.0, 2.0], [0.0, -0.1, 2.0]]), result, views).shape
+    (2, 2)
     """
     points = np.asarray(points, dtype=np.float64)
     x, y, z = points[..., 0], points[..., 1], points[..., 2]
@@ -90,6 +101,7 @@ def registration_errors(
     Parameters
     ----------
     registration : refsynth.registration.pipeline.Registration
+        What :func:`refsynth.registration.pipeline.register` returned for ``scan`` and ``views``.
     scan : LaserScan
         The scan that was registered (its true points).
     views : RigViews
@@ -107,6 +119,21 @@ def registration_errors(
         edges, ``mean_u`` over vertical and ``mean_v`` over horizontal
         edges, and ``samples`` (mean 2-D error over every scanned sample
         inside the mosaic, edges or not); plus ``n_u`` and ``n_v``.
+
+    Examples
+    --------
+    >>> from refsynth.scenes import laser_scan, render_views, rig_room
+    >>> room = rig_room(0)
+    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
+    ...                      supersample=1)
+    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
+    ...                   stripes=None)
+    >>> from refsynth.registration.pipeline import register
+    >>> result = register(views.images, views.pan_angles, views.focal,
+    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> errors = registration_errors(result, scan, views)
+    >>> sorted(errors), sorted(errors["global"])
+    (['global', 'local', 'n_u', 'n_v', 'nominal'], ['mean', 'mean_u', 'mean_v', 'rms', 'samples'])
     """
     cylinder = registration.cylinder
     found = range_edges(cylinder)

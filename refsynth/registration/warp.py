@@ -54,6 +54,13 @@ class Warp(NamedTuple):
     A tuple ``(a, b, alpha, beta)``: ``a`` in mosaic pixels per radian
     (``≈ f``), ``b`` pixels per pixel (``≈ −1``: the mosaic's rows go down),
     ``alpha``, ``beta`` in pixels.
+
+    Examples
+    --------
+    >>> warp = Warp(a=300.0, b=-1.0, alpha=4.0, beta=90.0)
+    >>> phi, h = 0.1, 20.0
+    >>> warp.a * phi + warp.alpha, warp.b * h + warp.beta  # (u, v) of Eq. 21
+    (34.0, 70.0)
     """
 
     a: float
@@ -173,7 +180,9 @@ def eq20_warp(laser_points, r, *, a, b, alpha, v0, focal, delta_y):
     r : array_like of shape (N,)
         Their ranges (same unit as ``delta_y``).
     a, b, alpha, v0 : float
+        The scales (px per radian, px per px), the pan offset and the horizon row, px.
     focal : float
+        ``f`` in pixels.
     delta_y : float
         The camera's height above the laser.
 
@@ -202,11 +211,25 @@ def fit_warp_eq20(laser_points, r, camera_points, focal: float) -> tuple[Warp, f
     ``u = a φ + α`` as in :func:`fit_warp`; ``v = b h + v_0 + ΔY (f / ρ)``
     is linear in ``(b, v_0, ΔY)``.
 
+    Parameters
+    ----------
+    laser_points : ndarray of shape (N, 2)
+        ``(φ, h)`` of the matched points on the range cylinder (radians,
+        pixels).
+    r : ndarray of shape (N,)
+        Their laser range (the scan's unit); Eq. 20's horizontal distance
+        is ``ρ = r f / √(f² + h²)`` (see :func:`eq20_warp`).
+    camera_points : ndarray of shape (N, 2)
+        ``(u, v)`` of the same points in the mosaic, pixels.
+    focal : float
+        ``f`` in pixels.
+
     Returns
     -------
     warp : Warp
         ``(a, b, alpha, v0)`` (``beta`` holds ``v_0``).
     delta_y : float
+        The camera's height above the laser, in the unit of ``r``.
 
     Examples
     --------
