@@ -121,7 +121,8 @@ def argv(draw):
     base = draw(st.sampled_from(BASES[command])) if command in BASES and draw(
         st.booleans()) else None
     items = []
-    for option in draw(st.lists(st.sampled_from(options), max_size=2 if base else 6)):
+    chosen = draw(st.lists(st.sampled_from(options), max_size=2 if base else 6)) if options else []
+    for option in chosen:
         takes_value = option not in FLAGS[command] if base else draw(st.integers(0, 4))
         items.append([option] + ([draw(value)] if takes_value else []))
     if base is None:
