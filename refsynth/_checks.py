@@ -104,7 +104,10 @@ def check_real(
     """
     if not is_real(value):
         raise TypeError(f"The parameter `{name}` must be a real number, got {type(value).__name__}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an int beyond float64, e.g. 10**400
+        raise ValueError(f"The parameter `{name}` must be finite, got {value}") from None
     if not math.isfinite(value):
         raise ValueError(f"The parameter `{name}` must be finite, got {value}")
     if positive and value <= 0:
@@ -244,14 +247,25 @@ def grey(image: np.ndarray, weights: np.ndarray = BT709) -> np.ndarray:
     -------
     ndarray of shape (H, W)
         The input itself when it is already 2-D, a new array otherwise.
+
+    Notes
+    -----
+    The weighted sum is written out, ``(w0 R + w1 G) + w2 B`` elementwise, and the mean of
+    other channel counts is a left-to-right sum: no BLAS product, whose summation order (and
+    so the last bit) depends on the library and the CPU (refsynth's numeric contract,
+    :mod:`refsynth.numeric`).
     """
     if image.ndim == 2:
         return image
     if image.shape[2] == 1:
         return image[:, :, 0]
     if image.shape[2] == 3:
-        return image @ weights
-    return image.mean(axis=2)
+        w = np.asarray(weights, dtype=np.float64)
+        return (w[0] * image[:, :, 0] + w[1] * image[:, :, 1]) + w[2] * image[:, :, 2]
+    total = np.zeros(image.shape[:2])
+    for channel in range(image.shape[2]):
+        total = total + image[:, :, channel]
+    return total / image.shape[2]
 
 
 def check_bool(name: str, value) -> bool:

@@ -11,6 +11,7 @@ from strategies import small_scene
 
 import refsynth
 from refsynth.scenes import synthetic_room
+from refsynth.synthesis import reference as ref
 from refsynth.synthesis.bp import (
     belief_propagation,
     fixed_neighbour_terms,
@@ -83,11 +84,23 @@ def test_eq6_without_shared_range_is_uninformative():
 @given(hnp.arrays(np.float64, (9, 9), elements=UNIT), st.sampled_from("hv"),
        st.sampled_from(["left", "right"]))
 def test_fixed_neighbour_term_is_eq6_against_the_measured_patch(field, direction, side):
+    """A measured neighbour's term is Eq. 6's mean square against its own patch.
+
+    The range is on the numeric contract's 2**-16 grid (refsynth.numeric), so the shift
+    is one that the grid holds exactly: 0.125 (a shift of 0.1 is 6553.6 grid steps and
+    rounds to 6553 or 6554 per pixel)."""
     pj, pk = _shifted_views(field, 5, direction)
     cand, fixed = (pk, pj) if side == "left" else (pj, pk)
-    term = fixed_neighbour_terms(np.concatenate([cand, cand + 0.1], axis=1), fixed, direction,
+    term = fixed_neighbour_terms(np.concatenate([cand, cand + 0.125], axis=1), fixed, direction,
                                  side)
-    np.testing.assert_allclose(term[0], [0.0, 0.01], atol=1e-6)
+    np.testing.assert_allclose(term[0], [0.0, 0.125**2], atol=1e-6)
+    # and exactly the literal reference's Eq. 6 on the quantised patches
+    def q(patch):
+        return np.rint(patch[0, 0] * 2**16).astype(np.int64)
+
+    for label, patch in enumerate((cand, cand + 0.125)):
+        first, second = (fixed, patch) if side == "left" else (patch, fixed)
+        assert term[0, label] == ref.overlap_mean_square(q(first), q(second), direction)
 
 
 @given(st.floats(0.0, 10.0), st.floats(0.0, 10.0), st.floats(0.01, 2.0))
@@ -267,3 +280,71 @@ def test_a_gap_wider_than_r_gets_candidates():
     partial[:, :2] = 2.5
     result = refsynth.synthesize(image, partial, method="bp", radius=3, candidates=4)
     np.testing.assert_array_equal(result.range, 2.5)
+
+
+# -- the edge-constraint rule (issue #10, item 3) --------------------------------------------
+
+
+def _edge_scene(seed):
+    g = np.random.default_rng(seed)
+    H, W = 12, 13
+    image = g.random((H, W))
+    partial = np.where(g.random((H, W)) < 0.45, np.round(1.0 + 3.0 * g.random((H, W)), 2),
+                       np.nan)
+    partial[0, 0] = 2.0
+    return image, partial
+
+
+def _neighbours_of(mask, partial):
+    """The unknown pixels with a 4-neighbour in ``mask``."""
+    near = np.zeros(mask.shape, dtype=bool)
+    near[1:, :] |= mask[:-1, :]
+    near[:-1, :] |= mask[1:, :]
+    near[:, 1:] |= mask[:, :-1]
+    near[:, :-1] |= mask[:, 1:]
+    return near & np.isnan(partial)
+
+
+BP_SMALL = dict(method="bp", candidates=3, neighbourhood=3, radius=4.0, sigma_s=0.05)
+
+
+@pytest.mark.parametrize("rule", ["silent", "paper"])
+@pytest.mark.parametrize("seed", range(3))
+def test_a_measured_node_on_an_edge_constrains_no_neighbour(rule, seed):
+    """Edges on measured pixels only: the terms those pixels put on their unknown
+    neighbours disappear (before, the output was that of use_edges=False); nothing else
+    changes."""
+    image, partial = _edge_scene(seed)
+    known = np.isfinite(partial)
+    edges = known & (np.random.default_rng(seed + 50).random(known.shape) < 0.3)
+    on = refsynth.synthesize(image, partial, edges=edges, edge_rule=rule, **BP_SMALL)
+    off = refsynth.synthesize(image, partial, use_edges=False, **BP_SMALL)
+    affected = _neighbours_of(edges, partial)[on.order[:, 0], on.order[:, 1]]
+    differs = np.any(on.bp.unary != off.bp.unary, axis=1)
+    assert differs.any() and not np.any(differs & ~affected)
+    assert not np.array_equal(on.bp.beliefs, off.bp.beliefs)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_papers_edge_rule_isolates_edge_nodes(seed):
+    """edge_rule="paper": no message crosses an edge. An unknown node on an edge neither
+    sends nor receives (its belief is its unary term, which holds no measured neighbour's
+    term); the other nodes' unary terms are those of the default rule."""
+    image, partial = _edge_scene(seed)
+    unknown = np.isnan(partial)
+    edges = np.random.default_rng(seed + 70).random(partial.shape) < 0.2
+    paper = refsynth.synthesize(image, partial, edges=edges, edge_rule="paper", **BP_SMALL)
+    silent = refsynth.synthesize(image, partial, edges=edges, edge_rule="silent", **BP_SMALL)
+    node_on_edge = edges[paper.order[:, 0], paper.order[:, 1]]
+    assert node_on_edge.any() and (~node_on_edge).any()
+    bp = paper.bp
+    np.testing.assert_array_equal(bp.beliefs[node_on_edge], bp.unary[node_on_edge])
+    e = len(bp.pairs)
+    touching = node_on_edge[bp.pairs[:, 0]] | node_on_edge[bp.pairs[:, 1]]
+    np.testing.assert_array_equal(bp.messages[np.concatenate([touching, touching])], 0.0)
+    np.testing.assert_array_equal(bp.unary[~node_on_edge], silent.bp.unary[~node_on_edge])
+    with_fixed = node_on_edge & _neighbours_of(~unknown & ~edges, partial)[
+        paper.order[:, 0], paper.order[:, 1]]
+    assert np.any(bp.unary[with_fixed] != silent.bp.unary[with_fixed])
+    # the default rule: an edge node still listens
+    assert e and np.any(silent.bp.beliefs[node_on_edge] != silent.bp.unary[node_on_edge])

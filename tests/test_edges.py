@@ -389,6 +389,43 @@ def test_edges_invariant_to_adding_a_constant(image, shift, sigma):
     np.testing.assert_array_equal(canny(image + shift, sigma=sigma), canny(image, sigma=sigma))
 
 
+@pytest.mark.parametrize("offset", [-3.7, 0.25, 1.0 / 3.0, 100.0])
+def test_an_offset_leaves_a_real_images_edges_unchanged_bit_for_bit(camera, offset):
+    """The numeric contract: Canny runs on its input brought to the 2**-24 grid of its span,
+    so an offset changes nothing even where the map hinges on exact ties (a real image
+    has many: equal magnitudes, flat patches)."""
+    for sigma in (0.8, 2.0):
+        np.testing.assert_array_equal(canny(camera + offset, sigma=sigma),
+                                      canny(camera, sigma=sigma))
+
+
+def test_the_same_image_in_any_integer_dtype_gives_the_same_edges():
+    image = data.camera()
+    expected = canny(image / 255.0)
+    np.testing.assert_array_equal(canny(image), expected)
+    np.testing.assert_array_equal(canny(image.astype(np.uint16) * 257), expected)
+    np.testing.assert_array_equal(canny(image.astype(np.float32) / np.float32(255)), expected)
+
+
+def test_the_gaussian_kernel_is_portable_and_scipys_at_the_papers_sigma():
+    """From portable_exp and a left-to-right sum; at σ = 0.8 (and 0.5) bit for bit the
+    kernel of scipy.ndimage.gaussian_filter, which the smoothing then reproduces too."""
+    from scipy.ndimage._filters import _gaussian_kernel1d
+
+    from refsynth.synthesis.canny import _gaussian_kernel, _smooth
+
+    for sigma in (0.5, 0.8):
+        radius = int(4.0 * sigma + 0.5)
+        np.testing.assert_array_equal(_gaussian_kernel(sigma), _gaussian_kernel1d(sigma, 0, radius))
+    image = np.random.default_rng(3).random((30, 41))
+    np.testing.assert_array_equal(
+        _smooth(image, 0.8), ndi.gaussian_filter(image, 0.8, mode="constant", truncate=4.0))
+    for sigma in (1.0, 2.0, 3.3):
+        np.testing.assert_allclose(
+            _smooth(image, sigma),
+            ndi.gaussian_filter(image, sigma, mode="constant", truncate=4.0), rtol=1e-14)
+
+
 @given(image=small_images(min_side=3), power=st.integers(-10, 10), sigma=sigmas)
 def test_edges_invariant_to_power_of_two_scaling_with_thresholds(image, power, sigma):
     # multiplying by 2**power is exact in floating point, ties included

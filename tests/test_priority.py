@@ -15,6 +15,7 @@ from refsynth.synthesis.priority import (
     front_normals,
     onion_order,
     priority,
+    range_gradient,
 )
 
 masks = hnp.arrays(np.bool_, st.tuples(st.integers(3, 12), st.integers(3, 12)))
@@ -184,3 +185,85 @@ def test_incremental_front_matches_full_recomputation(h, w, n, use_edges, use_is
     want = priority(conf, values, filled, edges, n, use_edges=use_edges, use_isophotes=use_iso)
     sel = ~np.isnan(want)
     np.testing.assert_allclose(got[sel], want[sel], atol=1e-9)
+
+
+# -- symmetry: mirroring the input mirrors the order (issue #10, item 3) ----------------------
+
+
+class _GivenTies:
+    """A stand-in for the generator FillFront draws its tie-break permutation from."""
+
+    def __init__(self, tie: np.ndarray) -> None:
+        self.tie = tie
+
+    def permutation(self, size: int) -> np.ndarray:
+        assert size == self.tie.size
+        return self.tie.ravel().copy()
+
+
+def _front_order(known, levels, edges, n, tie, use_edges, edges_last):
+    """Pop and fill FillFront to the end: each pixel gets its own truth (on the 2**-16 grid)
+    and a confidence that depends on it, so the whole state is a function of the scene."""
+    pad = n // 2 + 1
+    front = FillFront(known, levels * 2.0**-16, edges, n, pad, _GivenTies(tie),
+                      use_edges=use_edges, edges_last=edges_last)
+    width = front.shape[1]
+    order = []
+    while (p := front.pop()) >= 0:
+        r, c = divmod(p, width)
+        value = levels[r - pad, c - pad]
+        front.fill(p, value * 2.0**-16, (value % 7 + 1) / 8.0)
+        order.append((r - pad, c - pad))
+    return order
+
+
+@given(
+    st.integers(4, 11),
+    st.integers(4, 11),
+    st.sampled_from([1, 3, 5]),
+    st.booleans(),
+    st.booleans(),
+    st.integers(0, 2**32 - 1),
+)
+def test_mirrored_input_gives_the_mirrored_order(h, w, n, use_edges, edges_last, seed):
+    """Left-right, up-down and transposed scenes (with the tie-break permutation mirrored
+    the same way) are filled in the mirrored order, bit for bit: Eq. 12's isophote reaches
+    as far on every side of N_p."""
+    rng = np.random.default_rng(seed)
+    known = rng.random((h, w)) < 0.4
+    known[rng.integers(h), rng.integers(w)] = True
+    known[rng.integers(h), rng.integers(w)] = False
+    levels = rng.integers(0, 2**16 + 1, (h, w)).astype(np.float64)
+    edges = rng.random((h, w)) < 0.2
+    pad = n // 2 + 1
+    tie = rng.permutation((h + 2 * pad) * (w + 2 * pad)).reshape(h + 2 * pad, w + 2 * pad)
+    args = (n, use_edges, edges_last)
+    order = _front_order(known, levels, edges, n, tie, use_edges, edges_last)
+    assert sorted(order) == sorted(map(tuple, np.argwhere(~known).tolist()))
+    mirrors = {
+        "left-right": (lambda a: a[:, ::-1], lambda r, c: (r, w - 1 - c)),
+        "up-down": (lambda a: a[::-1, :], lambda r, c: (h - 1 - r, c)),
+        "transposed": (lambda a: a.T, lambda r, c: (c, r)),
+    }
+    for name, (flip, image_of) in mirrors.items():
+        got = _front_order(flip(known), flip(levels), flip(edges), args[0], flip(tie),
+                           *args[1:])
+        assert got == [image_of(r, c) for r, c in order], name
+
+
+def test_a_lone_range_pair_weighs_the_same_on_both_sides():
+    """The case of the issue: one filled pair, (3, 4)–(3, 5), straddles the right border of
+    the 5×5 window of (3, 2). Pairs count only when both voxels lie in N_p, so that window
+    sees no gradient — as the mirror window, whose border the mirror pair straddles on the
+    left, never did — and the data term of the mirrored input is the mirrored data term."""
+    filled = np.zeros((7, 7), dtype=bool)
+    filled[3, 4:6] = True
+    range_norm = np.zeros((7, 7))
+    range_norm[3, 5] = 0.9
+    g_row, g_col = range_gradient(range_norm, filled, 5)
+    assert g_col[3, 2] == 0.0 and g_col[3, 3] == pytest.approx(0.9)
+    mirrored = range_gradient(range_norm[:, ::-1], filled[:, ::-1], 5)
+    np.testing.assert_array_equal(mirrored[1], -g_col[:, ::-1])
+    np.testing.assert_array_equal(mirrored[0], g_row[:, ::-1])
+    d = data_term(range_norm, filled, 5)
+    np.testing.assert_array_equal(data_term(range_norm[:, ::-1], filled[:, ::-1], 5), d[:, ::-1])

@@ -6,6 +6,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 from strategies import UNIT, neighbourhood_pair, partial_neighbourhood
 
+from refsynth.synthesis import reference as ref
 from refsynth.synthesis.neighbourhood import (
     disc_offsets,
     gaussian_window,
@@ -157,14 +158,22 @@ def test_range_scale_of_a_constant_is_one():
 )
 def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, missing, dtype, seed):
     """NP's matrix-product form of Eq. 2 equals the pair-by-pair definition, both
-    for the literal Eq. 2 and for the mean-filled range term."""
+    for the literal Eq. 2 and for the mean-filled range term.
+
+    PatchTable works on the numeric contract's grids: the intensity and range it is
+    given, rint(2**16 x), and the integer window (refsynth.numeric). The literal sum is
+    taken on those same values; in float64 the table is moreover *exactly* the
+    literal reference's Eq. 2 (refsynth.synthesis.reference.eq2_distance)."""
     rng = np.random.default_rng(seed)
     image = rng.random((h, w, c))
     rimg = np.where(rng.random((h, w)) < 0.5, rng.random((h, w)), np.nan)
     pad = n // 2 + 1
     table = PatchTable(image, rimg, n, pad, lam, missing, dtype)
-    ip = intensity_patches(image, n)
-    rp = range_patches(rimg, n)
+    qi = np.rint(image * 2**16)
+    qr = np.rint(rimg * 2**16)
+    ip = intensity_patches(qi * 2.0**-16, n)
+    rp = range_patches(qr * 2.0**-16, n)
+    window = ref.window_weights(n)
     wp = w + 2 * pad
     p = (int(rng.integers(h)), int(rng.integers(w)))
     qs = [(int(rng.integers(h)), int(rng.integers(w))) for _ in range(6)]
@@ -172,14 +181,24 @@ def test_expanded_eq2_in_np_matches_the_literal_sum(h, w, c, n, lam, missing, dt
     got = table.distances((p[0] + pad) * wp + p[1] + pad, flat)
     want = [
         neighbourhood_distance(ip[p], rp[p], ip[q], rp[q], range_weight=lam,
-                               missing_range=missing)
+                               window=window * 2.0**-18, missing_range=missing)
         for q in qs
     ]
     batch = table.batch_distances(np.array([(p[0] + pad) * wp + p[1] + pad]), flat[None, :])
-    # float32 is what NP uses: the expanded squares lose a few digits to cancellation
+    # float32 rounds the integers of the expanded squares: a few digits lost to cancellation
     tol = dict(rtol=1e-9, atol=1e-12) if dtype == np.float64 else dict(rtol=1e-4, atol=1e-4)
     np.testing.assert_allclose(got, want, **tol)
     np.testing.assert_allclose(batch[0], want, **tol)
+    if dtype == np.float64:
+        def quantised(r, c):
+            i = intensity_patches(qi, n)[r, c].astype(np.int64)
+            q = np.nan_to_num(range_patches(qr, n)[r, c], nan=ref.NO_RANGE).astype(np.int64)
+            return i, q
+
+        exact = [ref.eq2_distance(*quantised(*p), *quantised(*q), window, lam, missing)
+                 for q in qs]
+        np.testing.assert_array_equal(got, exact)
+        np.testing.assert_array_equal(batch[0], exact)
 
 
 @given(neighbourhood_pair(), st.floats(0.1, 10.0))

@@ -60,6 +60,10 @@ def test_bad_arrays_are_rejected(intensity, partial, error, match):
         ({"missing_range": "zero"}, ValueError, "`missing_range`"),
         ({"use_edges": "yes"}, TypeError, "`use_edges` must be a bool"),
         ({"use_isophotes": 1}, TypeError, "`use_isophotes` must be a bool"),
+        ({"colour": 1}, TypeError, "`colour` must be a bool"),
+        ({"edges_last": "no"}, TypeError, "`edges_last` must be a bool"),
+        ({"confidence_update": "sum"}, ValueError, "`confidence_update` must be one of"),
+        ({"edge_rule": "none"}, ValueError, "`edge_rule` must be one of"),
         ({"edges": np.zeros((5, 5), bool)}, ValueError, "`edges` must have shape"),
         ({"edges": np.zeros((6, 6))}, TypeError, "`edges` must be a boolean"),
         ({"progress": 5}, TypeError, "`progress` must be callable"),
@@ -100,9 +104,10 @@ def test_integer_seed_types():
 
 # --------------------------------------------------------------------------- the options split
 
-NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion"}
+NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion",
+           "confidence_update": "best", "edges_last": False}
 BP_ONLY = {"candidates": 4, "proximity": 0.0, "sigma_i": 0.3, "sigma_s": 0.1,
-           "iterations": 3, "tolerance": 0.0, "product": "sum"}
+           "iterations": 3, "tolerance": 0.0, "product": "sum", "edge_rule": "paper"}
 
 
 def test_options_after_the_arrays_are_keyword_only():
@@ -140,9 +145,10 @@ def test_a_bad_value_is_reported_as_such_even_for_the_other_method():
 
 
 def test_the_other_methods_defaults_and_none_are_accepted_silently():
-    np_defaults = {"epsilon": 0.1, "use_isophotes": True, "ordering": "priority"}
+    np_defaults = {"epsilon": 0.1, "use_isophotes": True, "ordering": "priority",
+                   "confidence_update": "product", "edges_last": True}
     bp_defaults = {"candidates": 8, "proximity": 1.0, "sigma_i": 0.1, "sigma_s": 0.2,
-                   "iterations": 50, "tolerance": 1e-4, "product": "max"}
+                   "iterations": 50, "tolerance": 1e-4, "product": "max", "edge_rule": "silent"}
     plain_np = refsynth.synthesize(IMAGE, PARTIAL, method="np", seed=0)
     plain_bp = refsynth.synthesize(IMAGE, PARTIAL, method="bp")
     for extra in (bp_defaults, dict.fromkeys(bp_defaults), {**np_defaults, **bp_defaults}):

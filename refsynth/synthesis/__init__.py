@@ -15,10 +15,17 @@ Read beside §3.2 of the paper, top to bottom:
 - :mod:`refsynth.synthesis.priority` (§3.2.4, Eqs. 10–12): the synthesis
   order — confidence, data term, edge count — and the onion-peel order of
   Fig. 7.
-- :mod:`refsynth.synthesis.bp` (§3.2.3, Eqs. 6–9, Fig. 6): belief
-  propagation, :func:`bp_fill`.
+- :mod:`refsynth.synthesis.bp` (§3.2.3, Eqs. 6–7, Fig. 6): belief
+  propagation's model — candidates, Φ, Ψ, the edge rule — and :func:`bp_fill`.
+- :mod:`refsynth.synthesis.messages` (§3.2.3, Eqs. 8–9): the messages and
+  beliefs, :func:`belief_propagation`.
 - :mod:`refsynth.synthesis.canny` (§3.2): the Canny edges (σ = 0.8) that
   Eq. 10 and BP's edge-constraint rule use.
+- :mod:`refsynth.synthesis.reference` (§3.2.2–§3.2.4): the literal reference,
+  per-pixel loops that the fast modules above equal bit for bit.
+
+Every decision runs on exact numbers, the numeric contract of
+:mod:`refsynth.numeric`: the same bits on any machine.
 
 References
 ----------
@@ -36,7 +43,6 @@ from refsynth.synthesis.api import (
 )
 from refsynth.synthesis.bp import (
     BPResult,
-    belief_propagation,
     bp_fill,
     candidates,
     fixed_neighbour_terms,
@@ -52,6 +58,7 @@ from refsynth.synthesis.canny import (
     sobel_gradients,
     to_grey,
 )
+from refsynth.synthesis.messages import belief_propagation
 from refsynth.synthesis.neighbourhood import (
     disc_offsets,
     gaussian_window,

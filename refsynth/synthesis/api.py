@@ -11,6 +11,19 @@ Each method has options of its own (:data:`NP_OPTIONS`, :data:`BP_OPTIONS`):
 they default to ``None``, which means the method's default, and giving one to
 the other method raises ``ValueError`` unless it is that option's default.
 
+The intensity convention
+------------------------
+Before Canny and Eq. 2 the intensity is brought to its own span: ``q =
+rint(2**16 (I − min I) / (max I − min I))``, over all pixels and channels
+(:func:`refsynth.numeric.quantise_intensity`). Eq. 2 uses ``q`` (or, with
+``colour=False``, the grey level of ``q`` brought to its span the same way),
+and Canny runs on that grey level as a float image in [0, 1], so Canny's
+thresholds are fractions of the image's grey-level span. Any positive affine
+change of the intensity — an offset, a scale, ``uint8`` against the same
+values as floats in 0–255 or in 0–1 — therefore gives the *same* result, bit
+for bit (up to a value landing within an ulp of a rounding boundary of the
+2**-16 grid, which integer images never do).
+
 References
 ----------
 L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
@@ -35,9 +48,10 @@ from refsynth._checks import (
     is_int,
     to_float,
 )
-from refsynth.synthesis.bp import bp_fill
-from refsynth.synthesis.canny import canny, to_grey
-from refsynth.synthesis.nonparametric import np_fill
+from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
+from refsynth.synthesis.bp import EDGE_RULES, BPResult, bp_fill
+from refsynth.synthesis.canny import canny
+from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES, np_fill
 from refsynth.synthesis.similarity import MISSING_RANGE
 
 __all__ = [
@@ -54,7 +68,13 @@ PRODUCTS = ("max", "sum")
 ORDERINGS = ("priority", "onion")
 
 #: The options only NP uses, with NP's defaults (§3.2.2, §3.2.4); read-only.
-NP_OPTIONS = MappingProxyType({"epsilon": 0.1, "use_isophotes": True, "ordering": "priority"})
+NP_OPTIONS = MappingProxyType({
+    "epsilon": 0.1,
+    "use_isophotes": True,
+    "ordering": "priority",
+    "confidence_update": "product",
+    "edges_last": True,
+})
 #: The options only BP uses, with BP's defaults (§3.2.3); read-only.
 BP_OPTIONS = MappingProxyType({
     "candidates": 8,
@@ -64,6 +84,7 @@ BP_OPTIONS = MappingProxyType({
     "iterations": 50,
     "tolerance": 1e-4,
     "product": "max",
+    "edge_rule": "silent",
 })
 _OPTIONS = {"np": NP_OPTIONS, "bp": BP_OPTIONS}
 
@@ -96,6 +117,10 @@ class SynthesisResult:
     candidate_values : ndarray of shape (N, k) or None
         BP: the centre range of each pixel's ``k`` candidates (rows in
         ``order``), to judge candidate generation apart from inference.
+    bp : BPResult or None
+        BP: the whole model and its solution — candidates, unary terms, pairs,
+        ``log Ψ``, the final messages and beliefs (see
+        :class:`refsynth.synthesis.bp.BPResult`); None for NP.
     """
 
     range: np.ndarray
@@ -106,6 +131,7 @@ class SynthesisResult:
     params: dict = field(default_factory=dict)
     iterations: int = 0
     candidate_values: np.ndarray | None = None
+    bp: BPResult | None = None
 
 
 def normalise_intensity(intensity: np.ndarray) -> np.ndarray:
@@ -141,6 +167,9 @@ _OPTION_CHECKS = {
     "iterations": partial(_at_least, "iterations", minimum=0),
     "tolerance": partial(check_real, "tolerance", minimum=0.0),
     "product": partial(check_choice, "product", choices=PRODUCTS),
+    "confidence_update": partial(check_choice, "confidence_update", choices=CONFIDENCE_UPDATES),
+    "edges_last": partial(check_bool, "edges_last"),
+    "edge_rule": partial(check_choice, "edge_rule", choices=EDGE_RULES),
 }
 
 
@@ -242,6 +271,7 @@ def synthesize(
     radius: float = 10.0,
     range_weight: float = 16.0,
     missing_range: str = "mean",
+    colour: bool = True,
     canny_sigma: float = 0.8,
     edges: np.ndarray | None = None,
     use_edges: bool = True,
@@ -256,6 +286,9 @@ def synthesize(
     iterations: int | None = None,
     tolerance: float | None = None,
     product: str | None = None,
+    confidence_update: str | None = None,
+    edges_last: bool | None = None,
+    edge_rule: str | None = None,
 ) -> SynthesisResult:
     """Infer the missing range from intensity and partial range (§3.2).
 
@@ -267,8 +300,9 @@ def synthesize(
     Parameters
     ----------
     intensity : ndarray of shape (H, W) or (H, W, 3)
-        The registered intensity image, grey or colour. Integer images are
-        scaled to [0, 1]; floating images are used as given.
+        The registered intensity image, grey or colour, of any real dtype,
+        offset and scale: it is brought to its own span before Canny and Eq. 2
+        (see the intensity convention under Notes).
     partial_range : ndarray of shape (H, W), floating
         The measured range, NaN where unknown, in any length unit; the
         result comes back in the same unit.
@@ -292,14 +326,20 @@ def synthesize(
         of the offsets both have; ``"ignore"`` drops them, the literal Eq. 2
         (see :mod:`refsynth.synthesis.similarity` for why refsynth
         departs from it). BP ranks its candidates with the same distance.
+    colour : bool, default True
+        Eq. 2's intensity term on the colour channels (averaged over them);
+        ``False`` uses the grey level (BT.709 luminance, brought to its span).
+        No effect on a grey image.
     canny_sigma : float, default 0.8
-        σ of the Canny edge detector's Gaussian (the paper's setting).
+        σ of the Canny edge detector's Gaussian (the paper's setting). Canny
+        runs on the grey level brought to [0, 1] (see Notes), with thresholds
+        0.1 and 0.2 of that span.
     edges : ndarray of shape (H, W), bool, optional
         A precomputed edge map; overrides the Canny detector.
     use_edges : bool, default True
-        NP: use the edge count of Eq. 10 and fill edge pixels last. BP: the
-        edge-constraint rule (edge nodes send no messages). ``False`` is the
-        paper's no-edge ablation (Fig. 13, Table 3).
+        NP: use the edge count of Eq. 10 and (with ``edges_last``) fill edge
+        pixels last. BP: the edge-constraint rule (``edge_rule``). ``False``
+        is the paper's no-edge ablation (Fig. 13, Table 3).
     progress : callable, optional
         Called as ``progress(done, total)`` every few hundred pixels (NP) or
         after each of BP's five stages.
@@ -310,6 +350,15 @@ def synthesize(
     ordering : {"priority", "onion"}, NP only, default "priority"
         The paper's information-driven order (Eqs. 10–12) or the onion-peel
         order it compares against (Fig. 7).
+    confidence_update : {"product", "best"}, NP only, default "product"
+        The confidence a synthesized pixel receives (Eq. 11): ``"product"``,
+        ``C(p) · C(N_best)`` (its own Eq. 11 value times that of the
+        neighbourhood it matched best; refsynth's reading), or ``"best"``,
+        ``C(N_best)`` (the text after Eq. 11 read literally).
+    edges_last : bool, NP only, default True
+        With ``use_edges``: pixels on an edge form a second tier, filled only
+        when no other pixel is left on the front. ``False`` keeps only Eq. 10's
+        ``1 / (1 + E)`` term.
     candidates : int, BP only, default 8
         ``k``, the candidates (labels) per unknown pixel.
     proximity : float, BP only, default 1
@@ -326,6 +375,13 @@ def synthesize(
         Stop when no (log) message changes by more than this.
     product : {"max", "sum"}, BP only, default "max"
         Max-product (MAP) or sum-product messages.
+    edge_rule : {"silent", "paper"}, BP only, default "silent"
+        With ``use_edges``, how edges stop messages (§3.2.3). ``"silent"``: a
+        node on an edge sends nothing — an unknown one no message, a measured
+        one no Ψ term on its unknown neighbours — but still receives.
+        ``"paper"``: no message crosses an edge — a node on an edge neither
+        sends nor receives (no message, no measured neighbour's term), so its
+        belief is its own evidence Φ.
 
     Returns
     -------
@@ -342,34 +398,56 @@ def synthesize(
     The options, by the method that uses them. The options of one method
     default to ``None``, which stands for the default in the last column:
 
-    =================  ===========  ===========  ================================
-    option             NP           BP           default
-    =================  ===========  ===========  ================================
-    ``seed``           yes          (no effect)  0
-    ``neighbourhood``  yes          yes          5
-    ``radius``         yes          yes          10
-    ``range_weight``   yes          yes          16
-    ``missing_range``  yes          yes          ``"mean"``
-    ``canny_sigma``    yes          yes          0.8
-    ``edges``          yes          yes          Canny's
-    ``use_edges``      Eq. 10       edge rule    True
-    ``progress``       yes          yes          none
-    ``epsilon``        Eq. 5        —            0.1
-    ``use_isophotes``  Eq. 12       —            True
-    ``ordering``       §3.2.4       —            ``"priority"``
-    ``candidates``     —            ``k``        8
-    ``proximity``      —            μ            1
-    ``sigma_i``        —            Eq. 7        0.1
-    ``sigma_s``        —            Eq. 6        0.2
-    ``iterations``     —            Eq. 9        50
-    ``tolerance``      —            Eq. 9        1e-4
-    ``product``        —            Eq. 9        ``"max"``
-    =================  ===========  ===========  ================================
+    =======================  ===========  ===========  ================================
+    option                   NP           BP           default
+    =======================  ===========  ===========  ================================
+    ``seed``                 yes          (no effect)  0
+    ``neighbourhood``        yes          yes          5
+    ``radius``               yes          yes          10
+    ``range_weight``         yes          yes          16
+    ``missing_range``        yes          yes          ``"mean"``
+    ``colour``               Eq. 2        Eq. 2        True
+    ``canny_sigma``          yes          yes          0.8
+    ``edges``                yes          yes          Canny's
+    ``use_edges``            Eq. 10       edge rule    True
+    ``progress``             yes          yes          none
+    ``epsilon``              Eq. 5        —            0.1
+    ``use_isophotes``        Eq. 12       —            True
+    ``ordering``             §3.2.4       —            ``"priority"``
+    ``confidence_update``    Eq. 11       —            ``"product"``
+    ``edges_last``           Eq. 10       —            True
+    ``candidates``           —            ``k``        8
+    ``proximity``            —            μ            1
+    ``sigma_i``              —            Eq. 7        0.1
+    ``sigma_s``              —            Eq. 6        0.2
+    ``iterations``           —            Eq. 9        50
+    ``tolerance``            —            Eq. 9        1e-4
+    ``product``              —            Eq. 9        ``"max"``
+    ``edge_rule``            —            §3.2.3       ``"silent"``
+    =======================  ===========  ===========  ================================
 
     An option marked "—" raises ``ValueError`` for that method unless it is
     ``None`` or its default, e.g. ``method="bp", ordering="onion"``: "The
     parameter `ordering` applies to method='np' only; method='bp' does not use
     it".
+
+    **The intensity convention.** The intensity (any real dtype) is brought
+    to its own span before anything else: ``q = rint(2**16 (I − min I) /
+    (max I − min I))`` over all pixels and channels. Eq. 2 compares ``q``
+    (``colour=True``) or its grey level ``quantise(0.2125 R + 0.7154 G +
+    0.0721 B)`` (``colour=False``); Canny runs on that grey level divided by
+    ``2**16``, a float image spanning [0, 1], so its thresholds (0.1 and 0.2)
+    are fractions of the image's grey-level span. So ``uint8`` input, the same
+    values as floats in 0–255, the same divided by 255, or any of them plus an
+    offset give bit-identical results; so does a positive scale of
+    ``partial_range`` (the result scales with it). A precomputed ``edges`` map
+    is used as given.
+
+    **Reproducibility.** Every decision runs on exact numbers (the numeric
+    contract of :mod:`refsynth.numeric`), so the same call gives the same bits
+    whatever the BLAS library, its kernel and thread count, or the CPU's SIMD
+    width, and the same as the literal reference
+    :mod:`refsynth.synthesis.reference`.
 
     Examples
     --------
@@ -390,6 +468,7 @@ def synthesize(
         epsilon=epsilon, use_isophotes=use_isophotes, ordering=ordering,
         candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
         iterations=iterations, tolerance=tolerance, product=product,
+        confidence_update=confidence_update, edges_last=edges_last, edge_rule=edge_rule,
     ))
     neighbourhood = _at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
@@ -402,6 +481,7 @@ def synthesize(
     canny_sigma = check_real("canny_sigma", canny_sigma, minimum=0.0)
     range_weight = check_real("range_weight", range_weight, minimum=0.0)
     missing_range = check_choice("missing_range", missing_range, MISSING_RANGE)
+    colour = check_bool("colour", colour)
     use_edges = check_bool("use_edges", use_edges)
     if edges is not None:
         edges = np.asarray(edges)
@@ -416,7 +496,9 @@ def synthesize(
     rng = _random_source(seed)
 
     if edges is None:
-        edge_map = canny(to_grey(image), sigma=canny_sigma) if use_edges else None
+        # the intensity convention: Canny on the grey level brought to [0, 1]
+        levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
+        edge_map = canny(levels, sigma=canny_sigma) if use_edges else None
     else:
         edge_map = edges.copy()
     if edge_map is None or not use_edges:
@@ -424,15 +506,17 @@ def synthesize(
 
     params = dict(method=method, neighbourhood=neighbourhood, radius=radius,
                   canny_sigma=canny_sigma, use_edges=use_edges, range_weight=range_weight,
-                  missing_range=missing_range, **options)
+                  missing_range=missing_range, colour=colour, **options)
     common = dict(neighbourhood=neighbourhood, radius=radius, use_edges=use_edges,
-                  range_weight=range_weight, missing_range=missing_range, progress=progress)
+                  range_weight=range_weight, missing_range=missing_range, colour=colour,
+                  progress=progress)
     if method == "bp":
         options["k"] = options.pop("candidates")  # bp_fill's name for it
         bp = bp_fill(image, range_values, edge_map, **options, **common)
         return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
                                edges=edge_map, method=method, params=params,
-                               iterations=bp.iterations, candidate_values=bp.candidate_values)
+                               iterations=bp.iterations, candidate_values=bp.candidate_values,
+                               bp=bp)
     filled, confidence, order = np_fill(image, range_values, edge_map, rng, **options, **common)
     return SynthesisResult(range=filled, confidence=confidence, order=order, edges=edge_map,
                            method=method, params=params)

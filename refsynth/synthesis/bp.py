@@ -37,6 +37,12 @@ The algorithm of Fig. 6, step by step:
    **Edge-constraint rule**: a node sends a message once it has heard from
    all its other neighbours *except those labelled as edges* — so nodes on an
    intensity edge send no messages, and evidence does not flow across edges.
+   refsynth's default reading, ``edge_rule="silent"``: a node on an edge sends
+   nothing, measured nodes included (an unknown one no message, a measured one
+   no Ψ term on its unknown neighbours), but still listens. ``"paper"``: no
+   message crosses an edge at all — a node on an edge neither sends nor
+   receives (no message, no term of a measured neighbour), so its belief is
+   its own evidence Φ alone.
 6. Eq. 8, the MAP label of each node,
    ``x_i = argmax Φ(x_i, y_i) Π_j M_ji(x_i)``; the centre of its range patch is
    the synthesized range. The pixel's confidence is the normalised belief of
@@ -47,6 +53,19 @@ The algorithm of Fig. 6, step by step:
 
 Everything is array operations over all nodes × k (× k for Ψ and the
 messages), in chunks that bound the memory.
+
+The numeric contract (:mod:`refsynth.numeric`): the candidates are ranked by
+the exact Eq. 2 of :class:`~refsynth.synthesis.similarity.PatchTable` (stable
+sort: ties by the raster order of the disc offsets), Eq. 6's mean squares are
+exact integer sums over the quantised range, and BP runs in float64 in the log
+domain. Max-product needs only ``+ − max``; a node's incoming messages are
+added in the order left, up, right, down, and the fixed neighbours' terms to
+the unary term in the order right, left, below, above. Sum-product and the
+confidence use :func:`~refsynth.numeric.portable_exp` /
+:func:`~refsynth.numeric.portable_log` and sums over the labels from left to
+right. So the output is the same on any machine, and the same as the literal
+reference :func:`refsynth.synthesis.reference.bp_reference`: every array of
+:class:`BPResult` included.
 
 References
 ----------
@@ -64,8 +83,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from refsynth.numeric import (
+    INTENSITY_BITS,
+    RANGE_BITS,
+    left_to_right_sum,
+    portable_exp,
+    quantise_grey,
+    quantise_intensity,
+    quantise_range,
+)
+from refsynth.synthesis.messages import belief_propagation
 from refsynth.synthesis.neighbourhood import disc_offsets
-from refsynth.synthesis.similarity import PatchTable, intensity_scale, range_scale
+from refsynth.synthesis.similarity import PatchTable
 
 __all__ = [
     "BPResult",
@@ -79,7 +108,10 @@ __all__ = [
     "belief_propagation",
 ]
 
-_CHUNK_FLOATS = 1 << 24  # about 64 MB of float32 per temporary block
+_CHUNK_FLOATS = 1 << 24  # about 128 MB of float64 per temporary block
+
+#: The readings of the edge-constraint rule (see above).
+EDGE_RULES = ("silent", "paper")
 
 #: Candidates whose centre ranges differ by at most this fraction of the known
 #: range's span count as one range hypothesis in the confidence map.
@@ -88,7 +120,37 @@ VALUE_TOLERANCE = 0.01
 
 @dataclass(frozen=True)
 class BPResult:
-    """What :func:`bp_fill` returns (wrapped by :func:`refsynth.synthesize`)."""
+    """What :func:`bp_fill` returns (and :attr:`refsynth.SynthesisResult.bp` holds).
+
+    Laid out as :class:`refsynth.synthesis.reference.BPReference`: the nodes are the
+    unknown pixels in raster order (the rows of ``order``); the pairs are the
+    4-neighbour pairs of unknown pixels, horizontal then vertical, each in raster
+    order.
+
+    Attributes
+    ----------
+    range, confidence, order
+        As in :class:`refsynth.SynthesisResult`.
+    iterations : int
+        The sweeps done.
+    candidate_values : ndarray of shape (N, k)
+        The centre range of every candidate (label), in the caller's unit.
+    labels : ndarray of shape (N,), int64
+        The MAP label of each node (Eq. 8, the first maximum).
+    candidates : ndarray of shape (N, k, 2), int64
+        The (row, col) of every candidate's centre, best-ranked first.
+    unary : ndarray of shape (N, k)
+        ``log Φ`` (Eq. 7) plus the terms of measured neighbours.
+    pairs : ndarray of shape (E, 2), int64
+        Node indices of each pair.
+    log_psi : ndarray of shape (E, k, k)
+        ``log Ψ`` (Eq. 6), label of ``pairs[e, 0]`` first.
+    messages : ndarray of shape (2E, k)
+        The final log messages: row ``e`` goes ``pairs[e, 0] → pairs[e, 1]``, row
+        ``E + e`` back.
+    beliefs : ndarray of shape (N, k)
+        The unnormalised log beliefs ``unary + Σ incoming messages``.
+    """
 
     range: np.ndarray
     confidence: np.ndarray
@@ -96,6 +158,12 @@ class BPResult:
     iterations: int
     candidate_values: np.ndarray
     labels: np.ndarray
+    candidates: np.ndarray | None = None
+    unary: np.ndarray | None = None
+    pairs: np.ndarray | None = None
+    log_psi: np.ndarray | None = None
+    messages: np.ndarray | None = None
+    beliefs: np.ndarray | None = None
 
 
 # -- step 2: candidates -----------------------------------------------------------------
@@ -133,16 +201,16 @@ def candidates(
     Returns
     -------
     labels : ndarray of int, shape (N, k)
-        Padded flat indices of the candidates' centres, best first. Where the
-        whole image holds fewer than ``k`` training patches, the last one
-        repeats.
-    distances : ndarray of float32, shape (N, k)
-        Their Eq. 2 distances.
+        Padded flat indices of the candidates' centres, best first (ties in the
+        raster order of the disc offsets). Where the whole image holds fewer
+        than ``k`` training patches, the last one repeats.
+    distances : ndarray of float64, shape (N, k)
+        Their Eq. 2 distances (plus the proximity prior).
     """
     width = shape[1]
     n_nodes = nodes.size
     labels = np.zeros((n_nodes, k), dtype=np.int64)
-    dist = np.full((n_nodes, k), np.inf, dtype=np.float32)
+    dist = np.full((n_nodes, k), np.inf)
     todo = np.arange(n_nodes)
     r = float(radius)
     total_known = int(known.sum())
@@ -161,14 +229,13 @@ def candidates(
             valid &= known[idx]
             d = table.batch_distances(nodes[todo[sl]], idx)
             if proximity:
-                d += (proximity / radius**2) * (dr**2 + dc**2).astype(np.float32)
+                d = d + (proximity / (radius * radius)) * (dr * dr + dc * dc).astype(np.float64)
             d[~valid] = np.inf
             kk = min(k, d.shape[1])
-            part = np.argpartition(d, kk - 1, axis=1)[:, :kk]
-            pd = np.take_along_axis(d, part, axis=1)
-            order = np.argsort(pd, axis=1, kind="stable")
-            best = np.take_along_axis(part, order, axis=1)
-            bd = np.take_along_axis(pd, order, axis=1)
+            # a stable sort: ties in the raster order of the offsets (argpartition's
+            # order is whatever its selection algorithm, SIMD-dispatched, leaves)
+            best = np.argsort(d, axis=1, kind="stable")[:, :kk]
+            bd = np.take_along_axis(d, best, axis=1)
             enough = np.isfinite(bd[:, -1]) if kk == k else np.zeros(bd.shape[0], bool)
             exhausted = pad >= max(shape) or total_known <= np.isfinite(bd).sum(axis=1)
             take = enough | exhausted
@@ -203,30 +270,32 @@ def phi(distance: np.ndarray, sigma_i: float) -> np.ndarray:
     ``distance`` is ``|y^l − y|²``, the Eq. 2 distance of the observation
     patches.
     """
-    return -np.asarray(distance, dtype=np.float64) / (2.0 * sigma_i**2)
+    return -np.asarray(distance, dtype=np.float64) / (2.0 * sigma_i * sigma_i)
 
 
 def psi(mean_square: np.ndarray, sigma_s: float) -> np.ndarray:
     r"""Eq. 6 in the log domain: ``log Ψ = −|d^l − d^m|² / (2σ_s²)``."""
-    return -np.asarray(mean_square, dtype=np.float64) / (2.0 * sigma_s**2)
+    return -np.asarray(mean_square, dtype=np.float64) / (2.0 * sigma_s * sigma_s)
 
 
 def _overlap_mean_square(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Mean squared difference, over the entries both have, of every row pair.
 
-    ``a``: (E, K, F), ``b``: (E, L, F), NaN = missing. Returns (E, K, L);
-    0 where two rows share no entry.
+    ``a``: (E, K, F), ``b``: (E, L, F), normalised range, NaN = missing. Returns
+    (E, K, L); 0 where two rows share no entry. The range is put on the contract's
+    grid, ``rint(2**16 x)``: the expanded squares are then integer sums, exact in
+    any order, and one scaling and one division make the mean.
     """
-    va = np.isfinite(a).astype(np.float32)
-    vb = np.isfinite(b).astype(np.float32)
-    a0 = np.where(va > 0, a, 0.0).astype(np.float32)
-    b0 = np.where(vb > 0, b, 0.0).astype(np.float32)
+    va = np.isfinite(a).astype(np.float64)
+    vb = np.isfinite(b).astype(np.float64)
+    a0 = np.where(va > 0, np.rint(a * 2.0**RANGE_BITS), 0.0)
+    b0 = np.where(vb > 0, np.rint(b * 2.0**RANGE_BITS), 0.0)
     bt = np.swapaxes(b0, 1, 2)
     s = np.matmul(a0 * a0, np.swapaxes(vb, 1, 2))
     s -= 2.0 * np.matmul(a0, bt)
     s += np.matmul(va, bt * bt)
     count = np.matmul(va, np.swapaxes(vb, 1, 2))
-    np.maximum(s, 0.0, out=s)
+    s *= 2.0 ** (-2 * RANGE_BITS)
     return np.divide(s, count, out=np.zeros_like(s), where=count > 0)
 
 
@@ -251,8 +320,9 @@ def pair_compatibilities(
 
     Returns
     -------
-    ndarray of shape (E, K, K), float32
-        ``|d_jk^l − d_kj^m|²`` for ``l`` at ``j`` and ``m`` at ``k``.
+    ndarray of shape (E, K, K), float64
+        ``|d_jk^l − d_kj^m|²`` for ``l`` at ``j`` and ``m`` at ``k``, on the
+        range quantised to ``2**-16`` (exact).
     """
     e, kk = patches_j.shape[:2]
     a = _overlap(patches_j, direction, "left").reshape(e, kk, -1)
@@ -310,119 +380,6 @@ def grid_edges(unknown: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-# -- step 5: belief propagation ----------------------------------------------------------
-
-
-def belief_propagation(
-    unary: np.ndarray,
-    pairs: np.ndarray,
-    log_psi: np.ndarray,
-    *,
-    silent: np.ndarray | None = None,
-    iterations: int = 50,
-    tolerance: float = 1e-4,
-    product: str = "max",
-    damping: float = 0.0,
-    return_messages: bool = False,
-):
-    """Synchronous loopy BP in the log domain (Eq. 9); returns beliefs (Eq. 8).
-
-    Parameters
-    ----------
-    unary : ndarray of shape (N, K)
-        ``log Φ`` plus the terms of fixed neighbours, per node and label.
-    pairs : ndarray of shape (E, 2), int
-        Node indices of each undirected edge ``(a, b)``.
-    log_psi : ndarray of shape (E, K, K)
-        ``log Ψ[e, l, m]`` for label ``l`` at ``a`` and ``m`` at ``b``.
-    silent : ndarray of shape (N,), bool, optional
-        Nodes that send no message (the edge-constraint rule).
-    iterations : int
-        At most this many synchronous sweeps.
-    tolerance : float
-        Stop when no message changes by more than this (log domain).
-    product : {"max", "sum"}
-        Max-product (MAP) or sum-product (marginals).
-    damping : float in [0, 1)
-        Each new message is ``(1 − damping)·new + damping·old`` (log domain);
-        0 is the plain synchronous schedule.
-    return_messages : bool
-        Also return the final messages.
-
-    Returns
-    -------
-    beliefs : ndarray of shape (N, K)
-        Unnormalised log beliefs ``unary + Σ incoming messages``.
-    iterations : int
-        The sweeps done.
-    messages : ndarray of shape (2E, K), only with ``return_messages``
-        Log messages; row ``e < E`` goes from ``pairs[e, 0]`` to
-        ``pairs[e, 1]``, row ``E + e`` back. Each is normalised: its maximum
-        (max-product) or its log-sum-exp (sum-product) is 0.
-    """
-    n, k = unary.shape
-    e = pairs.shape[0]
-    a, b = pairs[:, 0], pairs[:, 1]
-    # directed messages: [0, e) go a -> b, [e, 2e) go b -> a
-    messages = np.zeros((2 * e + 1, k), dtype=np.float32)  # the last row: "no message"
-    src = np.concatenate([a, b])
-    dst = np.concatenate([b, a])
-    rev = np.concatenate([np.arange(e, 2 * e), np.arange(e)])
-    # incoming messages of each node: up to 4 (the 4-neighbourhood)
-    order = np.argsort(dst, kind="stable")
-    counts = np.bincount(dst, minlength=n)
-    slot = np.arange(2 * e) - np.repeat(np.cumsum(counts) - counts, counts)
-    incoming = np.full((n, max(int(counts.max(initial=0)), 1)), 2 * e, dtype=np.int64)
-    incoming[dst[order], slot] = order
-    sends = np.ones(2 * e, dtype=bool) if silent is None else ~silent[src]
-    unary = unary.astype(np.float32)
-    log_psi = np.asarray(log_psi, dtype=np.float32)
-    done = 0
-    for done in range(1, iterations + 1):  # noqa: B007 - the count is returned
-        belief = unary + messages[incoming].sum(axis=1)
-        h = belief[src] - messages[rev]  # leave out the receiver's own message
-        new = np.empty((2 * e, k), dtype=np.float32)
-        _send(new[:e], h[:e], log_psi, axis=1, product=product)
-        _send(new[e:], h[e:], log_psi, axis=2, product=product)
-        new[~sends] = 0.0
-        if damping:
-            new *= 1.0 - damping
-            new += damping * messages[:-1]
-        change = float(np.max(np.abs(new - messages[:-1]), initial=0.0))
-        messages[:-1] = new
-        if change <= tolerance:
-            break
-    belief = (unary + messages[incoming].sum(axis=1)).astype(np.float64)
-    if return_messages:
-        return belief, done, messages[:-1].copy()
-    return belief, done
-
-
-def _send(out: np.ndarray, h: np.ndarray, log_psi: np.ndarray, *, axis: int, product: str):
-    """One direction of Eq. 9 for a block of edges, normalised (max or log-sum = 0)."""
-    k = h.shape[1]
-    chunk = max(1, _CHUNK_FLOATS // (k * k))
-    for start in range(0, h.shape[0], chunk):
-        sl = slice(start, start + chunk)
-        if axis == 1:  # sender is the first node: its label indexes rows of psi
-            t = log_psi[sl] + h[sl, :, None]
-        else:
-            t = log_psi[sl] + h[sl, None, :]
-        if product == "max":
-            m = t.max(axis=axis)
-            m -= m.max(axis=1, keepdims=True)
-        else:
-            top = t.max(axis=axis, keepdims=True)
-            m = np.log(np.exp(t - top).sum(axis=axis)) + np.squeeze(top, axis=axis)
-            m -= _logsumexp(m)[:, None]
-        out[sl] = m
-
-
-def _logsumexp(x: np.ndarray) -> np.ndarray:
-    top = x.max(axis=1)
-    return np.log(np.exp(x - top[:, None]).sum(axis=1)) + top
-
-
 # -- the whole algorithm -------------------------------------------------------------------
 
 
@@ -444,6 +401,8 @@ def bp_fill(
     range_weight: float = 16.0,
     missing_range: str = "mean",
     proximity: float = 1.0,
+    colour: bool = True,
+    edge_rule: str = "silent",
     progress: Callable[[int, int], None] | None = None,
 ) -> BPResult:
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
@@ -460,23 +419,29 @@ def bp_fill(
         (the synthesized pixels in raster order), ``iterations``,
         ``candidate_values`` ((N, k) centre range of every candidate, in the
         caller's unit, rows in ``order``), ``labels`` ((N,) index of the MAP
-        candidate).
+        candidate), and the model and its messages (see :class:`BPResult`).
     """
     H, W = range_values.shape
     n = neighbourhood
     h = n // 2
     known = np.isfinite(range_values)
-    low, span = range_scale(range_values)
-    range_norm = (range_values - low) / span
-    image = image / intensity_scale(image)
+    # the contract: intensity and range on the 2**-16 grids of their spans
+    rq, _, span = quantise_range(range_values)
+    range_norm = np.where(known, rq * 2.0**-RANGE_BITS, np.nan)
+    levels = quantise_intensity(image)
+    if not colour:
+        levels = quantise_grey(levels)[:, :, None]
     pad = max(int(np.ceil(radius)), h + 1)
-    table = PatchTable(image, range_norm, n, pad, range_weight, missing_range, np.float32)
+    table = PatchTable(levels * 2.0**-INTENSITY_BITS, range_norm, n, pad, range_weight,
+                       missing_range)
     Hp, Wp = H + 2 * pad, W + 2 * pad
     known_pad = np.pad(known, pad).ravel()
     unknown = ~known
     flat = np.flatnonzero(unknown)
     rows, cols = np.divmod(flat, W)
     nodes = (rows + pad) * Wp + (cols + pad)
+    on_edge = (np.asarray(edges, dtype=bool) & use_edges).ravel()
+    deaf = on_edge[flat] if edge_rule == "paper" else np.zeros(flat.size, dtype=bool)
     total = 5
     step = 0
 
@@ -488,10 +453,10 @@ def bp_fill(
 
     # step 2: candidates, and step 3: log Phi
     labels, dist = candidates(table, nodes, known_pad, (Hp, Wp), k, radius, proximity)
-    unary = phi(dist, sigma_i).astype(np.float32)
+    unary = phi(dist, sigma_i)
     tick()
     # range patches of the padded frame (NaN outside measured range)
-    rpad = np.pad(np.where(known, range_norm, np.nan), pad + h, constant_values=np.nan)
+    rpad = np.pad(range_norm, pad + h, constant_values=np.nan)
     patches = sliding_window_view(rpad, (n, n))  # (Hp, Wp, n, n), a view
     patches = patches.reshape(Hp * Wp, n, n)
     cand_rows, cand_cols = np.divmod(labels, Wp)
@@ -499,7 +464,9 @@ def bp_fill(
     node_of = np.full(H * W, -1, dtype=np.int64)
     node_of[flat] = np.arange(flat.size)
     pairs_all = grid_edges(unknown)
-    # step 4: fixed neighbours -> unary terms
+    # step 4: fixed neighbours -> unary terms, in the order right, left, below, above;
+    # the edge rule: a measured node on an edge sends no term (and, with the paper's
+    # rule, a node on an edge receives none)
     for direction in ("h", "v"):
         fixed_pairs = pairs_all[direction + "_fixed"]
         if fixed_pairs.size == 0:
@@ -507,10 +474,12 @@ def bp_fill(
         first_unknown = unknown.ravel()[fixed_pairs[:, 0]]
         for side, which in (("right", first_unknown), ("left", ~first_unknown)):
             sel = fixed_pairs[which]
-            if sel.size == 0:
-                continue
             node_pix = sel[:, 0] if side == "right" else sel[:, 1]
             fixed_pix = sel[:, 1] if side == "right" else sel[:, 0]
+            keep = ~on_edge[fixed_pix] & ~deaf[node_of[node_pix]]
+            node_pix, fixed_pix = node_pix[keep], fixed_pix[keep]
+            if node_pix.size == 0:
+                continue
             fr, fc = np.divmod(fixed_pix, W)
             node = node_of[node_pix]
             chunk = max(1, _CHUNK_FLOATS // (k * n * n * 4))
@@ -520,7 +489,7 @@ def bp_fill(
                 fp = patches[((fr[s] + pad) * Wp + fc[s] + pad)][:, None]
                 ms = fixed_neighbour_terms(cp, fp, direction, side)
                 # each node has one such neighbour per direction and side
-                unary[node[s]] += psi(ms, sigma_s).astype(np.float32)
+                unary[node[s]] += psi(ms, sigma_s)
     tick()
     # step 4: k x k compatibilities between unknown neighbours
     pair_list, psi_list = [], []
@@ -528,7 +497,7 @@ def bp_fill(
         pairs = node_of[pairs_all[direction]]
         if pairs.size == 0:
             continue
-        out = np.empty((pairs.shape[0], k, k), dtype=np.float32)
+        out = np.empty((pairs.shape[0], k, k))
         chunk = max(1, _CHUNK_FLOATS // (k * k * 4))
         for start in range(0, pairs.shape[0], chunk):
             s = slice(start, start + chunk)
@@ -538,21 +507,20 @@ def bp_fill(
         pair_list.append(pairs)
         psi_list.append(out)
     pairs = np.concatenate(pair_list) if pair_list else np.zeros((0, 2), np.int64)
-    log_psi = np.concatenate(psi_list) if psi_list else np.zeros((0, k, k), np.float32)
+    log_psi = np.concatenate(psi_list) if psi_list else np.zeros((0, k, k))
     del psi_list
     tick()
-    # step 5: messages; the edge-constraint rule silences edge nodes
-    silent = edges.ravel()[flat] if use_edges else None
-    belief, done = belief_propagation(
-        unary, pairs, log_psi, silent=silent, iterations=iterations,
-        tolerance=tolerance, product=product, damping=damping,
+    # step 5: messages; the edge-constraint rule silences (and deafens) edge nodes
+    belief, done, messages = belief_propagation(
+        unary, pairs, log_psi, silent=on_edge[flat] if use_edges else None,
+        deaf=deaf if edge_rule == "paper" else None, iterations=iterations,
+        tolerance=tolerance, product=product, damping=damping, return_messages=True,
     )
     tick()
     # step 6: MAP label, its centre range, and its normalised belief
     best = np.argmax(belief, axis=1)
-    belief -= belief.max(axis=1, keepdims=True)
-    prob = np.exp(belief)
-    prob /= prob.sum(axis=1, keepdims=True)
+    prob = portable_exp(belief - belief.max(axis=1, keepdims=True))
+    prob = prob / left_to_right_sum(prob, axis=1)[:, None]
     centre = np.where(known, range_values, 0.0)
     cand_values = centre[cand_rows - pad, cand_cols - pad]
     out = range_values.copy()
@@ -562,7 +530,8 @@ def bp_fill(
     # within VALUE_TOLERANCE of the known span of it are the same range hypothesis
     chosen = cand_values[np.arange(flat.size), best]
     same = np.abs(cand_values - chosen[:, None]) <= VALUE_TOLERANCE * span
-    confidence[unknown] = np.minimum((prob * same).sum(axis=1), 1.0)
+    pooled = left_to_right_sum(np.where(same, prob, 0.0), axis=1)
+    confidence[unknown] = np.minimum(pooled, 1.0)
     tick()
     return BPResult(
         range=out,
@@ -571,4 +540,10 @@ def bp_fill(
         iterations=done,
         candidate_values=cand_values,
         labels=best,
+        candidates=np.stack([cand_rows - pad, cand_cols - pad], axis=-1).astype(np.int64),
+        unary=unary,
+        pairs=pairs.astype(np.int64),
+        log_psi=log_psi,
+        messages=messages,
+        beliefs=belief,
     )

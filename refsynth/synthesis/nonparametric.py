@@ -24,6 +24,25 @@ matrix–vector product of :class:`refsynth.synthesis.similarity.PatchTable`
 windows around each newly filled voxel; the fill order is kept up to date the
 same way by :class:`refsynth.synthesis.priority.FillFront`.
 
+The numeric contract
+--------------------
+Eq. 2 runs on the intensity and range quantised to ``2**-16`` of their spans
+(:mod:`refsynth.numeric`), in exact integer sums, and a synthesized pixel's
+confidence is rounded to ``2**-40``: every decision of the loop (Eq. 4's
+argmin, Eq. 5's threshold, the fill order) is then the same on any machine,
+and the same as in the literal reference
+:func:`refsynth.synthesis.reference.np_reference`. Ties: Eq. 4 takes the first
+minimum in the raster order of the disc offsets, Eq. 5's members keep that
+order and the step's draw ``u`` picks member ``floor(u |Γ'|)``.
+
+The confidence of a synthesized voxel (Eq. 11)
+----------------------------------------------
+``confidence_update="product"`` (refsynth's reading so far) gives ``V_p`` the
+confidence ``C(p) · C(N_best)``: its own Eq. 11 value times that of the
+neighbourhood it matched best. ``"best"`` gives it ``C(N_best)``, the text
+after Eq. 11 read literally ("the confidence of the augmented voxel which most
+resemble the neighborhood of V_p is assigned to C(V_p)").
+
 A gap wider than ``r``
 ----------------------
 The fill proceeds along the front ``δΩ``: every voxel it picks has a known or
@@ -46,9 +65,20 @@ from collections.abc import Callable
 
 import numpy as np
 
+from refsynth.numeric import (
+    INTENSITY_BITS,
+    RANGE_BITS,
+    on_confidence_grid,
+    quantise_grey,
+    quantise_intensity,
+    quantise_range,
+)
 from refsynth.synthesis.neighbourhood import disc_offsets
 from refsynth.synthesis.priority import FillFront, onion_order
-from refsynth.synthesis.similarity import PatchTable, intensity_scale, range_scale
+from refsynth.synthesis.similarity import PatchTable
+
+#: The readings of the confidence a synthesized voxel receives (Eq. 11).
+CONFIDENCE_UPDATES = ("product", "best")
 
 __all__ = ["eq5_set", "np_fill"]
 
@@ -75,7 +105,8 @@ def _widened_candidates(p: int, filled: np.ndarray, width: int, radius: float) -
     """All filled voxels within ``d + radius`` of ``p`` (``d``: distance to the nearest)."""
     flat = np.flatnonzero(filled)
     pr, pc = divmod(p, width)
-    dist = np.hypot(flat // width - pr, flat % width - pc)
+    dr, dc = flat // width - pr, flat % width - pc
+    dist = np.sqrt((dr * dr + dc * dc).astype(np.float64))  # correctly rounded, unlike hypot
     return flat[dist <= dist.min() + radius]
 
 
@@ -93,6 +124,9 @@ def np_fill(
     ordering: str = "priority",
     range_weight: float = 16.0,
     missing_range: str = "mean",
+    confidence_update: str = "product",
+    colour: bool = True,
+    edges_last: bool = True,
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fill the unknown range by NP sampling in the chosen order (§3.2.2, §3.2.4).
@@ -106,7 +140,7 @@ def np_fill(
     edges : ndarray of shape (H, W), bool
     rng : numpy.random.Generator
     neighbourhood, radius, epsilon, use_edges, use_isophotes, ordering, range_weight,
-    missing_range, progress
+    missing_range, confidence_update, colour, edges_last, progress
         See :func:`refsynth.synthesize`.
 
     Returns
@@ -121,12 +155,16 @@ def np_fill(
     H, W = range_values.shape
     n = neighbourhood
     known = np.isfinite(range_values)
-    low, span = range_scale(range_values)
-    range_norm = (range_values - low) / span
-    image = image / intensity_scale(image)
+    # the contract: intensity and range on the 2**-16 grids of their spans
+    rq = quantise_range(range_values)[0]
+    range_norm = np.where(known, rq * 2.0**-RANGE_BITS, np.nan)
+    levels = quantise_intensity(image)
+    if not colour:
+        levels = quantise_grey(levels)[:, :, None]
 
     pad = max(int(np.ceil(radius)), n // 2 + 1)
-    table = PatchTable(image, range_norm, n, pad, range_weight, missing_range, np.float32)
+    table = PatchTable(levels * 2.0**-INTENSITY_BITS, range_norm, n, pad, range_weight,
+                       missing_range)
     front = FillFront(
         known,
         range_norm,
@@ -136,6 +174,7 @@ def np_fill(
         rng,
         use_edges=use_edges,
         use_isophotes=use_isophotes,
+        edges_last=edges_last,
     )
     Wp = front.shape[1]
     dr, dc = disc_offsets(radius)
@@ -164,8 +203,10 @@ def np_fill(
         q = int(candidates[members[int(draws[step] * members.size)]])
         value = float(values[q])
         original[p] = original[q]
-        confidence = float(front.confidence_at(p) * front.confidence_at(candidates[best]))
-        front.fill(p, value, confidence, update=ordering != "onion")
+        confidence = float(front.confidence_at(candidates[best]))
+        if confidence_update == "product":
+            confidence = float(front.confidence_at(p)) * confidence
+        front.fill(p, value, on_confidence_grid(confidence), update=ordering != "onion")
         table.set_range(p, value)
         order[step] = p
         if progress is not None and (step + 1) % tick == 0:

@@ -13,23 +13,33 @@ already synthesized 8-neighbour) gets the priority
 
 * ``E`` counts the Canny edge pixels in ``N_p``; pixels *on* an edge are
   synthesized last (they form a second tier: they are taken only when no
-  non-edge pixel is left on the front).
+  non-edge pixel is left on the front; ``edges_last=False`` drops the tier and
+  keeps only the ``1 / (1 + E)`` term).
 * ``C`` is 1 where range was measured and 0 where it is unknown. ``|N_p|``
   counts the voxels of ``N_p`` that lie in the image, so a fully known window
   has ``C = 1`` also at the border. When ``V_p`` is synthesized it receives
   ``C(V_p) · C(N_best)``: its Eq. 11 confidence at that moment times the Eq. 11
   confidence of the neighbourhood it matched best — our reading of "the
   confidence of the augmented voxel which most resemble the neighborhood of
-  ``V_p`` is assigned to ``C(V_p)``". Both factors lie in [0, 1], so
-  confidence decays with distance from measured data.
+  ``V_p`` is assigned to ``C(V_p)``" (``confidence_update="product"``, the
+  default). Both factors lie in [0, 1], so confidence decays with distance
+  from measured data. ``confidence_update="best"`` gives ``C(N_best)`` alone,
+  the sentence read literally (:mod:`refsynth.synthesis.nonparametric`).
 * ``∇I⊥_p`` is the isophote *of the range*: the mean range gradient over the
   pairs of horizontally (vertically) adjacent voxels of ``N_p`` that both have
-  range, rotated by 90°. ``n_p`` is the unit normal of the front, the
-  normalised Sobel gradient of the filled mask. The range is normalised by the
+  range, rotated by 90°. Both voxels of a pair lie in ``N_p``, so the term
+  reaches equally far on every side: mirroring the input mirrors the order.
+  ``n_p`` is the unit normal of the front, the normalised Sobel gradient of
+  the filled mask. The range is normalised by the
   span of the known range, so ``α = 1``. Note the ``1 −``: unlike Criminisi et
   al. (2003), an isophote flowing into the hole *lowers* the priority,
   deferring voxels near depth discontinuities.
 * Ties are broken by a seeded random permutation of the pixels.
+
+The numeric contract (:mod:`refsynth.numeric`): the range is a multiple of
+``2**-16`` and a synthesized confidence of ``2**-40``, so every running sum
+below is exact and equals a fresh sum in any order; ``‖n_p‖`` is
+``sqrt(m_row² + m_col²)`` (libm's ``hypot`` is not correctly rounded).
 
 The functions below compute each term over the whole image; :class:`FillFront`
 keeps the same quantities up to date incrementally as voxels are filled (box
@@ -120,21 +130,37 @@ def _pair_differences(range_norm: np.ndarray, filled: np.ndarray):
     return d_row * v_row, v_row, d_col * v_col, v_col
 
 
+def _pair_sum(values: np.ndarray, n: int, axis: int) -> np.ndarray:
+    """Sum, over the n×n window, of pair values stored at the pair's first voxel.
+
+    Only pairs with *both* voxels in the window count: along ``axis`` the first
+    voxel lies in the window's first ``n − 1`` rows (columns).
+    """
+    kernel = np.ones((n, n))
+    if axis == 0:
+        kernel[-1, :] = 0.0
+    else:
+        kernel[:, -1] = 0.0
+    return ndimage.correlate(np.asarray(values, dtype=np.float64), kernel, mode="constant",
+                             cval=0.0)
+
+
 def range_gradient(
     range_norm: np.ndarray, filled: np.ndarray, n: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """The range gradient at each pixel from the available range in ``N_p``.
 
     The mean forward difference over the pairs of vertically (horizontally)
-    adjacent voxels in the window that both have range; 0 where there is none.
+    adjacent voxels of the window (both voxels in it) that both have range; 0
+    where there is none.
 
     Returns
     -------
     g_row, g_col : ndarray of shape (H, W)
     """
     d_row, v_row, d_col, v_col = _pair_differences(range_norm, filled)
-    g_row = box_sum(d_row, n) / np.maximum(box_sum(v_row, n), 1.0)
-    g_col = box_sum(d_col, n) / np.maximum(box_sum(v_col, n), 1.0)
+    g_row = _pair_sum(d_row, n, 0) / np.maximum(_pair_sum(v_row, n, 0), 1.0)
+    g_col = _pair_sum(d_col, n, 1) / np.maximum(_pair_sum(v_col, n, 1), 1.0)
     return g_row, g_col
 
 
@@ -146,7 +172,7 @@ def front_normals(filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     mask = np.asarray(filled, dtype=np.float64)
     m_row = ndimage.correlate(mask, _SOBEL_ROW, mode="constant", cval=0.0)
     m_col = ndimage.correlate(mask, _SOBEL_COL, mode="constant", cval=0.0)
-    norm = np.hypot(m_row, m_col)
+    norm = np.sqrt(m_row * m_row + m_col * m_col)
     safe = np.where(norm > 0, norm, 1.0)
     return m_row / safe, m_col / safe
 
@@ -234,15 +260,16 @@ def _update_templates(n: int) -> np.ndarray:
     t = np.zeros((10, m, m, _FIELDS))
     centre = (slice(1, n + 1), slice(1, n + 1))
     t[0][centre + (_CONF,)] = 1.0
-    # the pair (p - e, p) is stored at p - e: its window is shifted by -e
-    t[1][1 : n + 1, 0:n, _DCOL] = 1.0
-    t[2][1 : n + 1, 0:n, _VCOL] = 1.0
-    t[3][centre + (_DCOL,)] = 1.0
-    t[4][centre + (_VCOL,)] = 1.0
-    t[5][0:n, 1 : n + 1, _DROW] = 1.0
-    t[6][0:n, 1 : n + 1, _VROW] = 1.0
-    t[7][centre + (_DROW,)] = 1.0
-    t[8][centre + (_VROW,)] = 1.0
+    # a pair counts in the windows that hold both its voxels: the new voxel p's
+    # window, less the column (row) on the side away from its partner
+    t[1][1 : n + 1, 1:n, _DCOL] = 1.0       # (p - e_col, p): windows left of p's edge
+    t[2][1 : n + 1, 1:n, _VCOL] = 1.0
+    t[3][1 : n + 1, 2 : n + 1, _DCOL] = 1.0  # (p, p + e_col)
+    t[4][1 : n + 1, 2 : n + 1, _VCOL] = 1.0
+    t[5][1:n, 1 : n + 1, _DROW] = 1.0       # (p - e_row, p)
+    t[6][1:n, 1 : n + 1, _VROW] = 1.0
+    t[7][2 : n + 1, 1 : n + 1, _DROW] = 1.0  # (p, p + e_row)
+    t[8][2 : n + 1, 1 : n + 1, _VROW] = 1.0
     h = n // 2
     near = (slice(h, h + 3), slice(h, h + 3))
     t[9][near + (_MROW,)] = _SOBEL_ROW[::-1, ::-1]
@@ -277,6 +304,10 @@ class FillFront:
         Breaks ties between equal priorities.
     use_edges, use_isophotes : bool
         As in :func:`priority`.
+    edges_last : bool, default True
+        With ``use_edges``: edge voxels form a second tier, taken only when no
+        other voxel is left on the front; False keeps only Eq. 10's
+        ``1 / (1 + E)`` term.
     """
 
     def __init__(
@@ -290,6 +321,7 @@ class FillFront:
         *,
         use_edges: bool = True,
         use_isophotes: bool = True,
+        edges_last: bool = True,
     ) -> None:
         h = n // 2
         pad = check_int("pad", pad, minimum=h + 1)  # n // 2 + 1
@@ -304,8 +336,8 @@ class FillFront:
         state = np.empty(self.shape + (_FIELDS,))
         state[..., _CONF] = box_sum(self.confidence, n)
         d_row, v_row, d_col, v_col = _pair_differences(self.range_norm, self.filled)
-        state[..., _DROW], state[..., _VROW] = box_sum(d_row, n), box_sum(v_row, n)
-        state[..., _DCOL], state[..., _VCOL] = box_sum(d_col, n), box_sum(v_col, n)
+        state[..., _DROW], state[..., _VROW] = _pair_sum(d_row, n, 0), _pair_sum(v_row, n, 0)
+        state[..., _DCOL], state[..., _VCOL] = _pair_sum(d_col, n, 1), _pair_sum(v_col, n, 1)
         mask = self.filled.astype(np.float64)
         state[..., _MROW] = ndimage.correlate(mask, _SOBEL_ROW, mode="constant")
         state[..., _MCOL] = ndimage.correlate(mask, _SOBEL_COL, mode="constant")
@@ -315,7 +347,8 @@ class FillFront:
         state[..., _EDGE] = 1.0 / (1.0 + box_sum(edge_pad, n)) if use_edges else 1.0
         self.state = state
         self.templates = _update_templates(n)
-        self.tier = edge_pad.astype(np.int8) if use_edges else np.zeros(self.shape, np.int8)
+        tiered = use_edges and edges_last
+        self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
         self.tie = rng.permutation(self.inside.size).reshape(self.shape)
         self.current = np.full(self.shape, np.nan)
 
@@ -341,7 +374,7 @@ class FillFront:
         g_row = block[..., _DROW] / np.maximum(block[..., _VROW], 1.0)
         g_col = block[..., _DCOL] / np.maximum(block[..., _VCOL], 1.0)
         m_row, m_col = block[..., _MROW], block[..., _MCOL]
-        norm = np.hypot(m_row, m_col)
+        norm = np.sqrt(m_row * m_row + m_col * m_col)
         norm[norm == 0] = 1.0
         # Eq. 12 with alpha = 1; the isophote is the gradient turned by 90 degrees
         d = 1.0 - np.abs(g_row * m_col - g_col * m_row) / norm  # <= 1 by construction

@@ -30,6 +30,13 @@ order of a floating-point reduction, so the quantities that feed decisions are *
 5. Ties: the first candidate in raster order of the disc offsets (Eq. 4, BP's ranking);
    equal priorities by the seeded permutation ``tie`` (Eqs. 10–12).
 
+The helpers of the contract live in :mod:`refsynth.numeric` and are re-exported here.
+
+The options of issue #10 (each is a reading of the paper; the defaults are refsynth's
+readings until they are audited on real data) are implemented here as plainly as the rest:
+``confidence_update`` (Eq. 11's update), ``colour`` (Eq. 2 on the colour channels or on grey),
+``edges_last`` (NP's edge tier) and ``edge_rule`` (BP's edge-constraint rule).
+
 References
 ----------
 Torres-Méndez & Dudek (2008), §3.2.2–§3.2.4, Eqs. 2–12, Fig. 6, doi:10.1007/s11263-007-0108-2.
@@ -42,114 +49,37 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from refsynth.numeric import (
+    CONFIDENCE_BITS,
+    INTENSITY_BITS,
+    NO_RANGE,
+    RANGE_BITS,
+    SUPPORT_PRIOR,
+    WINDOW_BITS,
+    combine_eq2,
+    on_confidence_grid,
+    portable_exp,
+    portable_log,
+    quantise_grey,
+    quantise_intensity,
+    quantise_range,
+    window_weights,
+)
+
 __all__ = [
-    "quantise_intensity", "quantise_range", "window_weights", "portable_exp", "portable_log",
-    "combine_eq2", "on_confidence_grid", "eq2_distance", "confidence_term", "priority_terms",
-    "disc_offsets", "overlap_mean_square",
+    "quantise_intensity", "quantise_grey", "quantise_range", "window_weights", "portable_exp",
+    "portable_log", "combine_eq2", "on_confidence_grid", "eq2_distance", "confidence_term",
+    "priority_terms", "disc_offsets", "overlap_mean_square",
     "np_reference", "bp_reference", "NPReference", "BPReference",
+    "INTENSITY_BITS", "RANGE_BITS", "WINDOW_BITS", "CONFIDENCE_BITS", "SUPPORT_PRIOR",
+    "NO_RANGE", "VALUE_TOLERANCE",
 ]
 
-INTENSITY_BITS = RANGE_BITS = 16   #: quantisation of the normalised intensity and range
-WINDOW_BITS = 18                   #: the Gaussian window sums to about 2**WINDOW_BITS
-CONFIDENCE_BITS = 40               #: confidences are multiples of 2**-CONFIDENCE_BITS
-SUPPORT_PRIOR = 1e-4               #: ε of the mean-filled range term (see similarity.py)
 VALUE_TOLERANCE = 0.01             #: BP: centres this close (of the span) are one hypothesis
-NO_RANGE = -1                      #: a quantised range array holds this where range is unknown
-_UNIT = 2.0 ** -(2 * RANGE_BITS + WINDOW_BITS)   # one unit of an integer Eq. 2 sum
-_WEIGHT = 2.0 ** -WINDOW_BITS
 _SOBEL_ROW = ((-1, -2, -1), (0, 0, 0), (1, 2, 1))
 
 
-# -- the numeric contract ------------------------------------------------------------------
-
-
-def quantise_intensity(image: np.ndarray) -> np.ndarray:
-    """Intensity (H, W, C) → int64 in [0, 2**16]: ``rint(2**16 (I − min I) / (max I − min I))``."""
-    low = float(np.min(image))
-    span = float(np.max(image)) - low
-    span = span if span > 0 else 1.0
-    return np.rint((image - low) / span * 2.0**INTENSITY_BITS).astype(np.int64)
-
-
-def quantise_range(range_values: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """Range (H, W), NaN unknown → (int64 with :data:`NO_RANGE` where unknown, low, span)."""
-    known = np.isfinite(range_values)
-    low = float(np.min(range_values[known]))
-    span = float(np.max(range_values[known])) - low
-    span = span if span > 0 else 1.0
-    q = np.rint((np.where(known, range_values, low) - low) / span * 2.0**RANGE_BITS)
-    return np.where(known, q, NO_RANGE).astype(np.int64), low, span
-
-
-def portable_exp(x):
-    """``exp(x)`` from IEEE ``+ − × ÷`` and ``ldexp`` only: the same bits on every machine.
-
-    ``x = k ln 2 + r`` (Cody–Waite, ``|r| ≤ ln2 / 2``), ``exp(r)`` by Horner on the Taylor
-    series to degree 13, then ``2**k``. Accurate to a few ulp; 0 below −745.
-    """
-    x = np.asarray(x, dtype=np.float64)
-    k = np.rint(x * 1.4426950408889634)
-    r = (x - k * 6.93147180369123816490e-01) - k * 1.90821492927058770002e-10
-    p = np.full_like(x, 1.0 / math.factorial(13))
-    for j in range(12, -1, -1):
-        p = p * r + 1.0 / math.factorial(j)
-    k = np.clip(np.nan_to_num(k, nan=0.0), -1100, 1100).astype(np.int64)
-    return np.where(x < -745.0, 0.0, np.ldexp(p, k))
-
-
-def portable_log(x):
-    """``log(x)``, ``x > 0``, from IEEE ``+ − × ÷`` and ``frexp``: ``x = f 2**e``,
-    ``log f = 2 atanh((f − 1)/(f + 1))`` by its series to degree 31."""
-    x = np.asarray(x, dtype=np.float64)
-    f, e = np.frexp(x)
-    low = f < 0.7071067811865476
-    f = np.where(low, 2.0 * f, f)
-    e = np.where(low, e - 1, e).astype(np.float64)
-    z = (f - 1.0) / (f + 1.0)
-    z2 = z * z
-    s = np.full_like(x, 1.0 / 31.0)
-    for j in range(29, 0, -2):
-        s = s * z2 + 1.0 / j
-    return (e * 6.93147180369123816490e-01 + 2.0 * z * s) + e * 1.90821492927058770002e-10
-
-
-def window_weights(n: int) -> np.ndarray:
-    r"""Eq. 2's Gaussian window as int64, ``rint(2**18 G_v)``, ``G ∝ exp(−|v|²/2σ²)``, σ = n/6.4.
-
-    >>> int(window_weights(5)[2, 2]), int(window_weights(5).sum())
-    (68443, 262151)
-    """
-    sigma = n / 6.4
-    h = n // 2
-    e = [float(portable_exp(-(i * i + j * j) / (2.0 * sigma * sigma)))
-         for i in range(-h, h + 1) for j in range(-h, h + 1)]
-    total = 0.0
-    for value in e:   # left to right, raster order
-        total += value
-    return np.array([round(value / total * 2.0**WINDOW_BITS) for value in e],
-                    dtype=np.int64).reshape(n, n)
-
-
-def combine_eq2(si: int, sr: int, ws: int, wa: int, channels: int, range_weight: float,
-                missing_range: str) -> float:
-    r"""Eq. 2 from its four exact integer sums, in a fixed order of IEEE operations.
-
-    ``si = Σ_v G_v Σ_c ΔI²``, ``sr = Σ_{v∈S} G_v ΔR²`` (``S``: offsets both have range),
-    ``ws = Σ_{v∈S} G_v``, ``wa = Σ_{v∈A} G_v`` (``A``: offsets the target has range).
-    ``"ignore"``: ``si/C + λ sr`` (the literal Eq. 2); ``"mean"``:
-    ``si/C + (λ sr + λε) · (wa / (ws + ε))`` (see :mod:`refsynth.synthesis.similarity`).
-    """
-    intensity = (si * _UNIT) / channels
-    range_term = range_weight * (sr * _UNIT)
-    if missing_range == "mean":
-        range_term = (range_term + range_weight * SUPPORT_PRIOR) * (
-            (wa * _WEIGHT) / (ws * _WEIGHT + SUPPORT_PRIOR))
-    return intensity + range_term
-
-
-def on_confidence_grid(value: float) -> float:
-    """Round a confidence to a multiple of ``2**-40`` (so window sums of Eq. 11 are exact)."""
-    return float(np.rint(value * 2.0**CONFIDENCE_BITS)) * 2.0**-CONFIDENCE_BITS
+# -- the numeric contract (the helpers live in refsynth.numeric) ---------------------------
 
 
 def disc_offsets(radius: float) -> list[tuple[int, int]]:
@@ -187,13 +117,17 @@ class _Frame:
 
     Intensity is mirrored beyond the border (as :func:`~refsynth.synthesis.neighbourhood.
     intensity_patches`); there is no range off the image. ``qr`` is updated as NP fills.
+    With ``colour=False`` the intensity is the quantised grey level (:func:`quantise_grey`).
     """
 
-    def __init__(self, image, range_values, n):
+    def __init__(self, image, range_values, n, colour=True):
         self.n, self.h = n, n // 2
         self.shape = range_values.shape
         pad = ((self.h, self.h), (self.h, self.h))
-        self.qi = np.pad(quantise_intensity(image), pad + ((0, 0),), mode="symmetric")
+        qi = quantise_intensity(image)
+        if not colour:   # Eq. 2 on the grey level (one channel)
+            qi = quantise_grey(qi)[:, :, None]
+        self.qi = np.pad(qi, pad + ((0, 0),), mode="symmetric")
         qr, self.low, self.span = quantise_range(range_values)
         self.qr = np.pad(qr, pad, constant_values=NO_RANGE)
         self.window = window_weights(n)
@@ -237,10 +171,10 @@ def priority_terms(r, c, filled, qr, conf, edge_count, n, *, use_isophotes=True)
 
     ``C`` is Eq. 11. ``D = 1 − |g_row m_col − g_col m_row| / ‖m‖`` is Eq. 12 with α = 1: ``g``
     the mean forward difference of the quantised range, ``(R_b − R_a) 2**-16``, over the
-    vertically (``g_row``) or horizontally (``g_col``) adjacent filled pairs ``(a, b)`` whose
-    first voxel ``a`` lies in ``N_p``; ``m`` the Sobel gradient of the filled mask (the front
-    normal); D = 1 with ``use_isophotes=False``. ``edge_count`` is ``E``, or None without
-    edges (the term is then 1).
+    vertically (``g_row``) or horizontally (``g_col``) adjacent filled pairs ``(a, b)`` that lie
+    in ``N_p`` (both voxels: the window is the same on every side, so mirroring the input
+    mirrors D); ``m`` the Sobel gradient of the filled mask (the front normal); D = 1 with
+    ``use_isophotes=False``. ``edge_count`` is ``E``, or None without edges (the term is then 1).
     """
     H, W = filled.shape
     h = n // 2
@@ -248,11 +182,13 @@ def priority_terms(r, c, filled, qr, conf, edge_count, n, *, use_isophotes=True)
     if not use_isophotes:
         return confidence_term(conf, r, c, n), 1.0, e_term
     sum_row = count_row = sum_col = count_col = 0
-    for i in range(max(r - h, 0), min(r + h, H - 1) + 1):
-        for j in range(max(c - h, 0), min(c + h, W - 1) + 1):
-            if filled[i, j] and i + 1 < H and filled[i + 1, j]:
+    rows = range(max(r - h, 0), min(r + h, H - 1) + 1)
+    cols = range(max(c - h, 0), min(c + h, W - 1) + 1)
+    for i in rows:
+        for j in cols:
+            if i + 1 in rows and filled[i, j] and filled[i + 1, j]:
                 sum_row, count_row = sum_row + int(qr[i + 1, j] - qr[i, j]), count_row + 1
-            if filled[i, j] and j + 1 < W and filled[i, j + 1]:
+            if j + 1 in cols and filled[i, j] and filled[i, j + 1]:
                 sum_col, count_col = sum_col + int(qr[i, j + 1] - qr[i, j]), count_col + 1
     g_row = (sum_row * 2.0**-RANGE_BITS) / max(count_row, 1)
     g_col = (sum_col * 2.0**-RANGE_BITS) / max(count_col, 1)
@@ -279,11 +215,12 @@ def _onion_schedule(known, rng):
 
 def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.0, epsilon=0.1,
                  use_edges=True, use_isophotes=True, ordering="priority", range_weight=16.0,
-                 missing_range="mean", confidence_rule="product", trace=False) -> NPReference:
+                 missing_range="mean", confidence_update="product", colour=True,
+                 edges_last=True, trace=False) -> NPReference:
     r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
 
-    For the front voxel ``p`` of highest priority (Eq. 10; edge voxels in a second tier,
-    equal keys by the seeded ``tie``), or the onion schedule (Fig. 7):
+    For the front voxel ``p`` of highest priority (Eq. 10; with ``edges_last``, edge voxels
+    in a second tier; equal keys by the seeded ``tie``), or the onion schedule (Fig. 7):
 
     .. math:: A_p = \{N_q : |p - q| \le r,\ R_q \text{ filled}\}                 \quad (3)
 
@@ -295,7 +232,7 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
     ``R_p`` is the centre range of a uniformly drawn member of Γ' (the draw ``u`` picks member
     ``floor(u |Γ'|)``). If ``A_p`` is empty the search widens to the filled voxels within
     ``d + r``, ``d`` the distance to the nearest. ``p`` then gets the confidence
-    ``C(p) · C(N_best)`` (``confidence_rule="product"``, refsynth's default) or ``C(N_best)``
+    ``C(p) · C(N_best)`` (``confidence_update="product"``, refsynth's default) or ``C(N_best)``
     (``"best"``, Eq. 11 as the text reads), on the confidence grid.
 
     Parameters
@@ -309,7 +246,12 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
         one ``random`` per unknown pixel (the Eq. 5 draws), then the onion permutation.
     neighbourhood, radius, epsilon, use_edges, use_isophotes, ordering, range_weight, missing_range
         See :func:`refsynth.synthesize`.
-    confidence_rule : {"product", "best"}
+    confidence_update : {"product", "best"}
+        The confidence a synthesized voxel receives (above).
+    colour : bool
+        Eq. 2 on the colour channels (True) or on the grey level (:func:`quantise_grey`).
+    edges_last : bool
+        With ``use_edges``: edge voxels form a second tier (True) or only count in ``E``.
     trace : bool
         Also record every step (pixel, priority, candidates, distances, Γ', draw, source).
 
@@ -320,7 +262,7 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
     """
     H, W = range_values.shape
     n, h = neighbourhood, neighbourhood // 2
-    frame = _Frame(image, range_values, n)
+    frame = _Frame(image, range_values, n, colour)
     known = np.isfinite(range_values)
     filled, qr = known.copy(), frame.qr[h : h + H, h : h + W]   # a view: fills show in frame
     conf = known.astype(np.float64)
@@ -350,7 +292,7 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
                                              edge_count[r][c] if use_edges else None, n,
                                              use_isophotes=use_isophotes)
                     P = C * max(D, 0.0) + E                                       # Eq. 10
-                    k = (int(use_edges and edges[r, c]), -P, int(tie[r, c]))
+                    k = (int(use_edges and edges_last and edges[r, c]), -P, int(tie[r, c]))
                     if key is None or k < key:
                         key, p, terms = k, (r, c), (C, D, E, P)
         r, c = p
@@ -368,7 +310,7 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
         members = [i for i, d in enumerate(distances) if d <= threshold]   # Eq. 5
         source = candidates[members[int(draws[step] * len(members))]]
         c_best = confidence_term(conf, *candidates[best], n)
-        new = c_best if confidence_rule == "best" else confidence_term(conf, r, c, n) * c_best
+        new = c_best if confidence_update == "best" else confidence_term(conf, r, c, n) * c_best
         filled[r, c], qr[r, c], out[r, c] = True, qr[source], out[source]
         conf[r, c] = on_confidence_grid(new)
         order.append(p)
@@ -479,7 +421,7 @@ def _send(t, axis, product):
 def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=8,
                  sigma_i=0.1, sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
                  damping=0.0, use_edges=True, range_weight=16.0, missing_range="mean",
-                 proximity=1.0, trace=False) -> BPReference:
+                 proximity=1.0, colour=True, edge_rule="silent", trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
@@ -490,18 +432,24 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
        the unary term, in the order right, left, below, above.
     5. Eq. 9, synchronous sweeps: ``b_i = unary_i + Σ M_·i`` (incoming in the order left,
        up, right, down), ``h = b_i − M_ji``, ``M_ij(x_j) = max_{x_i} [log Ψ + h]`` minus its
-       maximum (sum-product: log-sum-exp); nodes on an edge send nothing (the edge rule);
-       stop when no message moved by more than ``tolerance``.
+       maximum (sum-product: log-sum-exp); stop when no message moved by more than
+       ``tolerance``. The edge rule (with ``use_edges``): a node on an edge, measured or
+       not, sends nothing — an unknown one no message, a measured one no term in step 4
+       (``edge_rule="silent"``); with ``"paper"`` it also receives nothing (no message and
+       no fixed-neighbour term), so that no message crosses an edge.
     6. Eq. 8, ``x_i = argmax b_i`` (the first maximum); its centre range is the result, its
        belief pooled over labels proposing the same range (within 1 % of the span) the
        confidence.
 
     Parameters are :func:`refsynth.synthesize`'s (``k`` is ``candidates``); ``image``,
-    ``range_values`` and ``edges`` as in :func:`np_reference`. Returns :class:`BPReference`.
+    ``range_values``, ``edges`` and ``colour`` as in :func:`np_reference`; ``edge_rule`` is
+    ``"silent"`` or ``"paper"`` (above). Returns :class:`BPReference`.
     """
     H, W = range_values.shape
     h = neighbourhood // 2
-    frame = _Frame(image, range_values, neighbourhood)
+    frame = _Frame(image, range_values, neighbourhood, colour)
+    on_edge = np.asarray(edges, dtype=bool) & use_edges
+    deaf = edge_rule == "paper"
     known = np.isfinite(range_values)
     pad = max(int(math.ceil(radius)), h + 1)
     side = max(H, W) + 2 * pad
@@ -518,8 +466,9 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
         for dr, dc, direction, node_first in ((0, 1, "h", True), (0, -1, "h", False),
                                               (1, 0, "v", True), (-1, 0, "v", False)):
             a, b = r + dr, c + dc
-            if not (frame.inside(a, b) and known[a, b]):
-                continue
+            if not (frame.inside(a, b) and known[a, b]) or on_edge[a, b] or (deaf and
+                                                                           on_edge[r, c]):
+                continue   # no fixed node there, or the edge rule stops its term
             fixed = frame.patch(a, b)[1]
             for label, patch in enumerate(patches):                     # step 4, fixed
                 ms = overlap_mean_square(*((patch, fixed) if node_first else (fixed, patch)),
@@ -543,7 +492,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
         incoming[pair[1]].append(e)
     for e, pair in enumerate(pairs):
         incoming[pair[0]].append(E + e)
-    silent = [bool(use_edges and edges[r, c]) for r, c in nodes]
+    silent = [bool(on_edge[r, c]) for r, c in nodes]
 
     def beliefs(messages):
         out = np.zeros((N, k))
@@ -562,9 +511,9 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
         belief = beliefs(messages)
         new = np.zeros((2 * E, k))
         for e, (a, b, _) in enumerate(pairs):
-            if not silent[a]:
+            if not silent[a] and not (deaf and silent[b]):
                 new[e] = _send(log_psi[e] + (belief[a] - messages[E + e])[:, None], 0, product)
-            if not silent[b]:
+            if not silent[b] and not (deaf and silent[a]):
                 new[E + e] = _send(log_psi[e] + (belief[b] - messages[e])[None, :], 1, product)
         if damping:
             new = new * (1.0 - damping) + damping * messages

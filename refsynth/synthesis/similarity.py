@@ -73,6 +73,15 @@ matrix–vector product (three columns: the intensity term, the range term over
 the shared support, and the shared support's weight, which the mean-filled
 range term needs). The tests check that the two forms agree.
 
+The numeric contract (:mod:`refsynth.numeric`): the table holds the intensity
+and the range quantised to ``2**-16`` as float64 *integers*, and the Gaussian
+window as the integer table :func:`refsynth.numeric.window_weights`. Every
+partial sum of the expanded squares is then an integer below ``2**53``, so the
+products are exact whatever BLAS, thread count or SIMD width computes them,
+and :func:`refsynth.numeric.combine_eq2` turns the four sums into the distance
+by a fixed sequence of IEEE operations: bit for bit the distance of the
+literal reference, :func:`refsynth.synthesis.reference.eq2_distance`.
+
 References
 ----------
 Torres-Méndez & Dudek (2008), §3.2.2, Eq. 2, doi:10.1007/s11263-007-0108-2.
@@ -84,6 +93,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth._checks import check_choice
+from refsynth.numeric import INTENSITY_BITS, RANGE_BITS, SUPPORT_PRIOR, combine_eq2, window_weights
 from refsynth.synthesis.neighbourhood import gaussian_window, intensity_patches, window_offsets
 
 __all__ = ["intensity_scale", "range_scale", "neighbourhood_distance", "PatchTable"]
@@ -93,7 +103,7 @@ MISSING_RANGE = ("mean", "ignore")
 
 #: ε of the mean-filled range term: a prior pseudo-offset of this weight (the
 #: Gaussian window sums to 1) whose discrepancy is the whole known span.
-_SUPPORT_PRIOR = 1e-4
+_SUPPORT_PRIOR = SUPPORT_PRIOR
 
 
 # ----------------------------------------------------------------------------- the scales
@@ -193,12 +203,18 @@ class PatchTable:
     candidate neighbourhood; ``set_range(p, value)`` records a newly known
     range in every row whose window contains ``p``.
 
+    The rows hold ``I`` and ``R`` on the integer grid of the numeric contract,
+    ``rint(2**16 x)`` of the normalised values given (and ``R²`` exactly), so
+    that Eq. 2 is exact in any summation order (see above).
+
     Parameters
     ----------
     image : ndarray of shape (H, W, C)
-        Intensity, normalised.
+        Intensity normalised to [0, 1] (NP and BP pass the quantised
+        intensity, ``q · 2**-16``, which the table recovers exactly).
     range_norm : ndarray of shape (H, W)
-        Normalised range, NaN where unknown.
+        Range normalised to [0, 1] (NP and BP pass ``q · 2**-16``), NaN where
+        unknown.
     n : int
         Odd window side.
     pad : int
@@ -211,9 +227,8 @@ class PatchTable:
         the offsets both have (see above); ``"ignore"`` is the literal
         Eq. 2.
     dtype : numpy dtype, default float64
-        NP uses float32: half the memory traffic of the per-step gather; the
-        expanded squares then carry errors of order 1e-6 λ, far below the
-        differences Eq. 5 separates.
+        float64 holds the integers exactly (the contract). float32 halves the
+        memory traffic but rounds ``R²`` and the sums: for experiments only.
     """
 
     def __init__(
@@ -228,16 +243,18 @@ class PatchTable:
     ) -> None:
         H, W, C = image.shape
         self.shape = (H + 2 * pad, W + 2 * pad)
+        self.channels = C
         nn = n * n
-        g = gaussian_window(n).ravel()
+        g = window_weights(n).ravel().astype(np.float64)
         rows = self.shape[0] * self.shape[1]
         table = np.zeros((rows, nn * C + 3 * nn), dtype=dtype)
         frame = table.reshape(self.shape + (nn * C + 3 * nn,))
         inner = frame[pad : pad + H, pad : pad + W]
-        patches = intensity_patches(image, n).reshape(H, W, nn * C)
-        inner[:, :, : nn * C] = patches
+        levels = np.rint(np.asarray(image, dtype=np.float64) * 2.0**INTENSITY_BITS)
+        inner[:, :, : nn * C] = intensity_patches(levels, n).reshape(H, W, nn * C)
         h = n // 2
-        rpad = np.pad(range_norm, h, mode="constant", constant_values=np.nan)
+        rq = np.rint(np.asarray(range_norm, dtype=np.float64) * 2.0**RANGE_BITS)
+        rpad = np.pad(rq, h, mode="constant", constant_values=np.nan)
         rp = sliding_window_view(rpad, (n, n)).reshape(H, W, nn)
         has = np.isfinite(rp)
         base = nn * C
@@ -245,28 +262,28 @@ class PatchTable:
         inner[:, :, base + nn : base + 2 * nn] = np.where(has, rp, 0.0)
         inner[:, :, base + 2 * nn :] = np.where(has, rp, 0.0) ** 2
         self.table = table
-        g_int = np.repeat(g, C) / C  # intensity columns are (offset, channel) raveled
-        self.self_term = (table[:, :base] ** 2) @ g_int.astype(dtype)
+        g_int = np.repeat(g, C)  # intensity columns are (offset, channel) raveled
+        self.self_term = (table[:, :base] ** 2) @ g_int.astype(dtype)  # Σ G Σ_c I², exact
         # weight vector of p = table[p, perm] * coef
         i_cols = np.arange(base)
         v_cols = base + np.arange(nn)
         r_cols = v_cols + nn
         r2_cols = r_cols + nn
         self.perm = np.concatenate([i_cols, r2_cols, r_cols, v_cols])
-        lam = float(range_weight)
-        self.coef = np.concatenate([-2.0 * g_int, lam * g, -2.0 * lam * g, lam * g]).astype(dtype)
+        self.coef = np.concatenate([-2.0 * g_int, g, -2.0 * g, g]).astype(dtype)
         dr, dc = window_offsets(n)
         offsets = dr * self.shape[1] + dc
         # the rows whose window holds p are p - offset; p sits at that offset's column
         self.update_rows = np.tile(-offsets, 3)
         self.update_cols = np.concatenate([v_cols, r_cols, r2_cols])
         self.nn = nn
+        self.base = base
         self.v_cols = v_cols
-        self.lam = lam
-        self.mean_fill = missing_range == "mean"
-        # three weight columns at once, W = table[p, perm3] * coef3: the intensity
-        # term, the range term over the shared support, and the shared support's
-        # weight Σ G V_p V_q (which multiplies the candidate's V columns)
+        self.lam = float(range_weight)
+        self.missing_range = missing_range
+        # three weight columns, W = table[p, perm3] * coef3: the intensity term, the
+        # range term over the shared support, and the shared support's weight
+        # Σ G V_p V_q (which multiplies the candidate's V columns)
         perm3 = np.zeros((self.perm.size, 3), dtype=np.int64)
         coef3 = np.zeros((self.perm.size, 3), dtype=dtype)
         perm3[:, 0] = perm3[:, 1] = self.perm
@@ -277,24 +294,28 @@ class PatchTable:
         self.perm3, self.coef3 = perm3, coef3
 
     def _combine(self, terms: np.ndarray, self_terms: np.ndarray, support) -> np.ndarray:
-        """Eq. 2 from the products: intensity + range (mean-filled or literal).
+        """Eq. 2 from the four exact sums (:func:`refsynth.numeric.combine_eq2`).
 
-        Mean-filled: ``(Σ_S G ΔR² + λε) Σ_A G / (Σ_S G + ε)`` with ε = 1e-4 of the
-        window's weight — the mean shared discrepancy charged to every offset the
-        target has; with nothing shared, the whole span (λ per unit weight).
+        ``terms[..., 0] + self_terms`` is ``Σ G Σ_c ΔI²``, ``terms[..., 1]`` the range
+        term ``Σ_S G ΔR²``, ``terms[..., 2]`` the shared weight ``Σ_S G`` and
+        ``support`` the target's ``Σ_A G``. Mean-filled:
+        ``(λ Σ_S G ΔR² + λε) Σ_A G / (Σ_S G + ε)`` with ε = 1e-4 of the window's
+        weight — the mean shared discrepancy charged to every offset the target
+        has; with nothing shared, the whole span (λ per unit weight).
         """
-        d = terms[..., 0] + self_terms
-        range_sum = np.maximum(terms[..., 1], 0.0)
-        if self.mean_fill:
-            range_sum += self.lam * _SUPPORT_PRIOR
-            range_sum *= support / (terms[..., 2] + _SUPPORT_PRIOR)
-        d += range_sum
-        return np.maximum(d, 0.0, out=d)
+        return combine_eq2(terms[..., 0] + self_terms, terms[..., 1], terms[..., 2], support,
+                           self.channels, self.lam, self.missing_range)
 
     def distances(self, p: int, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2 between ``N_p`` and each candidate (flat padded indices)."""
         weights = self.table[p, self.perm3] * self.coef3
-        terms = self.table[candidates] @ weights
+        rows, base, nn = self.table[candidates], self.base, self.nn
+        terms = np.empty((rows.shape[0], 3))
+        # one matrix-vector product per weight column, on the column block it touches
+        # (two thirds of the (columns x 3) weights are zeros); exact on integers
+        terms[:, 0] = rows[:, :base] @ weights[:base, 0]
+        terms[:, 1] = rows[:, base:] @ weights[base:, 1]
+        terms[:, 2] = rows[:, base : base + nn] @ weights[base : base + nn, 2]
         support = weights[:, 2].sum()
         return self._combine(terms, self.self_term[candidates] + self.self_term[p], support)
 
@@ -311,11 +332,17 @@ class PatchTable:
         ndarray of shape (B, M)
         """
         weights = self.table[targets[:, None, None], self.perm3] * self.coef3
-        terms = np.matmul(self.table[candidates], weights)
+        rows, base, nn = self.table[candidates], self.base, self.nn
+        terms = np.empty(rows.shape[:2] + (3,))
+        terms[..., 0] = np.matmul(rows[..., :base], weights[:, :base, 0, None])[..., 0]
+        terms[..., 1] = np.matmul(rows[..., base:], weights[:, base:, 1, None])[..., 0]
+        terms[..., 2] = np.matmul(rows[..., base : base + nn],
+                                  weights[:, base : base + nn, 2, None])[..., 0]
         self_terms = self.self_term[candidates] + self.self_term[targets][:, None]
         return self._combine(terms, self_terms, weights[:, :, 2].sum(axis=1)[:, None])
 
     def set_range(self, p: int, value: float) -> None:
-        """Record normalised range ``value`` at flat padded index ``p``."""
-        vals = np.repeat(np.array([1.0, value, value * value]), self.nn)
+        """Record normalised range ``value`` (a multiple of ``2**-16``) at padded index ``p``."""
+        q = float(np.rint(value * 2.0**RANGE_BITS))
+        vals = np.repeat(np.array([1.0, q, q * q]), self.nn)
         self.table[self.update_rows + p, self.update_cols] = vals
