@@ -224,7 +224,11 @@ def test_the_edge_term_decides_the_order(isophotes):
 
 def test_the_edge_tier_decides_the_order():
     """(4, 5) has the most measured neighbours, and lies on an edge: with the edge tier it is
-    filled last of all; without it (only the 1/(1 + E) term) it is filled early."""
+    filled last of all; without it (only the 1/(1 + E) term) it is filled early.
+
+    The test is about the tier, so it fixes the product confidence rule, under which
+    confidence decays away from the measured pixels and (4, 5)'s high C(p) decides once
+    the tier is off."""
     rows, cols, known = _half_known()
     known[3:6, 6] = True
     edges = np.zeros(known.shape, dtype=bool)
@@ -232,10 +236,10 @@ def test_the_edge_tier_decides_the_order():
     partial = np.where(known, 2.0, np.nan)
     image = np.zeros(known.shape)
     for seed in range(4):
-        tiered = refsynth.synthesize(image, partial, seed=seed, neighbourhood=3, edges=edges)
+        rule = dict(neighbourhood=3, edges=edges, confidence_update="product")
+        tiered = refsynth.synthesize(image, partial, seed=seed, **rule)
         assert tuple(tiered.order[-1]) == (4, 5)
-        flat = refsynth.synthesize(image, partial, seed=seed, neighbourhood=3, edges=edges,
-                                   edges_last=False)
+        flat = refsynth.synthesize(image, partial, seed=seed, edges_last=False, **rule)
         position = [tuple(p) for p in flat.order].index((4, 5))
         assert position < len(flat.order) // 2
 

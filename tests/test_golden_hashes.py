@@ -51,10 +51,10 @@ def _digest(result) -> str:
 
 
 GOLDEN = {
-    ("steps", "np"): "6589ff605841395346f8f3b3",
-    ("steps", "bp"): "f57a57420cc51ca955b1aee6",
-    ("texture", "np"): "611209ac63836572307413fe",
-    ("texture", "bp"): "9f86d2f2bf05e89233dc4067",
+    ("steps", "np"): "1eb29b548dae38f8b4218494",
+    ("steps", "bp"): "d8dab12d04faac1c1f7e756e",
+    ("texture", "np"): "4260a959c73bb8eba56b0feb",
+    ("texture", "bp"): "b631a82b1c6716aedcb65810",
 }
 
 

@@ -72,7 +72,7 @@ NP_OPTIONS = MappingProxyType({
     "epsilon": 0.1,
     "use_isophotes": True,
     "ordering": "priority",
-    "confidence_update": "product",
+    "confidence_update": "best",
     "edges_last": True,
 })
 #: The options only BP uses, with BP's defaults (§3.2.3); read-only.
@@ -269,7 +269,7 @@ def synthesize(
     seed: int | np.random.Generator | None = 0,
     neighbourhood: int = 5,
     radius: float = 10.0,
-    range_weight: float = 16.0,
+    range_weight: float = 1.0,
     missing_range: str = "mean",
     colour: bool = True,
     canny_sigma: float = 0.8,
@@ -317,7 +317,7 @@ def synthesize(
         Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1).
     radius : float, default 10
         Search radius ``r`` of Eq. 3 (NP) and of BP's training set, in pixels.
-    range_weight : float, default 16
+    range_weight : float, default 1
         Weight λ of the range term of Eq. 2 against the intensity term,
         both normalised (see :mod:`refsynth.synthesis.similarity`).
     missing_range : {"mean", "ignore"}
@@ -350,11 +350,12 @@ def synthesize(
     ordering : {"priority", "onion"}, NP only, default "priority"
         The paper's information-driven order (Eqs. 10–12) or the onion-peel
         order it compares against (Fig. 7).
-    confidence_update : {"product", "best"}, NP only, default "product"
-        The confidence a synthesized pixel receives (Eq. 11): ``"product"``,
-        ``C(p) · C(N_best)`` (its own Eq. 11 value times that of the
-        neighbourhood it matched best; refsynth's reading), or ``"best"``,
-        ``C(N_best)`` (the text after Eq. 11 read literally).
+    confidence_update : {"best", "product"}, NP only, default "best"
+        The confidence a synthesized pixel receives (Eq. 11): ``"best"``,
+        ``C(N_best)``, the confidence of the neighbourhood it matched best
+        (the text after Eq. 11 read literally; chosen on the Motorcycle, see
+        the README's audit), or ``"product"``, ``C(p) · C(N_best)`` (refsynth's
+        reading before 0.2, which drives synthesized confidence towards 0).
     edges_last : bool, NP only, default True
         With ``use_edges``: pixels on an edge form a second tier, filled only
         when no other pixel is left on the front. ``False`` keeps only Eq. 10's
@@ -404,7 +405,7 @@ def synthesize(
     ``seed``                 yes          (no effect)  0
     ``neighbourhood``        yes          yes          5
     ``radius``               yes          yes          10
-    ``range_weight``         yes          yes          16
+    ``range_weight``         yes          yes          1
     ``missing_range``        yes          yes          ``"mean"``
     ``colour``               Eq. 2        Eq. 2        True
     ``canny_sigma``          yes          yes          0.8
@@ -414,7 +415,7 @@ def synthesize(
     ``epsilon``              Eq. 5        —            0.1
     ``use_isophotes``        Eq. 12       —            True
     ``ordering``             §3.2.4       —            ``"priority"``
-    ``confidence_update``    Eq. 11       —            ``"product"``
+    ``confidence_update``    Eq. 11       —            ``"best"``   
     ``edges_last``           Eq. 10       —            True
     ``candidates``           —            ``k``        8
     ``proximity``            —            μ            1

@@ -398,7 +398,7 @@ def bp_fill(
     product: str = "max",
     damping: float = 0.0,
     use_edges: bool = True,
-    range_weight: float = 16.0,
+    range_weight: float = 1.0,
     missing_range: str = "mean",
     proximity: float = 1.0,
     colour: bool = True,

@@ -37,11 +37,13 @@ order and the step's draw ``u`` picks member ``floor(u |Γ'|)``.
 
 The confidence of a synthesized voxel (Eq. 11)
 ----------------------------------------------
-``confidence_update="product"`` (refsynth's reading so far) gives ``V_p`` the
-confidence ``C(p) · C(N_best)``: its own Eq. 11 value times that of the
-neighbourhood it matched best. ``"best"`` gives it ``C(N_best)``, the text
-after Eq. 11 read literally ("the confidence of the augmented voxel which most
-resemble the neighborhood of V_p is assigned to C(V_p)").
+``confidence_update="best"`` (the default) gives ``V_p`` the confidence
+``C(N_best)``, the text after Eq. 11 read literally ("the confidence of the
+augmented voxel which most resemble the neighborhood of V_p is assigned to
+C(V_p)"). ``"product"`` (refsynth's reading before 0.2) gives it
+``C(p) · C(N_best)``: its own Eq. 11 value times that of the neighbourhood it
+matched best. On the Motorcycle the literal reading ties or wins at every
+fraction (the README's audit).
 
 A gap wider than ``r``
 ----------------------
@@ -122,9 +124,9 @@ def np_fill(
     use_edges: bool = True,
     use_isophotes: bool = True,
     ordering: str = "priority",
-    range_weight: float = 16.0,
+    range_weight: float = 1.0,
     missing_range: str = "mean",
-    confidence_update: str = "product",
+    confidence_update: str = "best",
     colour: bool = True,
     edges_last: bool = True,
     progress: Callable[[int, int], None] | None = None,

@@ -18,13 +18,11 @@ already synthesized 8-neighbour) gets the priority
 * ``C`` is 1 where range was measured and 0 where it is unknown. ``|N_p|``
   counts the voxels of ``N_p`` that lie in the image, so a fully known window
   has ``C = 1`` also at the border. When ``V_p`` is synthesized it receives
-  ``C(V_p) · C(N_best)``: its Eq. 11 confidence at that moment times the Eq. 11
-  confidence of the neighbourhood it matched best — our reading of "the
-  confidence of the augmented voxel which most resemble the neighborhood of
-  ``V_p`` is assigned to ``C(V_p)``" (``confidence_update="product"``, the
-  default). Both factors lie in [0, 1], so confidence decays with distance
-  from measured data. ``confidence_update="best"`` gives ``C(N_best)`` alone,
-  the sentence read literally (:mod:`refsynth.synthesis.nonparametric`).
+  ``C(N_best)``, the Eq. 11 confidence of the neighbourhood it matched best —
+  "the confidence of the augmented voxel which most resemble the neighborhood
+  of ``V_p`` is assigned to ``C(V_p)``" (``confidence_update="best"``, the
+  default); ``"product"`` gives ``C(V_p) · C(N_best)``, which decays with
+  distance from measured data (:mod:`refsynth.synthesis.nonparametric`).
 * ``∇I⊥_p`` is the isophote *of the range*: the mean range gradient over the
   pairs of horizontally (vertically) adjacent voxels of ``N_p`` that both have
   range, rotated by 90°. Both voxels of a pair lie in ``N_p``, so the term

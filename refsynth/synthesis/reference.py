@@ -92,7 +92,7 @@ def disc_offsets(radius: float) -> list[tuple[int, int]]:
 # -- Eq. 2 --------------------------------------------------------------------------------
 
 
-def eq2_distance(qi_a, qr_a, qi_b, qr_b, window, range_weight=16.0, missing_range="mean"):
+def eq2_distance(qi_a, qr_a, qi_b, qr_b, window, range_weight=1.0, missing_range="mean"):
     r"""Eq. 2 between two quantised neighbourhoods (§3.2.2).
 
     .. math:: \|N_a - N_b\| = \sum_v G(\sigma, v - v_0) \left[ \tfrac{1}{C}\sum_c
@@ -214,8 +214,8 @@ def _onion_schedule(known, rng):
 
 
 def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.0, epsilon=0.1,
-                 use_edges=True, use_isophotes=True, ordering="priority", range_weight=16.0,
-                 missing_range="mean", confidence_update="product", colour=True,
+                 use_edges=True, use_isophotes=True, ordering="priority", range_weight=1.0,
+                 missing_range="mean", confidence_update="best", colour=True,
                  edges_last=True, trace=False) -> NPReference:
     r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
 
@@ -232,8 +232,8 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
     ``R_p`` is the centre range of a uniformly drawn member of Γ' (the draw ``u`` picks member
     ``floor(u |Γ'|)``). If ``A_p`` is empty the search widens to the filled voxels within
     ``d + r``, ``d`` the distance to the nearest. ``p`` then gets the confidence
-    ``C(p) · C(N_best)`` (``confidence_update="product"``, refsynth's default) or ``C(N_best)``
-    (``"best"``, Eq. 11 as the text reads), on the confidence grid.
+    ``C(N_best)`` (``confidence_update="best"``, the default: Eq. 11 as the text reads) or
+    ``C(p) · C(N_best)`` (``"product"``), on the confidence grid.
 
     Parameters
     ----------
@@ -420,7 +420,7 @@ def _send(t, axis, product):
 
 def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=8,
                  sigma_i=0.1, sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
-                 damping=0.0, use_edges=True, range_weight=16.0, missing_range="mean",
+                 damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=1.0, colour=True, edge_rule="silent", trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 

@@ -17,13 +17,12 @@ Intensity and range live in different units. refsynth divides the intensity
 by its span over the whole image and the range by the span of the *known*
 range, so both lie in [0, 1], and averages the intensity term over the colour
 channels, so grey and colour images weigh the same. The range term then gets
-the weight ``λ`` (``range_weight``, default 16): the trials noted in
-``EQUATIONS.md`` found intensity-only matches pulling in depths from
-similar-looking surfaces, and a range term several times heavier than the
-intensity term working better. The default was chosen on synthetic rooms of
-seeds 100–102 (λ ∈ {1, 4, 16, 32, 64, 256}; 16 to 256 were within a few
-hundredths of a metre of each other, 1 and 4 clearly worse), a development
-set disjoint from the demo's scene and from the Motorcycle. With ``λ = 0``
+the weight ``λ`` (``range_weight``, default 1: the two normalised terms
+weigh the same, the paper's reading). λ = 16, refsynth's default before 0.2,
+was chosen on synthetic rooms; on the Motorcycle (450×375, x-stripes 63 / 78 /
+85 %, 3 seeds) it raised NP's MAR at every fraction (0.692 / 0.813 / 0.979
+against 0.531 / 0.723 / 0.858 px with the literal Eq. 2) and left BP's within
+1 % (``benchmarks/audit_departures.py``). With ``λ = 0``
 Eq. 2 reduces to an intensity match.
 
 Missing range (a departure from the paper)
@@ -132,7 +131,7 @@ def neighbourhood_distance(
     intensity_b: np.ndarray,
     range_b: np.ndarray,
     *,
-    range_weight: float = 16.0,
+    range_weight: float = 1.0,
     window: np.ndarray | None = None,
     missing_range: str = "ignore",
 ) -> float:
@@ -144,7 +143,7 @@ def neighbourhood_distance(
         Normalised intensity; NaN where a voxel has no intensity (off the image).
     range_a, range_b : ndarray of shape (n, n)
         Normalised range, NaN where unknown.
-    range_weight : float, default 16
+    range_weight : float, default 1
         The weight λ of the range term.
     window : ndarray of shape (n, n), optional
         The Gaussian window ``G``; default :func:`refsynth.synthesis.neighbourhood.gaussian_window`.

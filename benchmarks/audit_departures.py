@@ -1,0 +1,174 @@
+"""Audit refsynth's departures from the paper on real images (issue #10).
+
+For each reading of the paper that refsynth could take — the paper's literal
+text and refsynth's departure — run NP (or BP) on the Middlebury 2014
+Motorcycle (scikit-image's copy) with x-stripes at 63 / 78 / 85 % unknown
+(Table 4's protocol), over several seeds, and print MAR (Eq. 13, in the
+pair's disparity pixels) beside the classical fills.
+
+Two splits keep choosing apart from reporting:
+
+- ``choose``: stripe phase 1 (the known columns shifted by one), 450×375;
+  defaults are decided here;
+- ``report``: stripe phase 0 (what ``python -m refsynth evaluate`` uses),
+  450×375 and the pair's full 741×500; the README's figures come from here.
+
+Usage::
+
+    python benchmarks/audit_departures.py --split choose            # decide
+    python benchmarks/audit_departures.py --split report            # report
+    python benchmarks/audit_departures.py --variants np,np-product --sizes 450x375 \\
+        --fractions 78 --seeds 0,1,2 --jobs 2
+
+Each line is ``variant size fraction: mean ± sd over seeds (ratio to the best
+classical fill)``; a variant wins when its mean is lower by more than the sum
+of the two seed-to-seed standard deviations.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+#: The variants: keyword arguments of refsynth.synthesize. "np" and "bp" are the
+#: defaults; each other entry changes one reading.
+VARIANTS: dict[str, dict] = {
+    "np": {"method": "np"},
+    "np-product": {"method": "np", "confidence_update": "product"},
+    "np-best": {"method": "np", "confidence_update": "best"},
+    "np-literal-eq2": {"method": "np", "missing_range": "ignore"},
+    "np-mean-eq2": {"method": "np", "missing_range": "mean"},
+    "np-lambda1": {"method": "np", "range_weight": 1.0},
+    "np-lambda4": {"method": "np", "range_weight": 4.0},
+    "np-lambda16": {"method": "np", "range_weight": 16.0},
+    "np-lambda64": {"method": "np", "range_weight": 64.0},
+    "np-grey": {"method": "np", "colour": False},
+    "np-colour": {"method": "np", "colour": True},
+    "np-noedges": {"method": "np", "use_edges": False},
+    "np-noisophotes": {"method": "np", "use_isophotes": False},
+    "np-onion": {"method": "np", "ordering": "onion"},
+    # the paper's literal readings together (Eq. 11: C(best); Eq. 2: equal weights on the
+    # normalised intensity and range, the range term only where both have range), and each of
+    # refsynth's departures from them on its own
+    "np-literal": {"method": "np", "confidence_update": "best", "range_weight": 1.0,
+                   "missing_range": "ignore"},
+    "np-literal+lambda16": {"method": "np", "confidence_update": "best", "range_weight": 16.0,
+                            "missing_range": "ignore"},
+    "np-literal+mean": {"method": "np", "confidence_update": "best", "range_weight": 1.0,
+                        "missing_range": "mean"},
+    "np-literal+grey": {"method": "np", "confidence_update": "best", "range_weight": 1.0,
+                        "missing_range": "ignore", "colour": False},
+    "np-literal+no-edge-tier": {"method": "np", "confidence_update": "best", "range_weight": 1.0,
+                                "missing_range": "ignore", "edges_last": False},
+    "bp": {"method": "bp"},
+    "bp-lambda1": {"method": "bp", "range_weight": 1.0},
+    "bp-lambda16": {"method": "bp", "range_weight": 16.0},
+    "bp-paper-edge-rule": {"method": "bp", "edge_rule": "paper"},
+}
+CLASSICAL = ("nearest", "colorization", "joint-bilateral")
+SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},
+          "report": {"phase": 0, "sizes": ("450x375", "741x500")}}
+
+
+def _scene(size: str):
+    from refsynth.scenes import motorcycle
+
+    width, height = (int(v) for v in size.split("x"))
+    return motorcycle((width, height))
+
+
+def run_one(job: tuple[str, str, int, int, int]) -> dict:
+    """One fill: (variant or baseline, size, fraction %, phase, seed) -> its scores."""
+    import refsynth
+    from refsynth.acquisition import x_stripes_for_fraction
+    from refsynth.evaluation import BASELINES, evaluate
+
+    name, size, fraction, phase, seed = job
+    scene = _scene(size)
+    known = x_stripes_for_fraction(scene.range.shape, fraction / 100.0, phase=phase)
+    known &= scene.has_truth
+    partial = np.where(known, scene.range, np.nan)
+    start = time.perf_counter()
+    if name in CLASSICAL:
+        estimate = BASELINES[name](scene.intensity, partial)
+    else:
+        estimate = refsynth.synthesize(scene.intensity, partial, seed=seed, **VARIANTS[name]).range
+    seconds = time.perf_counter() - start
+    scores = evaluate(estimate, scene.range, known)
+    return dict(name=name, size=size, fraction=fraction, phase=phase, seed=seed,
+                mar=float(scores["mar"]), seconds=seconds)
+
+
+def summarise(rows: list[dict]) -> str:
+    """One line per (variant, size, fraction): mean ± sd over seeds and the ratio to the best
+    classical fill of the same case."""
+    lines = []
+    cases = sorted({(r["size"], r["fraction"]) for r in rows})
+    for size, fraction in cases:
+        here = [r for r in rows if (r["size"], r["fraction"]) == (size, fraction)]
+        best = min(
+            (np.mean([r["mar"] for r in here if r["name"] == b]) for b in CLASSICAL
+             if any(r["name"] == b for r in here)),
+            default=np.nan,
+        )
+        names = list(dict.fromkeys(r["name"] for r in here))
+        for name in names:
+            mars = np.array([r["mar"] for r in here if r["name"] == name])
+            secs = np.mean([r["seconds"] for r in here if r["name"] == name])
+            sd = mars.std(ddof=1) if mars.size > 1 else 0.0
+            lines.append(
+                f"{name:<16} {size:>8} x{fraction}  MAR {mars.mean():.3f} ± {sd:.3f}"
+                f"  ({mars.mean() / best:.2f} × best classical {best:.3f})  {secs:6.1f} s"
+                f"  n={mars.size}"
+            )
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--split", choices=sorted(SPLITS), default="choose",
+                        help="choose: stripe phase 1 at 450x375; report: phase 0 at 450x375 "
+                             "and 741x500 (default: choose)")
+    parser.add_argument("--variants", default="np,np-product",
+                        help=f"comma-separated, from: {','.join(VARIANTS)}")
+    parser.add_argument("--sizes", default=None, help="override the split's sizes, e.g. 450x375")
+    parser.add_argument("--fractions", default="63,78,85", help="unknown %% (default 63,78,85)")
+    parser.add_argument("--seeds", default="0,1,2", help="seeds (default 0,1,2)")
+    parser.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    parser.add_argument("--json", default=None, help="also write the rows to this JSON file")
+    args = parser.parse_args(argv)
+    split = SPLITS[args.split]
+    variants = [v for v in args.variants.split(",") if v]
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown:
+        parser.error(f"unknown variant(s) {unknown}; choose from {','.join(VARIANTS)}")
+    sizes = args.sizes.split(",") if args.sizes else split["sizes"]
+    fractions = [int(f) for f in args.fractions.split(",")]
+    seeds = [int(s) for s in args.seeds.split(",")]
+    jobs = [(b, s, f, split["phase"], 0) for s in sizes for f in fractions for b in CLASSICAL]
+    jobs += [(v, s, f, split["phase"], seed) for s in sizes for f in fractions for v in variants
+             for seed in seeds]
+    print(f"split {args.split} (stripe phase {split['phase']}), {len(jobs)} fills",
+          file=sys.stderr)
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        rows = []
+        for i, row in enumerate(pool.map(run_one, jobs), 1):
+            rows.append(row)
+            print(f"[{i}/{len(jobs)}] {row['name']} {row['size']} x{row['fraction']} "
+                  f"seed {row['seed']}: {row['mar']:.3f} ({row['seconds']:.1f} s)",
+                  file=sys.stderr)
+    print(summarise(rows))
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as stream:
+            json.dump(rows, stream, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
