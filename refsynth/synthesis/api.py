@@ -415,7 +415,7 @@ def synthesize(
     ``epsilon``              Eq. 5        —            0.1
     ``use_isophotes``        Eq. 12       —            True
     ``ordering``             §3.2.4       —            ``"priority"``
-    ``confidence_update``    Eq. 11       —            ``"best"``   
+    ``confidence_update``    Eq. 11       —            ``"best"``
     ``edges_last``           Eq. 10       —            True
     ``candidates``           —            ``k``        8
     ``proximity``            —            μ            1
