@@ -139,7 +139,7 @@ def np_port(inputs, options, draw=False):
         r, c = p
         cands = [(r + a, c + b) for a, b in disc_offsets(radius)
                  if 0 <= r + a < H and 0 <= c + b < W and filled[r + a, c + b]]
-        d = [eq2_distance(*patch(r, c), *patch(a, b), window, options.get("range_weight", 16.0),
+        d = [eq2_distance(*patch(r, c), *patch(a, b), window, options.get("range_weight", 1.0),
                           options.get("missing_range", "mean")) for a, b in cands]
         best = d.index(min(d))                                          # Eq. 4
         if draw:                                                        # Eq. 5 and the draw

@@ -69,7 +69,7 @@ def port(inputs, options, confidence_rule="product"):
         cands = [(r + a, c + b) for a, b in disc_offsets(radius)
                  if 0 <= r + a < H and 0 <= c + b < W and filled[r + a, c + b]]
         d = [eq2_distance(*patch(r, c), *patch(a, b), inputs["window"],
-                          options.get("range_weight", 16.0), options.get("missing_range", "mean"))
+                          options.get("range_weight", 1.0), options.get("missing_range", "mean"))
              for a, b in cands]
         best = d.index(min(d))
         members = [i for i, x in enumerate(d) if x <= (1.0 + eps) * d[best]]
