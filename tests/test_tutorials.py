@@ -118,9 +118,10 @@ def claims_02(text: str) -> None:
         cases[name] = (bp, ceiling, np_mean, np_sd, nn)
     top_rest = re.findall(r"most confident pixels ([\d.]+), on the rest ([\d.]+)", text)
     bike, room = cases["motorcycle-128x128"], cases["synthetic-room-3"]
-    # the Motorcycle's x-stripes: BP beats NP (beyond NP's spread) and the nearest fill,
-    # the ceiling is far below, and the confident half is the better half
-    assert bike[0] < bike[2] - bike[3] and bike[0] < bike[4] and bike[1] < 0.5 * bike[0]
+    # the Motorcycle's x-stripes: BP matches NP (within NP's spread) and beats the nearest
+    # fill, the ceiling is far below, and the confident half is the better half
+    assert abs(bike[0] - bike[2]) <= bike[3] + 0.01 and bike[0] < bike[4]
+    assert bike[1] < 0.5 * bike[0]
     assert float(top_rest[0][0]) < float(top_rest[0][1])
     # the room's grid: BP loses to NP, its ceiling is above NP's MAR, the confidence inverted
     assert room[0] > room[2] and room[1] > room[2]

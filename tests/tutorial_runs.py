@@ -25,8 +25,10 @@ ROOT = Path(__file__).resolve().parent.parent
 TUTORIALS_DIR = ROOT / "tutorials"
 TUTORIALS = sorted(TUTORIALS_DIR.glob("[0-9][0-9]_*.py"))
 SOLUTIONS = sorted((TUTORIALS_DIR / "solutions").glob("[0-9][0-9]_*.py"))
-#: Each tutorial's wall-time budget on 2 cores (issue #13), kernel start included.
-BUDGET_SECONDS = 60.0
+#: A runaway guard, not the budget: each tutorial is written to take <= 60 s on 2 quiet
+#: cores (``python -m refsynth notebooks`` prints each one's time), but wall time on a
+#: shared CI machine is no measurement, so the tests only catch a tutorial 5x over.
+BUDGET_SECONDS = 300.0
 
 _BASE = Path(tempfile.mkdtemp(prefix="refsynth-tutorials-"))
 atexit.register(shutil.rmtree, _BASE, True)

@@ -185,11 +185,13 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 # %% [markdown]
 # What the two cases show (the lines above carry the numbers):
 #
-# * **On the Motorcycle's vertical stripes BP beats NP** and the nearest
-#   fill, as in the paper's Table 4. The gaps are narrow (a few columns), so
-#   every unknown pixel has measured patches close by on both sides; the
-#   candidate ceiling is far below every method's error, and the messages
-#   pick candidates well enough to beat both. BP's confidence means
+# * **On the Motorcycle's vertical stripes BP matches NP** (within NP's
+#   seed-to-seed spread) and beats the nearest fill; the paper's Table 4 has
+#   BP ahead of NP. The gaps are narrow (a few columns), so every unknown
+#   pixel has measured patches close by on both sides; the candidate ceiling
+#   is far below every method's error, and the messages pick candidates well
+#   enough to beat the nearest fill — but with refsynth 0.2's defaults (the
+#   paper's reading of Eq. 11) NP got better here and caught up with BP. BP's confidence means
 #   something here: its most confident half has a lower error than the rest.
 # * **On the room's grid BP loses to NP**, unlike the paper's Tables 1 and
 #   3. Look at the ceiling first: it is *above* NP's MAR, so even a perfect

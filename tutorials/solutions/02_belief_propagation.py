@@ -85,7 +85,8 @@ def exercise_3() -> None:
 
     For BP the rule changes MAR by about a hundredth at most (on the
     Motorcycle it helps a little, on the room not at all), far less than the
-    edge term does for NP (compare tutorial 1, exercise 1, and the NP runs
+    edge term does for NP on the Motorcycle (compare tutorial 1, exercise 1);
+    on the room's grid the edge term hardly changes NP either (the NP runs
     below). In BP the edges only cut messages, and the messages matter little
     here (exercise 2); in NP the edges decide the fill order, which decides
     what is copied from where.
@@ -108,7 +109,7 @@ def exercise_3() -> None:
                      for flag in (True, False))
     print(f"3. {room.name}: NP MAR {np_on:.4f} with edges, {np_off:.4f} without (3 seeds)")
     assert all(abs(change) < 0.015 for change in changes.values())
-    assert abs(changes[room.name]) < np_off - np_on
+    assert abs(np_off - np_on) < 0.015  # on the room NP's edge term matters little too
 
 
 if __name__ == "__main__":
