@@ -26,7 +26,8 @@ def exercise_1() -> None:
     disparity leaks onto the next. On the Motorcycle MAR rises well beyond
     the seed-to-seed spread, near the intensity edges and away from them
     alike (with refsynth 0.2's defaults; under the old product rule for
-    Eq. 11's confidence the extra error sat mostly near the edges). The bike is a clutter of edges that are also depth edges. In the
+    Eq. 11's confidence the extra error sat mostly near the edges). The bike
+    is a clutter of edges that are also depth edges. In the
     synthetic room many intensity edges are *not* depth edges (the floor
     tiles, the painting, the door), and the boxes' outlines are few, long
     straight lines, so there the edge term's effect is within NP's own spread
