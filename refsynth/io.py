@@ -464,7 +464,7 @@ def write_array(path: str | Path, array: np.ndarray, *, png_scale: float = 1.0) 
     Raises
     ------
     ValueError
-        If the suffix is not one of :data:`WRITE_SUFFIXES`.
+        If :func:`check_write_suffix` refuses ``path``.
 
     Examples
     --------

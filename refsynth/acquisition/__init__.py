@@ -28,8 +28,9 @@ fraction of the tables (:func:`unknown_fraction`).
   by slice, :mod:`~refsynth.acquisition.scan_folder`; resumable, trusting
   nothing on disk unchecked and never deleting or overwriting a slice,
   :mod:`~refsynth.acquisition.resume`; the manifest and its checks,
-  :mod:`~refsynth.acquisition.manifest`), :func:`load_scan` (spherical
-  samples (r, θ, φ), :mod:`~refsynth.acquisition.assembly`).
+  :mod:`~refsynth.acquisition.manifest`), :func:`simulate_scan` (the same
+  on the simulator), :func:`load_scan` (spherical samples (r, θ, φ),
+  :mod:`~refsynth.acquisition.assembly`).
 
 References
 ----------
@@ -38,41 +39,22 @@ Modeling", IJCV 79:137–158 (2008), §3.1 (§3.1.1, Fig. 2) and §4,
 doi:10.1007/s11263-007-0108-2.
 """
 
+from refsynth.acquisition import errors, sampling
 from refsynth.acquisition.assembly import CameraImage, Scan, load_scan
-from refsynth.acquisition.errors import (
-    DeviceError,
-    DeviceTimeout,
-    PortLost,
-    ProtocolError,
-    ReplyError,
-    RetriesExhausted,
-    RigError,
-)
+from refsynth.acquisition.errors import *  # noqa: F403 (the names of errors.__all__)
 from refsynth.acquisition.faults import Faults
 from refsynth.acquisition.pan_unit import PanInfo, PanUnit
 from refsynth.acquisition.pose import RigPose
 from refsynth.acquisition.rangefinder import Rangefinder
-from refsynth.acquisition.sampling import (
-    column_range_profile,
-    distance_driven,
-    stripe_gap_for_fraction,
-    stripes,
-    unknown_fraction,
-    x_stripes_for_fraction,
-)
-from refsynth.acquisition.scan import ScanSummary, run_scan
+from refsynth.acquisition.sampling import *  # noqa: F403 (the names of sampling.__all__)
+from refsynth.acquisition.scan import ScanSummary, run_scan, simulate_scan
 from refsynth.acquisition.scan_folder import read_slice
 from refsynth.acquisition.simulator import RigSimulator, RoomRig
 from refsynth.acquisition.slice_plan import STRATEGIES, ScanSettings, plan_slices
 
 __all__ = [
-    # sampling strategies (§3.1.1, Fig. 2; §3.3)
-    "stripes",
-    "stripe_gap_for_fraction",
-    "x_stripes_for_fraction",
-    "distance_driven",
-    "column_range_profile",
-    "unknown_fraction",
+    # sampling strategies (§3.1.1, Fig. 2; §3.3): all of refsynth.acquisition.sampling
+    *sampling.__all__,
     # the rig (§4): drivers, simulator, scans
     "PanUnit",
     "PanInfo",
@@ -88,14 +70,9 @@ __all__ = [
     "STRATEGIES",
     "plan_slices",
     "run_scan",
+    "simulate_scan",
     "load_scan",
     "read_slice",
-    # errors
-    "ProtocolError",
-    "RigError",
-    "DeviceError",
-    "ReplyError",
-    "DeviceTimeout",
-    "PortLost",
-    "RetriesExhausted",
+    # errors: all of refsynth.acquisition.errors
+    *errors.__all__,
 ]

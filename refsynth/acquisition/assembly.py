@@ -131,14 +131,10 @@ class Scan:
     Examples
     --------
     >>> import tempfile
-    >>> from pathlib import Path
-    >>> from refsynth.acquisition import PanUnit, Rangefinder, RigSimulator, ScanSettings, run_scan
-    >>> folder = Path(tempfile.mkdtemp())
-    >>> with RigSimulator(seed=0) as rig:
-    ...     with PanUnit(rig.pan_port) as pan, Rangefinder(rig.laser_port) as laser:
-    ...         settings = ScanSettings("every", step=100, count=8, camera=False)
-    ...         summary = run_scan(folder, pan, laser, settings)
-    >>> scan = load_scan(folder)
+    >>> from refsynth.acquisition import ScanSettings, simulate_scan
+    >>> settings = ScanSettings("every", step=100, count=8, camera=False)
+    >>> summary = simulate_scan(tempfile.mkdtemp(), settings)
+    >>> scan = load_scan(summary.folder)
     >>> scan.r.shape, scan.pan_index.tolist(), scan.complete
     ((5, 8), [0, 100, 200, 300, 400], True)
     """

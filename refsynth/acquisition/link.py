@@ -227,7 +227,24 @@ class Link:
 class Device:
     """Retries, reconnection and statistics shared by the two drivers.
 
-    Subclasses set :attr:`name` and implement :meth:`_initialise_once`.
+    Subclasses set :attr:`name` and implement :meth:`_initialise_once`;
+    their defaults (baud rate, timeout, retries) are their own.
+
+    Parameters
+    ----------
+    port : str, os.PathLike or serial.SerialBase
+        A port name or pyserial URL, opened with
+        ``serial.serial_for_url(url, baudrate=..., timeout=..., exclusive=True)``,
+        or an open port (which the driver will not close).
+    baudrate : int
+        At most 10**8.
+    timeout : float
+        Deadline of one request, seconds, at most 3600.
+    retries : int
+        At most 1000: times a request is sent again after a rejected reply,
+        a timeout or a transient device error.
+    reconnect_timeout : float
+        How long to keep trying to reopen a lost port, seconds, at most 3600.
     """
 
     #: The device's name in messages.

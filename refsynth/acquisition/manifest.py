@@ -21,8 +21,8 @@ A manifest that fails raises ``ValueError`` in one line naming the file.
 
 References
 ----------
-Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2) and §4,
-doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2: the strategy a manifest records)
+and §4 (partial scans of 30 to 50 % of the range), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations

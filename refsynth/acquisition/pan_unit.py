@@ -69,20 +69,11 @@ class PanUnit(Device):
 
     Parameters
     ----------
-    port : str, os.PathLike or serial.SerialBase
-        A port name or pyserial URL, opened with
-        ``serial.serial_for_url(url, baudrate=..., timeout=..., exclusive=True)``,
-        or an open port (which the driver will not close).
-    baudrate : int, default 9600
-        At most 10**8.
-    timeout : float, default 0.5
-        Deadline of one request, seconds, at most 3600 (a move's ``A`` gets more: the
-        travel time at the unit's speed).
-    retries : int, default 8
-        At most 1000: times an operation is sent again after a rejected reply, a timeout
-        or a ``! Busy``.
-    reconnect_timeout : float, default 10.0
-        How long to keep trying to reopen a lost port, seconds, at most 3600.
+    port, baudrate, timeout, retries, reconnect_timeout
+        As for :class:`~refsynth.acquisition.link.Device`; the defaults are
+        9600 baud, a 0.5 s timeout (a move's ``A`` gets more: the travel time
+        at the unit's speed), 8 retries (the transient error is ``! Busy``)
+        and 10 s to reconnect.
     speed : int, optional
         Positions per second to set at initialisation (``PS<n>``); default:
         leave the unit's.

@@ -13,7 +13,9 @@ the request sent again (slice requests are idempotent).
 
 References
 ----------
-Torres-Méndez & Dudek (2008), §3.1 and §4, doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), §3.1 (Fig. 1) and §4 (the AccuRange 4000-LIR: a
+45° mirror on a 2000-position encoder; a slice is an average of 10 samples),
+doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations
@@ -48,20 +50,11 @@ class Rangefinder(Device):
 
     Parameters
     ----------
-    port : str, os.PathLike or serial.SerialBase
-        A port name or pyserial URL, opened with
-        ``serial.serial_for_url(url, baudrate=..., timeout=..., exclusive=True)``,
-        or an open port (which the driver will not close).
-    baudrate : int, default 115200
-        At most 10**8.
-    timeout : float, default 0.5
-        Deadline of one request, seconds, at most 3600.
-    retries : int, default 8
-        At most 1000: times a request is sent again after a rejected reply, a timeout, or
-        status 02 (laser off: the laser is switched on first), 03 (encoder
-        fault) or 04 (busy).
-    reconnect_timeout : float, default 10.0
-        How long to keep trying to reopen a lost port, seconds, at most 3600.
+    port, baudrate, timeout, retries, reconnect_timeout
+        As for :class:`~refsynth.acquisition.link.Device`; the defaults are
+        115200 baud, a 0.5 s timeout, 8 retries (the transient errors are
+        status 02, laser off: the laser is switched on first; 03, encoder
+        fault; 04, busy) and 10 s to reconnect.
     sweep_time : float, default 0.0
         Seconds per mirror revolution, at most 60: a GS request's deadline is
         ``timeout + average * sweep_time`` (the paper's slices took about

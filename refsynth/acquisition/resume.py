@@ -24,7 +24,8 @@ overwritten (it is set aside into ``rejected/``,
 
 References
 ----------
-Torres-Méndez & Dudek (2008), §4, doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), §4 (a complete scan of 500 slices takes about 20
+minutes: a session cut short is worth resuming, not repeating), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations

@@ -19,8 +19,8 @@ settings given, its manifest rebuilt from the slice files.
 
 References
 ----------
-Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2) and §4,
-doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2: the distance-driven plan) and §4
+(the acquisition: slices across 180°, a picture every 18°), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations
@@ -38,6 +38,9 @@ from refsynth.acquisition.errors import RigError
 from refsynth.acquisition.geometry import PAN_SLICES, camera_indices, image_name, pan_angle
 from refsynth.acquisition.manifest import image_entry_file, slice_entry_file
 from refsynth.acquisition.pan_protocol import PAN_RESOLUTION
+from refsynth.acquisition.pan_unit import PanUnit
+from refsynth.acquisition.pose import RigPose
+from refsynth.acquisition.rangefinder import Rangefinder
 from refsynth.acquisition.resume import (
     finish_temporary,
     prepare_folder,
@@ -55,6 +58,7 @@ from refsynth.acquisition.scan_folder import (
     write_new,
     write_npz,
 )
+from refsynth.acquisition.simulator import RigSimulator
 from refsynth.acquisition.slice_plan import (
     ScanSettings,
     coarse_profile,
@@ -62,7 +66,7 @@ from refsynth.acquisition.slice_plan import (
     plan_slices,
 )
 
-__all__ = ["ScanSummary", "run_scan"]
+__all__ = ["ScanSummary", "run_scan", "simulate_scan"]
 
 
 @dataclass
@@ -94,16 +98,7 @@ class ScanSummary:
 
     Examples
     --------
-    >>> import tempfile
-    >>> from pathlib import Path
-    >>> from refsynth.acquisition import PanUnit, Rangefinder, RigSimulator, ScanSettings, run_scan
-    >>> folder = Path(tempfile.mkdtemp())
-    >>> with RigSimulator(seed=0) as rig:
-    ...     with PanUnit(rig.pan_port) as pan, Rangefinder(rig.laser_port) as laser:
-    ...         settings = ScanSettings("every", step=100, count=8, camera=False)
-    ...         summary = run_scan(folder, pan, laser, settings)
-    >>> summary.planned, summary.acquired, summary.images, summary.complete
-    (5, 5, 0, True)
+    See :func:`run_scan` and :func:`simulate_scan`.
     """
 
     folder: Path
@@ -380,3 +375,58 @@ def run_scan(
         else:
             write_json(manifest_path, manifest)
     return summary
+
+
+def simulate_scan(
+    folder: str | os.PathLike,
+    settings: ScanSettings | None = None,
+    *,
+    seed: int = 0,
+    faults=None,
+    pose: RigPose | None = None,
+    resume: bool = False,
+    progress: Callable[[int, int, int], None] | None = None,
+) -> ScanSummary:
+    """Acquire a scan into ``folder`` on the simulated rig (§3.1.1, §4).
+
+    :func:`run_scan` with both drivers at their defaults on a
+    :class:`~refsynth.acquisition.simulator.RigSimulator` whose camera writes
+    into ``folder/images``; the manifest records the source as
+    ``{"simulated": True, "seed": seed, "faults": str(faults)}`` (and
+    ``"pose"`` when one is given).
+
+    Parameters
+    ----------
+    folder : str or Path
+        The output folder (see :func:`run_scan`).
+    settings : ScanSettings, optional
+        See :func:`run_scan`.
+    seed : int, default 0
+        The simulated room and its noise (see
+        :class:`~refsynth.acquisition.simulator.RigSimulator`).
+    faults : Faults or str, optional
+        What goes wrong on the wire (default none).
+    pose : RigPose, optional
+        Where the rig stands (default the room's centre, facing z).
+    resume, progress
+        See :func:`run_scan`.
+
+    Returns
+    -------
+    ScanSummary
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> summary = simulate_scan(tempfile.mkdtemp(), ScanSettings("every", step=100, count=8))
+    >>> summary.planned, summary.acquired, summary.images, summary.complete
+    (5, 5, 10, True)
+    """
+    with RigSimulator(seed=seed, faults=faults, camera_dir=Path(folder) / "images",
+                      pose=pose) as rig, \
+            PanUnit(rig.pan_port) as pan, Rangefinder(rig.laser_port) as laser:
+        source = {"simulated": True, "seed": rig.seed, "faults": str(rig.faults)}
+        if pose is not None:
+            source["pose"] = pose.as_dict()
+        return run_scan(folder, pan, laser, settings, resume=resume, source=source,
+                        progress=progress)

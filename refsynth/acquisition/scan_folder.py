@@ -24,7 +24,8 @@ What the manifest holds and how it is checked is
 
 References
 ----------
-Torres-Méndez & Dudek (2008), §4, doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), §4 (what a scan saves: 2-D slices, each an
+average of 10 samples, and a picture every 18°), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations
@@ -191,15 +192,13 @@ def read_slice(path: str | os.PathLike) -> SliceRecord:
     --------
     >>> import tempfile
     >>> from pathlib import Path
-    >>> from refsynth.acquisition import PanUnit, Rangefinder, RigSimulator, ScanSettings, run_scan
-    >>> folder = Path(tempfile.mkdtemp())
-    >>> with RigSimulator(seed=0) as rig:
-    ...     with PanUnit(rig.pan_port) as pan, Rangefinder(rig.laser_port) as laser:
-    ...         settings = ScanSettings("every", step=100, count=8, camera=False)
-    ...         summary = run_scan(folder, pan, laser, settings)
-    >>> record = read_slice(folder / "slices" / "pan-0100.slice")
-    >>> record.pan_index, record.count, record.range_mm.shape
-    (100, 8, (8,))
+    >>> range_mm = np.array([1200, 0, 3400], dtype=np.uint16)
+    >>> amplitude = np.array([90, 0, 255], dtype=np.uint8)
+    >>> path = Path(tempfile.mkdtemp()) / slice_name(100)
+    >>> _ = path.write_bytes(slice_bytes(SliceRecord(100, 7, 3, 10, range_mm, amplitude)))
+    >>> record = read_slice(path)
+    >>> record.pan_index, record.count, record.range_mm.tolist()
+    (100, 3, [1200, 0, 3400])
     """
     return parse_slice(Path(path).read_bytes(), path)
 

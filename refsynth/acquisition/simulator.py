@@ -46,7 +46,9 @@ The measurement model (documented choices, not the paper's):
 
 References
 ----------
-Torres-Méndez & Dudek (2008), §3.1 and §4, doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), §3.1 (Fig. 1: the laser and the camera on the
+pan unit) and §4 (the devices simulated: 500 pan steps of 0.36°, slices of 10
+samples, a picture every 18°), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations

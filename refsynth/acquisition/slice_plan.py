@@ -18,8 +18,8 @@ window); :func:`refsynth.acquisition.scan.run_scan` acquires the plan.
 
 References
 ----------
-Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2) and §4,
-doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2: the distance-driven heuristic) and
+§4 (500 pan steps of 0.36° over 180°), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations

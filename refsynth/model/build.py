@@ -13,10 +13,9 @@ depth discontinuities. The result, a :class:`Model`, is what
 
 References
 ----------
-L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
-Modeling", IJCV 79:137–158 (2008), §1 (stage 3: "data integration for model
-representation"), §3.2 (Eqs. 8, 11: the confidences), Appendix A (Eqs. 14, 19),
-doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008; in full in :mod:`refsynth.model`), §1 (stage 3:
+"data integration for model representation"), §3.2 (Eqs. 8, 11: the
+confidences), Appendix A (Eqs. 14, 19), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations

@@ -35,9 +35,8 @@ with ``r = |p|``. For the pinhole, ``p = z ((j − c_x) / f, (c_y − i) / f, 1)
 
 References
 ----------
-L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
-Modeling", IJCV 79:137–158 (2008), §1 (the three stages), Appendix A
-(Eqs. 14, 19), doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008; in full in :mod:`refsynth.model`), §1 (the three
+stages), Appendix A (Eqs. 14, 19), doi:10.1007/s11263-007-0108-2.
 
 D. Scharstein et al., "High-resolution stereo datasets with subpixel-accurate
 ground truth", GCPR 2014 (the Middlebury ``calib.txt``: ``Z = baseline · f /

@@ -37,9 +37,8 @@ colours.
 
 References
 ----------
-L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
-Modeling", IJCV 79:137–158 (2008), §1 (stage 3 and footnote 1),
-doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008; in full in :mod:`refsynth.model`), §1 (stage 3
+and footnote 1), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations

@@ -44,8 +44,8 @@ frame (x right, y up, z forward).
 
 References
 ----------
-L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
-Modeling", IJCV 79:137–158 (2008), §1 (stage 3), doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008; in full in :mod:`refsynth.model`), §1 (stage 3),
+doi:10.1007/s11263-007-0108-2.
 
 S. Fuhrmann, F. Langguth and M. Goesele, "MVE — A Multi-View Reconstruction
 Environment", Eurographics Workshop on Graphics and Cultural Heritage (2014)
