@@ -8,6 +8,7 @@
   :func:`make_figures` writes every PNG of ``figures/``.
 - :mod:`refsynth.plotting.demo`: the demos (the synthetic room; the simulated
   pipeline), which run the methods, return the table's rows and write figures.
+- :mod:`refsynth.plotting.examples`: the tiny range ramp the layouts' Examples draw.
 
 Every figure is a :class:`matplotlib.figure.Figure` built without pyplot's
 global state. The command lines (``demo``, ``figures``) are in :mod:`refsynth.cli`.
@@ -26,6 +27,7 @@ from refsynth.plotting.demo import (
     run_demo,
     run_pipeline_demo,
 )
+from refsynth.plotting.examples import example_ramp
 from refsynth.plotting.figures import (
     FIGURES,
     confidence_figure,
@@ -35,11 +37,20 @@ from refsynth.plotting.figures import (
     ordering_figure,
     scenes_figure,
 )
-from refsynth.plotting.layouts import comparison_figure, methods_figure, panel, result_figure
+from refsynth.plotting.layouts import (
+    comparison_figure,
+    finish_figure,
+    methods_figure,
+    panel,
+    range_scale,
+    result_figure,
+)
 
 __all__ = [
     # layouts
+    "range_scale",
     "panel",
+    "finish_figure",
     "result_figure",
     "comparison_figure",
     "methods_figure",
@@ -57,4 +68,6 @@ __all__ = [
     "ProgressFactory",
     "run_demo",
     "run_pipeline_demo",
+    # the Examples' case
+    "example_ramp",
 ]

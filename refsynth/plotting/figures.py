@@ -49,7 +49,7 @@ from refsynth.evaluation.aggregation import aggregate
 from refsynth.evaluation.cases import grid_cases, known_mask
 from refsynth.evaluation.runner import run_cases
 from refsynth.plotting.demo import DEMO_FIGURES, ProgressFactory, run_demo
-from refsynth.plotting.layouts import panel
+from refsynth.plotting.layouts import finish_figure, panel, range_scale
 from refsynth.scenes import motorcycle, synthetic_room
 from refsynth.synthesis.api import synthesize
 
@@ -140,15 +140,17 @@ def ordering_figure(
 ) -> Figure:
     """Fig. 7's comparison: per sampling and order, the fill order, the result and the residual.
 
+    ``fig07_ordering.png`` of :func:`make_figures`: priority order (Eqs. 10–12)
+    against onion-peel order on the same partial range.
+
     Parameters
     ----------
     truth : ndarray of shape (H, W)
-        Ground-truth range (NaN or inf where there is none).
+        Ground-truth range: the colour scale and the residuals (NaN or inf where
+        there is none: not scored).
     cases : sequence of (sampling name, partial range, {order name: SynthesisResult})
-    units : str
-        Range unit, for the colour bars.
-    title : str, optional
-        The figure's title.
+    units, title : str, optional
+        The range unit, after each residual's MAR (Eq. 13); the figure's title.
 
     Returns
     -------
@@ -158,11 +160,9 @@ def ordering_figure(
 
     Examples
     --------
-    >>> truth = 1.0 + np.add.outer(np.arange(8.0), np.arange(8.0)) / 10
-    >>> partial = truth.copy()
-    >>> partial[:, 3:5] = np.nan
-    >>> image = truth / truth.max()
-    >>> results = {"onion": synthesize(image, partial, ordering="onion")}
+    >>> from refsynth.plotting.examples import example_ramp
+    >>> truth, partial, _ = example_ramp(unknown=(3, 5))
+    >>> results = {"onion": synthesize(truth / truth.max(), partial, ordering="onion")}
     >>> figure = ordering_figure(truth, [("x25", partial, results)])
     >>> [ax.get_title() for ax in figure.axes[:3]]
     ['x25, onion: fill order', 'synthesized range', '|residual|, MAR 0']
@@ -170,8 +170,7 @@ def ordering_figure(
     rows = sum(len(results) for _, _, results in cases)
     fig = Figure(figsize=(3.0 * 3 + 0.6, 2.6 * rows))
     axes = np.atleast_2d(fig.subplots(rows, 3))
-    finite = truth[np.isfinite(truth)]
-    kw = dict(cmap="viridis", vmin=float(finite.min()), vmax=float(finite.max()))
+    scale = range_scale(truth)
     row = 0
     for sampling, partial, results in cases:
         known = np.isfinite(partial)
@@ -181,17 +180,12 @@ def ordering_figure(
         for name, result in results.items():
             _show(axes[row, 0], fill_order_image(truth.shape, result.order),
                   f"{sampling}, {name}: fill order", cmap="turbo", vmin=0, vmax=1)
-            h = _show(axes[row, 1], result.range, "synthesized range", **kw)
-            fig.colorbar(h, ax=axes[row, 1], fraction=0.046, pad=0.04)
+            _show(axes[row, 1], result.range, "synthesized range", colorbar=True, **scale)
             mar = _mar(result.range, truth, known)
-            h = _show(axes[row, 2], errors[name], f"|residual|, MAR {mar:.3g} {units}".strip(),
-                      cmap="magma", vmin=0, vmax=top)
-            fig.colorbar(h, ax=axes[row, 2], fraction=0.046, pad=0.04)
+            _show(axes[row, 2], errors[name], f"|residual|, MAR {mar:.3g} {units}".strip(),
+                  cmap="magma", vmin=0, vmax=top, colorbar=True)
             row += 1
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)
 
 
 def scenes_figure(
@@ -205,22 +199,21 @@ def scenes_figure(
     Parameters
     ----------
     rows : sequence of (row name, truth, partial range, {method: synthesized range})
+        A method missing from a row leaves its panel empty.
     units : str
-        Range unit, for the colour bars.
+        Range unit, after each MAR (Eq. 13).
     title : str, optional
-        The figure's title.
+        Above the rows.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Each row has its own colour scale (the scenes differ).
+        Each row has its own colour scale (the scenes differ), and no colour bar.
 
     Examples
     --------
-    >>> truth = 1.0 + np.add.outer(np.arange(12.0), np.arange(12.0)) / 10
-    >>> partial = truth.copy()
-    >>> partial[:, 4:8] = np.nan
-    >>> filled = np.where(np.isnan(partial), 2.0, partial)
+    >>> from refsynth.plotting.examples import example_ramp
+    >>> truth, partial, filled = example_ramp(12, unknown=(4, 8), fill=2.0)
     >>> figure = scenes_figure([("ramp", truth, partial, {"constant": filled})], units="m")
     >>> [ax.get_title() for ax in figure.axes[:3]]
     ['ramp: 33 % unknown', 'constant: MAR 0.317 m', 'ground truth']
@@ -231,20 +224,17 @@ def scenes_figure(
     axes = np.atleast_2d(fig.subplots(len(rows), cols))
     for i, (name, truth, partial, results) in enumerate(rows):
         known = np.isfinite(partial)
-        finite = truth[np.isfinite(truth)]
-        kw = dict(cmap="viridis", vmin=float(finite.min()), vmax=float(finite.max()))
-        _show(axes[i, 0], partial, f"{name}: {100 * (1 - known.mean()):.0f} % unknown", **kw)
+        scale = range_scale(truth)
+        _show(axes[i, 0], partial, f"{name}: {100 * (1 - known.mean()):.0f} % unknown", **scale)
         for j, method in enumerate(methods, start=1):
             if method not in results:
                 axes[i, j].axis("off")
                 continue
             mar = _mar(results[method], truth, known)
-            _show(axes[i, j], results[method], f"{method}: MAR {mar:.3g} {units}".strip(), **kw)
-        _show(axes[i, -1], truth, "ground truth", **kw)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+            _show(axes[i, j], results[method], f"{method}: MAR {mar:.3g} {units}".strip(),
+                  **scale)
+        _show(axes[i, -1], truth, "ground truth", **scale)
+    return finish_figure(fig, title)
 
 
 def mar_curve_figure(rows: Sequence[dict], *, title: str | None = None) -> Figure:
@@ -296,10 +286,7 @@ def mar_curve_figure(rows: Sequence[dict], *, title: str | None = None) -> Figur
         ax.set_title(scene, fontsize=10)
         ax.grid(alpha=0.3)
     axes[-1].legend(fontsize=7, ncol=2)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)
 
 
 def confidence_figure(
@@ -329,9 +316,8 @@ def confidence_figure(
 
     Examples
     --------
-    >>> truth = 1.0 + np.add.outer(np.arange(8.0), np.arange(8.0)) / 10
-    >>> partial = truth.copy()
-    >>> partial[:, 3:5] = np.nan
+    >>> from refsynth.plotting.examples import example_ramp
+    >>> truth, partial, _ = example_ramp(unknown=(3, 5))
     >>> result = synthesize(truth / truth.max(), partial, method="bp")
     >>> figure = confidence_figure([("ramp", truth, partial, result)], bins=4)
     >>> [ax.get_title() for ax in figure.axes[:3]]
@@ -343,16 +329,11 @@ def confidence_figure(
         known = np.isfinite(partial)
         scored = ~known & np.isfinite(truth)
         error = np.where(scored, np.abs(result.range - truth), np.nan)
-        finite = truth[np.isfinite(truth)]
-        h = _show(axes[i, 0], result.range, f"{name}: BP", cmap="viridis",
-                  vmin=float(finite.min()), vmax=float(finite.max()))
-        fig.colorbar(h, ax=axes[i, 0], fraction=0.046, pad=0.04)
-        h = _show(axes[i, 1], error, "|error|", cmap="magma", vmin=0,
-                  vmax=float(np.nanpercentile(error, 99)) or 1.0)
-        fig.colorbar(h, ax=axes[i, 1], fraction=0.046, pad=0.04)
-        h = _show(axes[i, 2], np.where(known, np.nan, result.confidence), "confidence (belief)",
-                  cmap="viridis", vmin=0, vmax=1)
-        fig.colorbar(h, ax=axes[i, 2], fraction=0.046, pad=0.04)
+        _show(axes[i, 0], result.range, f"{name}: BP", colorbar=True, **range_scale(truth))
+        _show(axes[i, 1], error, "|error|", cmap="magma", vmin=0,
+              vmax=float(np.nanpercentile(error, 99)) or 1.0, colorbar=True)
+        _show(axes[i, 2], np.where(known, np.nan, result.confidence), "confidence (belief)",
+              cmap="viridis", vmin=0, vmax=1, colorbar=True)
         conf, err = result.confidence[scored], error[scored]
         order = np.argsort(conf, kind="stable")
         chunks = np.array_split(order, bins)
@@ -367,10 +348,7 @@ def confidence_figure(
         ax.tick_params(labelsize=7)
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)
 
 
 # ----------------------------------------------------------------------------- every figure
@@ -380,6 +358,29 @@ def _save(fig: Figure, out: Path, name: str, written: list[Path]) -> None:
     path = out / name
     fig.savefig(path, dpi=DPI)
     written.append(path)
+
+
+def _partial(scene, sampling: str) -> np.ndarray:
+    """The scene's range where ``sampling`` measures it, NaN elsewhere."""
+    return np.where(known_mask(scene, sampling), scene.range, np.nan)
+
+
+def _np_and_bp(scene, samplings: Sequence[str], kept: str):
+    """NP and BP on each sampling (the rows of Figs. 11 and 17), and BP's case on ``kept``.
+
+    Returns ``(rows, case)``: the rows of :func:`scenes_figure`, and ``(name,
+    truth, partial, BP result)`` of the sampling ``kept`` for
+    :func:`confidence_figure`.
+    """
+    rows, case = [], None
+    for sampling in samplings:
+        partial = _partial(scene, sampling)
+        bp = synthesize(scene.intensity, partial, method="bp")
+        if sampling == kept:
+            case = (f"{scene.name}, {sampling}", scene.range, partial, bp)
+        rows.append((sampling, scene.range, partial, {
+            "NP": synthesize(scene.intensity, partial, seed=0).range, "BP": bp.range}))
+    return rows, case
 
 
 def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
@@ -404,6 +405,16 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     Returns
     -------
     list of Path
+
+    Examples
+    --------
+    The quick figures take about 15 s on two cores, so this is not run as a test
+    (``tests/test_figures.py`` runs it):
+
+    >>> import tempfile
+    >>> written = make_figures(Path(tempfile.mkdtemp()), quick=True)  # doctest: +SKIP
+    >>> [path.name for path in written] == list(FIGURES)  # doctest: +SKIP
+    True
     """
     say = log or (lambda text: None)
     settings = QUICK if quick else FULL
@@ -419,14 +430,10 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     moto = motorcycle(settings.moto)
     grids = ("g24_80", "g10_20", "g5_25", "g3_28") if not quick else ("g3_8", "g5_25")
 
-    def partial_of(scene, sampling):
-        known = known_mask(scene, sampling)
-        return np.where(known, scene.range, np.nan)
-
     say("Fig. 7: priority against onion order")
     cases = []
     for sampling in ("g5_25", "x78"):
-        partial = partial_of(room, sampling)
+        partial = _partial(room, sampling)
         cases.append((sampling, partial, {
             "priority": synthesize(room.intensity, partial, seed=0),
             "onion": synthesize(room.intensity, partial, seed=0, ordering="onion"),
@@ -437,14 +444,7 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
           out, "fig07_ordering.png", written)
 
     say("Fig. 11: grid samplings × NP × BP on the room")
-    rows, bp_room = [], None
-    for sampling in grids:
-        partial = partial_of(room, sampling)
-        bp = synthesize(room.intensity, partial, method="bp")
-        if sampling == "g5_25":
-            bp_room = (f"{room.name}, g5_25", room.range, partial, bp)
-        rows.append((sampling, room.range, partial, {
-            "NP": synthesize(room.intensity, partial, seed=0).range, "BP": bp.range}))
+    rows, bp_room = _np_and_bp(room, grids, kept="g5_25")
     _save(scenes_figure(rows, units=room.units,
                         title=f"Fig. 11 / Table 1 analogue: {room.name}, grid stripes rw/xw"),
           out, "fig11_samplings_room.png", written)
@@ -453,7 +453,7 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     rows = []
     for seed in range(4):
         scene = room if seed == 0 else synthetic_room((settings.room, settings.room), seed=seed)
-        partial = partial_of(scene, "g5_25")
+        partial = _partial(scene, "g5_25")
         rows.append((scene.name, scene.range, partial, {
             "NP, no edges": synthesize(scene.intensity, partial, seed=0, use_edges=False).range,
             "NP": synthesize(scene.intensity, partial, seed=0).range,
@@ -466,7 +466,7 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     say("Fig. 16: isophotes off and on, Motorcycle")
     rows = []
     for sampling in ("x63", "x78"):
-        partial = partial_of(moto, sampling)
+        partial = _partial(moto, sampling)
         rows.append((sampling, moto.range, partial, {
             "NP, no isophotes": synthesize(moto.intensity, partial, seed=0,
                                            use_isophotes=False).range,
@@ -477,14 +477,7 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
           out, "fig16_isophotes.png", written)
 
     say("Fig. 17: x-stripes × NP × BP, Motorcycle")
-    rows, bp_moto = [], None
-    for sampling in ("x63", "x78", "x85"):
-        partial = partial_of(moto, sampling)
-        bp = synthesize(moto.intensity, partial, method="bp")
-        if sampling == "x78":
-            bp_moto = (f"{moto.name}, x78", moto.range, partial, bp)
-        rows.append((sampling, moto.range, partial, {
-            "NP": synthesize(moto.intensity, partial, seed=0).range, "BP": bp.range}))
+    rows, bp_moto = _np_and_bp(moto, ("x63", "x78", "x85"), kept="x78")
     _save(scenes_figure(rows, units=moto.units,
                         title=f"Fig. 17 / Table 4 analogue: {moto.name}, x-stripes"),
           out, "fig17_samplings_motorcycle.png", written)

@@ -16,23 +16,40 @@ from collections.abc import Mapping
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["panel", "result_figure", "comparison_figure", "methods_figure"]
+__all__ = ["range_scale", "panel", "finish_figure", "result_figure", "comparison_figure",
+           "methods_figure"]
 
 RANGE_CMAP = "viridis"
 ERROR_CMAP = "magma"
 
 
-def _range_limits(*images: np.ndarray) -> tuple[float, float]:
+def range_scale(*images: np.ndarray | None) -> dict:
+    """``imshow`` keywords for range: the range colour map over the images' finite values.
+
+    Parameters
+    ----------
+    *images : ndarray or None
+        Range images (NaN and inf are ignored; None is skipped).
+
+    Returns
+    -------
+    dict
+        ``cmap``, ``vmin``, ``vmax``: the panels drawn with it share one scale.
+
+    Examples
+    --------
+    >>> range_scale(np.array([[1.0, np.nan], [np.inf, 2.5]]), None)
+    {'cmap': 'viridis', 'vmin': 1.0, 'vmax': 2.5}
+    """
     values = np.concatenate([im[np.isfinite(im)].ravel() for im in images if im is not None])
-    return float(values.min()), float(values.max())
+    return dict(cmap=RANGE_CMAP, vmin=float(values.min()), vmax=float(values.max()))
 
 
-def panel(ax, image, title: str, *, fontsize: float = 9, **kwargs):
+def panel(ax, image, title: str, *, fontsize: float = 9, colorbar: bool | str = False, **kwargs):
     """One panel of a figure: ``image`` on ``ax``, without interpolation or ticks, titled.
 
     A 2-D image (or one channel, (H, W, 1)) is drawn in grey unless ``cmap``
-    is given; ``kwargs`` go to ``ax.imshow``. Returns its image handle (for a
-    colour bar).
+    is given; ``kwargs`` go to ``ax.imshow``.
 
     Parameters
     ----------
@@ -44,19 +61,22 @@ def panel(ax, image, title: str, *, fontsize: float = 9, **kwargs):
         The panel's title.
     fontsize : float, default 9
         Of the title.
+    colorbar : bool or str, default False
+        Put a colour bar beside the panel; a string is the bar's label.
     **kwargs
         Passed to ``ax.imshow`` (``cmap``, ``vmin``, ``vmax`` …).
 
     Returns
     -------
     matplotlib.image.AxesImage
+        The image's handle (for a colour bar drawn later).
 
     Examples
     --------
     >>> figure = Figure()
-    >>> handle = panel(figure.add_subplot(), np.eye(3), "identity", cmap="viridis")
-    >>> type(handle).__name__, handle.axes.get_title()
-    ('AxesImage', 'identity')
+    >>> handle = panel(figure.add_subplot(), np.eye(3), "identity", cmap="viridis", colorbar=True)
+    >>> type(handle).__name__, handle.axes.get_title(), len(figure.axes)
+    ('AxesImage', 'identity', 2)
     """
     image = np.asarray(image)
     if image.ndim == 3 and image.shape[2] == 1:
@@ -67,7 +87,36 @@ def panel(ax, image, title: str, *, fontsize: float = 9, **kwargs):
     ax.set_title(title, fontsize=fontsize)
     ax.set_xticks([])
     ax.set_yticks([])
+    if colorbar is not False:
+        label = colorbar if isinstance(colorbar, str) else None
+        ax.figure.colorbar(handle, ax=ax, fraction=0.046, pad=0.04, label=label)
     return handle
+
+
+def finish_figure(fig: Figure, title: str | None = None) -> Figure:
+    """The last step of every layout: the figure's title, if any, and a tight layout.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure, its panels drawn.
+    title : str, optional
+        Its title (``suptitle``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        ``fig`` itself.
+
+    Examples
+    --------
+    >>> finish_figure(Figure(), "empty").get_suptitle()
+    'empty'
+    """
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
 
 
 def result_figure(
@@ -95,22 +144,21 @@ def result_figure(
     truth : ndarray of shape (H, W), optional
         Ground truth; without it the figure has four panels.
     units : str
-        Range unit, for the colour bars.
+        Range unit: the result's colour bar and the residual's MAR (Eq. 13).
     title : str, optional
-        The figure's title.
+        Above the panels.
 
     Returns
     -------
     matplotlib.figure.Figure
+        Range panels share one colour scale; the residual has its own.
 
     Examples
     --------
-    >>> truth = 1.0 + np.add.outer(np.arange(8.0), np.arange(8.0)) / 10
-    >>> partial = truth.copy()
-    >>> partial[:, 3:6] = np.nan  # three unknown columns
-    >>> filled = np.where(np.isnan(partial), 1.5, partial)
-    >>> edges = np.zeros((8, 8), dtype=bool)
-    >>> figure = result_figure(truth / 2.5, edges, partial, filled, truth, units="m")
+    >>> from refsynth.plotting.examples import example_ramp
+    >>> truth, partial, filled = example_ramp()
+    >>> figure = result_figure(truth / 2.5, np.zeros((8, 8), bool), partial, filled, truth,
+    ...                        units="m")
     >>> print("; ".join(ax.get_title() for ax in figure.axes[2:6]))
     partial range (38 % unknown); synthesized range; ground truth; |residual|, MAR 0.283 m
     """
@@ -123,26 +171,20 @@ def result_figure(
         cols = 3 if panels == 6 else 2
         fig = Figure(figsize=(3.2 * cols, 3.0 * 2))
         axes = fig.subplots(2, cols).ravel()
-    vmin, vmax = _range_limits(partial_range, result, truth)
+    scale = range_scale(partial_range, result, truth)
     panel(axes[0], np.clip(intensity, 0, 1) if np.ndim(intensity) == 3 else intensity, "intensity")
     panel(axes[1], edges, "Canny edges (σ = 0.8)")
-    cmap_kw = dict(cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
     known = np.isfinite(partial_range)
     panel(axes[2], partial_range, f"partial range ({100 * (1 - known.mean()):.0f} % unknown)",
-          **cmap_kw)
-    handle = panel(axes[3], result, "synthesized range", **cmap_kw)
+          **scale)
+    panel(axes[3], result, "synthesized range", colorbar=units or True, **scale)
     if truth is not None:
-        panel(axes[4], truth, "ground truth", **cmap_kw)
+        panel(axes[4], truth, "ground truth", **scale)
         residual = np.where(known | ~np.isfinite(truth), np.nan, np.abs(result - truth))
         mar = np.nanmean(residual)
-        err = panel(axes[5], residual, f"|residual|, MAR {mar:.3g} {units}".strip(),
-                    cmap=ERROR_CMAP)
-        fig.colorbar(err, ax=axes[5], fraction=0.046, pad=0.04)
-    fig.colorbar(handle, ax=axes[3], fraction=0.046, pad=0.04, label=units or None)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+        panel(axes[5], residual, f"|residual|, MAR {mar:.3g} {units}".strip(), cmap=ERROR_CMAP,
+              colorbar=True)
+    return finish_figure(fig, title)
 
 
 def comparison_figure(
@@ -155,30 +197,31 @@ def comparison_figure(
 ) -> Figure:
     """A grid: one row per sampling (partial range, then each method's result).
 
+    ``demo_comparison.png`` of :func:`refsynth.plotting.demo.run_demo`: every
+    sampling × method of the demo's table, at a glance.
+
     Parameters
     ----------
     truth : ndarray of shape (H, W)
-        Ground-truth range (NaN or inf where there is none).
+        Ground-truth range, the last panel of each row; each result's MAR is
+        against it (NaN or inf where there is none: not scored).
     partials : mapping of sampling name to partial range
         Each an ndarray of shape (H, W), NaN where unknown.
     results : mapping of (sampling name, method name) to synthesized range
-        Each an ndarray of shape (H, W).
-    units : str
-        Range unit, for the colour bars.
-    title : str, optional
-        The figure's title.
+        Each an ndarray of shape (H, W); a missing pair leaves its panel empty.
+    units, title : str, optional
+        The range unit, after each MAR; the figure's title.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Each result panel's title gives its MAR (Eq. 13) over the unknown pixels.
+        Each result panel's title gives its MAR (Eq. 13) over the unknown
+        pixels; every panel has one colour scale (no colour bars).
 
     Examples
     --------
-    >>> truth = 1.0 + np.add.outer(np.arange(8.0), np.arange(8.0)) / 10
-    >>> partial = truth.copy()
-    >>> partial[:, 3:6] = np.nan  # three unknown columns
-    >>> filled = np.where(np.isnan(partial), 1.5, partial)
+    >>> from refsynth.plotting.examples import example_ramp
+    >>> truth, partial, filled = example_ramp()
     >>> figure = comparison_figure(truth, {"x38": partial}, {("x38", "constant"): filled})
     >>> [ax.get_title() for ax in figure.axes[:2]]
     ['x38: 38 % unknown', 'constant: MAR 0.283']
@@ -187,11 +230,10 @@ def comparison_figure(
     rows, cols = len(partials), len(methods) + 2
     fig = Figure(figsize=(2.6 * cols, 2.6 * rows))
     axes = np.atleast_2d(fig.subplots(rows, cols))
-    vmin, vmax = _range_limits(truth, *partials.values())
-    kw = dict(cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
+    scale = range_scale(truth, *partials.values())
     for row, (name, partial) in enumerate(partials.items()):
         known = np.isfinite(partial)
-        panel(axes[row, 0], partial, f"{name}: {100 * (1 - known.mean()):.0f} % unknown", **kw)
+        panel(axes[row, 0], partial, f"{name}: {100 * (1 - known.mean()):.0f} % unknown", **scale)
         evaluated = ~known & np.isfinite(truth)
         for col, method in enumerate(methods, start=1):
             est = results.get((name, method))
@@ -199,12 +241,9 @@ def comparison_figure(
                 axes[row, col].axis("off")
                 continue
             mar = float(np.mean(np.abs(est - truth)[evaluated]))
-            panel(axes[row, col], est, f"{method}: MAR {mar:.3g} {units}".strip(), **kw)
-        panel(axes[row, -1], truth, "ground truth", **kw)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+            panel(axes[row, col], est, f"{method}: MAR {mar:.3g} {units}".strip(), **scale)
+        panel(axes[row, -1], truth, "ground truth", **scale)
+    return finish_figure(fig, title)
 
 
 def methods_figure(
@@ -217,18 +256,22 @@ def methods_figure(
 ) -> Figure:
     """One row per method: its result, its absolute residual and its confidence map.
 
+    ``demo_np_bp.png`` of :func:`refsynth.plotting.demo.run_demo`: NP's and
+    BP's results, where each went wrong, and how sure each was there.
+
     Parameters
     ----------
     truth : ndarray of shape (H, W)
-        Ground-truth range (NaN or inf where there is none).
+        Ground-truth range, which the residuals are against (NaN or inf where
+        there is none: not scored).
     partial_range : ndarray of shape (H, W), NaN where unknown
         The measured range given to every method.
     results : mapping of method name to (range, confidence)
         Each two ndarrays of shape (H, W): the synthesized range and a confidence in [0, 1].
     units : str
-        Range unit, for the colour bars.
+        Range unit, after each residual's MAR (Eq. 13).
     title : str, optional
-        The figure's title.
+        Above the rows.
 
     Returns
     -------
@@ -237,32 +280,24 @@ def methods_figure(
 
     Examples
     --------
-    >>> truth = 1.0 + np.add.outer(np.arange(8.0), np.arange(8.0)) / 10
-    >>> partial = truth.copy()
-    >>> partial[:, 3:6] = np.nan  # three unknown columns
-    >>> filled = np.where(np.isnan(partial), 1.5, partial)
+    >>> from refsynth.plotting.examples import example_ramp
+    >>> truth, partial, filled = example_ramp()
     >>> figure = methods_figure(truth, partial, {"constant": (filled, np.ones((8, 8)))})
-    >>> len(figure.axes)
+    >>> len(figure.axes)  # three panels and their colour bars
     6
     """
     rows = len(results)
     fig = Figure(figsize=(3.3 * 3, 3.0 * rows))
     axes = np.atleast_2d(fig.subplots(rows, 3))
-    vmin, vmax = _range_limits(truth, partial_range)
+    scale = range_scale(truth, partial_range)
     unknown = ~np.isfinite(partial_range) & np.isfinite(truth)
     residuals = {m: np.where(unknown, np.abs(r - truth), np.nan) for m, (r, _) in results.items()}
     top = max(float(np.nanpercentile(e, 99)) for e in residuals.values()) or 1.0
     for row, (method, (estimate, confidence)) in enumerate(results.items()):
-        h = panel(axes[row, 0], estimate, f"{method}: synthesized range",
-                  cmap=RANGE_CMAP, vmin=vmin, vmax=vmax)
-        fig.colorbar(h, ax=axes[row, 0], fraction=0.046, pad=0.04)
+        panel(axes[row, 0], estimate, f"{method}: synthesized range", colorbar=True, **scale)
         mar = float(np.nanmean(residuals[method]))
-        h = panel(axes[row, 1], residuals[method], f"|residual|, MAR {mar:.3g} {units}".strip(),
-                  cmap=ERROR_CMAP, vmin=0, vmax=top)
-        fig.colorbar(h, ax=axes[row, 1], fraction=0.046, pad=0.04)
-        h = panel(axes[row, 2], confidence, "confidence", cmap="viridis", vmin=0, vmax=1)
-        fig.colorbar(h, ax=axes[row, 2], fraction=0.046, pad=0.04)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+        panel(axes[row, 1], residuals[method], f"|residual|, MAR {mar:.3g} {units}".strip(),
+              cmap=ERROR_CMAP, vmin=0, vmax=top, colorbar=True)
+        panel(axes[row, 2], confidence, "confidence", cmap="viridis", vmin=0, vmax=1,
+              colorbar=True)
+    return finish_figure(fig, title)

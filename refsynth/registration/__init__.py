@@ -30,6 +30,8 @@ A.2 Laser–camera registration (Eqs. 19–21)
         All of Appendix A in one call: ``register`` and ``register_scan``.
     :mod:`~refsynth.registration.scoring`
         A registration scored against the test rig's ground truth (§4.1).
+    :mod:`~refsynth.registration.examples`
+        The small rig (two views and a scan) the Examples register.
 
 The command line's side (``python -m refsynth register``) is in
 :mod:`refsynth.cli.register`.
@@ -55,6 +57,7 @@ from refsynth.registration.edge_matching import (
     match_segments,
     range_edges,
 )
+from refsynth.registration.examples import example_registration, example_rig
 from refsynth.registration.mosaicking import Mosaic, blend, hat_weight, hat_weights, mosaic
 from refsynth.registration.pipeline import Registration, register, register_scan
 from refsynth.registration.range_image import (
@@ -112,4 +115,7 @@ __all__ = [
     # scoring on the test rig
     "mosaic_position",
     "registration_errors",
+    # the Examples' rig
+    "example_rig",
+    "example_registration",
 ]

@@ -143,15 +143,8 @@ def align_global(
 
     Examples
     --------
-    >>> from refsynth.scenes import laser_scan, render_views, rig_room
-    >>> room = rig_room(0)
-    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
-    ...                      supersample=1)
-    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
-    ...                   stripes=None)
-    >>> from refsynth.registration.pipeline import register
-    >>> result = register(views.images, views.pan_angles, views.focal,
-    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> from refsynth.registration.examples import example_registration
+    >>> views, scan, result = example_registration()
     >>> warp, info = align_global(result.mosaic.image, result.cylinder, result.initial)
     >>> warp.a == result.initial.a, sorted(info)  # a is kept unless fit_scale
     (True, ['matches', 'misalignment', 'shift'])
@@ -316,10 +309,9 @@ def refine_local(
         Zero anchors are put this far apart away from the control points.
     support, distinct : float
         Passed to :func:`~refsynth.registration.edge_matching.match_segments`.
-    edges : tuple, optional
-        ``intensity_edges(image)``, if already computed.
-    jump : float, default 0.2
-        Passed to :func:`~refsynth.registration.edge_matching.range_edges`.
+    edges, jump
+        As in :func:`align_global` (:func:`~refsynth.registration.pipeline.register`
+        passes both stages the same).
 
     Returns
     -------
@@ -332,15 +324,8 @@ def refine_local(
 
     Examples
     --------
-    >>> from refsynth.scenes import laser_scan, render_views, rig_room
-    >>> room = rig_room(0)
-    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
-    ...                      supersample=1)
-    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
-    ...                   stripes=None)
-    >>> from refsynth.registration.pipeline import register
-    >>> result = register(views.images, views.pan_angles, views.focal,
-    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> from refsynth.registration.examples import example_registration
+    >>> views, scan, result = example_registration()
     >>> displacement, history = refine_local(result.mosaic.image, result.cylinder, result.warp)
     >>> displacement.shape == (2,) + result.mosaic.image.shape, sorted(history[0])
     (True, ['controls', 'matched', 'misalignment'])

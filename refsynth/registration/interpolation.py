@@ -3,9 +3,9 @@
 The cylindrical projection (Eq. 14), the Gauss–Newton alignment (Eqs. 15–17)
 and the blend (Eq. 18) all look an image up at fractional pixel positions.
 They share :func:`sample_image`, which treats NaN as "no data" (the outside
-of a warped view, an unscanned column) rather than as a number, and the two
+of a warped view, an unscanned column) rather than as a number, and the
 checks of what such a lookup is asked for: the interpolation order and the
-shape of the output grid.
+shape of the output grid (a pair of integers, :func:`check_int_pair`).
 
 Coordinates are ``(rows, cols)`` in index units: pixel ``(i, j)`` is sampled
 exactly at ``(i, j)``.
@@ -18,7 +18,7 @@ from scipy import ndimage as ndi
 
 from refsynth._checks import is_int
 
-__all__ = ["ORDERS", "check_order", "check_shape", "sample_image"]
+__all__ = ["ORDERS", "check_order", "check_int_pair", "check_shape", "sample_image"]
 
 #: The interpolation orders refsynth offers: nearest, bilinear, cubic B-spline.
 ORDERS = (0, 1, 3)
@@ -44,6 +44,32 @@ def check_order(order) -> int:
     return int(order)
 
 
+def check_int_pair(name: str, value, *, positive: bool = True) -> tuple[int, int]:
+    """``value`` as two ``int``, each >= 1 (``positive``) or >= 0, or raise ``ValueError``.
+
+    The check of an output grid's ``(H, W)`` (:func:`check_shape`) and of a
+    search's half-widths (``refsynth.registration.translation.align_translation``).
+
+    Examples
+    --------
+    >>> check_int_pair("search", (3, 0), positive=False)
+    (3, 0)
+    >>> check_int_pair("search", (3, -1), positive=False)
+    Traceback (most recent call last):
+    ...
+    ValueError: The parameter `search` must be a pair of non-negative integers, got (3, -1)
+    """
+    if (
+        not isinstance(value, (tuple, list))
+        or len(value) != 2
+        or not all(is_int(n) for n in value)
+        or min(value) < (1 if positive else 0)
+    ):
+        kind = "positive" if positive else "non-negative"
+        raise ValueError(f"The parameter `{name}` must be a pair of {kind} integers, got {value!r}")
+    return int(value[0]), int(value[1])
+
+
 def check_shape(name: str, shape, default: tuple[int, int]) -> tuple[int, int]:
     """``shape`` as ``(H, W)``, two integers >= 1; ``default`` if ``shape`` is None.
 
@@ -58,16 +84,7 @@ def check_shape(name: str, shape, default: tuple[int, int]) -> tuple[int, int]:
     """
     if shape is None:
         return (int(default[0]), int(default[1]))
-    if (
-        not isinstance(shape, (tuple, list))
-        or len(shape) != 2
-        or not all(is_int(n) for n in shape)
-        or min(shape) < 1
-    ):
-        raise ValueError(
-            f"The parameter `{name}` must be a pair of positive integers, got {shape!r}"
-        )
-    return int(shape[0]), int(shape[1])
+    return check_int_pair(name, shape)
 
 
 def sample_image(image: np.ndarray, rows: np.ndarray, cols: np.ndarray, order: int) -> np.ndarray:

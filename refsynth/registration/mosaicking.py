@@ -16,13 +16,10 @@ the translations.
 
 References
 ----------
-L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
-Modeling", IJCV 79:137–158 (2008), Appendix A.1, Eqs. 14–18,
-doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), Appendix A.1, Eqs. 14–18, doi:10.1007/s11263-007-0108-2.
 
-R. Szeliski and H.-Y. Shum, "Creating full view panoramic image mosaics and
-environment maps", SIGGRAPH 1997, doi:10.1145/258734.258861 (gap closing for
-360° panoramas).
+Szeliski & Shum (1997), SIGGRAPH, doi:10.1145/258734.258861: gap closing for
+360° panoramas (the full references: :mod:`refsynth.registration.translation`).
 """
 
 from __future__ import annotations
@@ -260,9 +257,8 @@ class Mosaic:
 
     Examples
     --------
-    >>> from refsynth.scenes import render_views, rig_room
-    >>> views = render_views(rig_room(0), focal=150.0, n_views=2, start_angle=-0.3, height=80,
-    ...                      supersample=1)
+    >>> from refsynth.registration.examples import example_rig
+    >>> views, _ = example_rig()
     >>> result = mosaic(views.images, views.focal, views.pan_angles[1] - views.pan_angles[0])
     >>> result.image.shape, result.offsets.shape, result.translations.shape, result.period
     ((81, 107), (2, 2), (1, 2), None)

@@ -66,14 +66,8 @@ class Registration:
 
     Examples
     --------
-    >>> from refsynth.scenes import laser_scan, render_views, rig_room
-    >>> room = rig_room(0)
-    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
-    ...                      supersample=1)
-    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
-    ...                   stripes=None)
-    >>> result = register(views.images, views.pan_angles, views.focal,
-    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> from refsynth.registration.examples import example_registration
+    >>> views, scan, result = example_registration()  # register(..., refine=False)
     >>> result.displacement is None, result.warp.a == result.initial.a, sorted(result.global_info)
     (True, True, ['matches', 'misalignment', 'shift'])
     """
@@ -183,12 +177,8 @@ def register(
 
     Examples
     --------
-    >>> from refsynth.scenes import laser_scan, render_views, rig_room
-    >>> room = rig_room(0)
-    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
-    ...                      supersample=1)
-    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
-    ...                   stripes=None)
+    >>> from refsynth.registration.examples import example_rig
+    >>> views, scan = example_rig()
     >>> result = register(views.images, views.pan_angles, views.focal,
     ...                   (scan.r, scan.theta, scan.phi), refine=False)
     >>> result.intensity.shape == result.partial_range.shape, result.crop
@@ -223,18 +213,12 @@ def register(
     if refine:
         displacement, history = refine_local(pano.image, cylinder, warp, edges=edges, jump=jump)
     full_range = resample_range(cylinder, warp, pano.weight.shape, displacement)
-    row0, row1, col0, col1 = _covered_rectangle(pano.weight)
+    crop = _covered_rectangle(pano.weight)
+    window = (slice(crop[0], crop[1]), slice(crop[2], crop[3]))
     return Registration(
-        intensity=pano.image[row0:row1, col0:col1].copy(),
-        partial_range=full_range[row0:row1, col0:col1].copy(),
-        crop=(row0, row1, col0, col1),
-        mosaic=pano,
-        cylinder=cylinder,
-        initial=initial,
-        warp=warp,
-        displacement=displacement,
-        global_info=global_info,
-        history=history,
+        intensity=pano.image[window].copy(), partial_range=full_range[window].copy(), crop=crop,
+        mosaic=pano, cylinder=cylinder, initial=initial, warp=warp, displacement=displacement,
+        global_info=global_info, history=history,
     )
 
 
@@ -273,12 +257,8 @@ def register_scan(images, pan_angles, focal: float, scan, **options):
 
     Examples
     --------
-    >>> from refsynth.scenes import laser_scan, render_views, rig_room
-    >>> room = rig_room(0)
-    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
-    ...                      supersample=1)
-    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
-    ...                   stripes=None)
+    >>> from refsynth.registration.examples import example_rig
+    >>> views, scan = example_rig()
     >>> intensity, partial, info = register_scan(
     ...     views.images, views.pan_angles, views.focal, (scan.r, scan.theta, scan.phi))
     >>> intensity.shape == partial.shape and bool(np.isfinite(intensity).all())

@@ -63,9 +63,8 @@ def mosaic_position(points: np.ndarray, mosaic: Mosaic, views: RigViews) -> np.n
     Examples
     --------
     >>> from refsynth.registration.mosaicking import mosaic
-    >>> from refsynth.scenes import render_views, rig_room
-    >>> views = render_views(rig_room(0), focal=150.0, n_views=2, start_angle=-0.3, height=80,
-    ...                      supersample=1)
+    >>> from refsynth.registration.examples import example_rig
+    >>> views, _ = example_rig()
     >>> result = mosaic(views.images, views.focal, views.pan_angles[1] - views.pan_angles[0])
     >>> mosaic_position(np.array([[0.0, 0.0, 2.0], [0.0, -0.1, 2.0]]), result, views).shape
     (2, 2)
@@ -122,15 +121,8 @@ def registration_errors(
 
     Examples
     --------
-    >>> from refsynth.scenes import laser_scan, render_views, rig_room
-    >>> room = rig_room(0)
-    >>> views = render_views(room, focal=150.0, n_views=2, start_angle=-0.3, height=80,
-    ...                      supersample=1)
-    >>> scan = laser_scan(room, phi_range=(-0.7, 0.7), pan_step=0.01, theta_step=0.005,
-    ...                   stripes=None)
-    >>> from refsynth.registration.pipeline import register
-    >>> result = register(views.images, views.pan_angles, views.focal,
-    ...                   (scan.r, scan.theta, scan.phi), refine=False)
+    >>> from refsynth.registration.examples import example_registration
+    >>> views, scan, result = example_registration()
     >>> errors = registration_errors(result, scan, views)
     >>> sorted(errors), sorted(errors["global"])
     (['global', 'local', 'n_u', 'n_v', 'nominal'], ['mean', 'mean_u', 'mean_v', 'rms', 'samples'])

@@ -38,8 +38,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage as ndi
 
-from refsynth._checks import check_image, check_int, check_pair, check_real, grey, is_int
-from refsynth.registration.interpolation import check_order, sample_image
+from refsynth._checks import check_image, check_int, check_pair, check_real, grey
+from refsynth.registration.interpolation import check_int_pair, check_order, sample_image
 
 __all__ = ["MIN_OVERLAP_PIXELS", "gauss_newton_step", "align_translation"]
 
@@ -226,19 +226,6 @@ def _search(reference, moving, initial, search) -> np.ndarray:
             best, best_error = t, error
     return np.asarray(best, dtype=np.float64)
 
-def _check_search(search) -> tuple[int, int]:
-    """``search`` as a pair of non-negative ints (the whole-pixel search's half-widths)."""
-    if (
-        not isinstance(search, (tuple, list))
-        or len(search) != 2
-        or not all(is_int(n) for n in search)
-        or min(search) < 0
-    ):
-        raise ValueError(
-            f"The parameter `search` must be a pair of non-negative integers, got {search!r}"
-        )
-    return int(search[0]), int(search[1])
-
 
 def align_translation(
     reference: np.ndarray,
@@ -342,7 +329,7 @@ def align_translation(
     order = check_order(order)
     if order == 0:
         raise ValueError("The parameter `order` must be 1 or 3 for alignment, got 0")
-    search = _check_search(search)
+    search = check_int_pair("search", search, positive=False)
     sigmas = _LEVEL_SIGMAS[len(_LEVEL_SIGMAS) - levels :]
     if search[0] > 0 or search[1] > 0:
         t = _search(_blur(ref, sigmas[0]), _blur(mov, sigmas[0]), t, search)
