@@ -220,10 +220,9 @@ def add_evaluate_parser(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run on this Dask scheduler (needs dask.distributed; default: "
                         "local processes)")
-    parser.add_argument("--json", metavar="FILE",
-                        help="write the rows as JSON (a .json file; default none)")
-    parser.add_argument("--csv", metavar="FILE",
-                        help="write the rows as CSV (a .csv file; default none)")
+    for option, form in (("--json", "JSON"), ("--csv", "CSV")):
+        parser.add_argument(option, metavar="FILE",
+                            help=f"write the rows as {form} (a .{option[2:]} file; default none)")
     parser.add_argument("--load", metavar="FILE",
                         help="print the tables of a previous --json file instead of running "
                         "(default: run)")

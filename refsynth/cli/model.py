@@ -360,10 +360,9 @@ def add_model_parser(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--focal", type=real, metavar="PIXELS",
                         help="focal length f in pixels, the cylinder's radius (required "
                         "without --camera-file)")
-    parser.add_argument("--cx", type=real, help="column of pan angle 0 / of the principal point "
-                        "(default: the centre; a registered panorama's is in its camera.json)")
-    parser.add_argument("--cy", type=real, help="row of the horizon / of the principal point "
-                        "(default: the centre; a registered panorama's is in its camera.json)")
+    for option, what in (("--cx", "column of pan angle 0"), ("--cy", "row of the horizon")):
+        parser.add_argument(option, type=real, help=f"{what} / of the principal point (default: "
+                            "the centre; a registered panorama's is in its camera.json)")
     parser.add_argument("--phi-step", type=real, metavar="DEGREES",
                         help="cylindrical: degrees of pan per column (default 180/(pi f), one "
                         "pixel of arc)")

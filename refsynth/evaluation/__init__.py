@@ -22,121 +22,32 @@ L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
 Modeling", IJCV 79:137–158 (2008), §3.3 and Eq. 13, doi:10.1007/s11263-007-0108-2.
 """
 
-from refsynth.evaluation.aggregation import (
-    PAIRWISE_FINDINGS,
-    TIMING_FIELDS,
-    aggregate,
-    findings,
-    fsum_mean,
-    without_timing,
+from refsynth.evaluation import (
+    aggregation,
+    baselines,
+    cases,
+    metrics,
+    reports,
+    results_io,
+    runner,
 )
-from refsynth.evaluation.baselines import (
-    BASELINES,
-    colorization_affinities,
-    colorization_fill,
-    harmonic_fill,
-    joint_bilateral_fill,
-    linear_fill,
-    nearest_fill,
-)
-from refsynth.evaluation.cases import (
-    DEFAULT_GRID,
-    DEFAULT_SAMPLINGS,
-    DISTANCE_KNOWN_FRACTION,
-    QUICK_GRID,
-    SYNTHESIS_METHODS,
-    Case,
-    build_cases,
-    grid_cases,
-    known_mask,
-    load_scene,
-    method_names,
-    parse_list,
-    parse_method,
-    parse_sampling,
-    parse_scene,
-    parse_size,
-    scene_label,
-    size_tuple,
-)
-from refsynth.evaluation.metrics import (
-    BAD_THRESHOLDS,
-    bad_pixel_rate,
-    evaluate,
-    evaluated_pixels,
-    mar,
-    rmse,
-)
-from refsynth.evaluation.reports import (
-    PAPER,
-    format_findings,
-    format_paper_comparison,
-    format_pivot,
-    format_results,
-    format_runtimes,
-    format_winners,
-)
-from refsynth.evaluation.results_io import CSV_FIELDS, read_json, write_csv, write_json
-from refsynth.evaluation.runner import ProgressCallback, case_cost, run_case, run_cases, score
+from refsynth.evaluation.aggregation import *  # noqa: F403
+from refsynth.evaluation.baselines import *  # noqa: F403
+from refsynth.evaluation.cases import *  # noqa: F403
+from refsynth.evaluation.metrics import *  # noqa: F403
+from refsynth.evaluation.reports import *  # noqa: F403
+from refsynth.evaluation.results_io import *  # noqa: F403
+from refsynth.evaluation.runner import *  # noqa: F403
 
+#: Every module's public names (its own ``__all__``, the one list of them), in the order of
+#: the list above: metrics (Eq. 13), baselines, cases, the runner, aggregation and findings,
+#: reports and files.
 __all__ = [
-    # metrics (Eq. 13)
-    "BAD_THRESHOLDS",
-    "evaluated_pixels",
-    "mar",
-    "rmse",
-    "bad_pixel_rate",
-    "evaluate",
-    # baselines
-    "BASELINES",
-    "nearest_fill",
-    "linear_fill",
-    "harmonic_fill",
-    "colorization_affinities",
-    "colorization_fill",
-    "joint_bilateral_fill",
-    # cases
-    "Case",
-    "SYNTHESIS_METHODS",
-    "DEFAULT_SAMPLINGS",
-    "DISTANCE_KNOWN_FRACTION",
-    "DEFAULT_GRID",
-    "QUICK_GRID",
-    "method_names",
-    "scene_label",
-    "size_tuple",
-    "parse_scene",
-    "parse_size",
-    "parse_sampling",
-    "parse_method",
-    "parse_list",
-    "build_cases",
-    "grid_cases",
-    "load_scene",
-    "known_mask",
-    # the runner
-    "ProgressCallback",
-    "score",
-    "run_case",
-    "case_cost",
-    "run_cases",
-    # aggregation and findings
-    "TIMING_FIELDS",
-    "PAIRWISE_FINDINGS",
-    "fsum_mean",
-    "aggregate",
-    "without_timing",
-    "findings",
-    # reports and files
-    "PAPER",
-    "format_results",
-    "format_pivot",
-    "format_runtimes",
-    "format_findings",
-    "format_winners",
-    "format_paper_comparison",
-    "CSV_FIELDS",
-    "write_json",
-    "read_json",
-    "write_csv",
+    *metrics.__all__,
+    *baselines.__all__,
+    *cases.__all__,
+    *runner.__all__,
+    *aggregation.__all__,
+    *reports.__all__,
+    *results_io.__all__,
 ]

@@ -72,6 +72,7 @@ def nearest_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarray
     Returns
     -------
     ndarray of shape (H, W), float64
+        Each unknown pixel holds its nearest measured pixel's range.
 
     Notes
     -----
@@ -100,14 +101,13 @@ def linear_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    intensity : ndarray of shape (H, W) or (H, W, 3)
-        Validated (as by :func:`refsynth.synthesize`) but not used.
-    partial_range : ndarray of shape (H, W), NaN where unknown
-        The measured range; the NaN pixels are filled.
+    intensity, partial_range : ndarray
+        As for :func:`nearest_fill`, whose values this fill keeps outside the hull.
 
     Returns
     -------
     ndarray of shape (H, W), float64
+        Linear between the known pixels inside their convex hull.
 
     Examples
     --------
@@ -137,14 +137,14 @@ def harmonic_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarra
 
     Parameters
     ----------
-    intensity : ndarray of shape (H, W) or (H, W, 3)
-        Validated (as by :func:`refsynth.synthesize`) but not used.
-    partial_range : ndarray of shape (H, W), NaN where unknown
-        The measured range; the NaN pixels are filled.
+    intensity, partial_range : ndarray
+        As for :func:`nearest_fill`; at least one pixel must be measured (it is
+        checked), which makes the sparse system non-singular.
 
     Returns
     -------
     ndarray of shape (H, W), float64
+        Each unknown pixel the mean of its (up to four) neighbours.
 
     Examples
     --------

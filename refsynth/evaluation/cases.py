@@ -275,6 +275,13 @@ def parse_scene(text: str) -> str:
     )
 
 
+def _normalised(text: str, what: str) -> str:
+    """The spec stripped and lower-cased; ValueError naming ``what`` if it is not a string."""
+    if not isinstance(text, str):
+        raise ValueError(f"{what} must be a string, got {text!r}")
+    return text.strip().lower()
+
+
 def parse_size(text: str) -> str:
     """Validate a size spec: ``128`` (square), ``450x375`` (W×H) or ``native``.
 
@@ -293,9 +300,7 @@ def parse_size(text: str) -> str:
     >>> parse_size("128"), parse_size("450x375"), parse_size("native")
     ('128x128', '450x375', 'native')
     """
-    if not isinstance(text, str):
-        raise ValueError(f"size must be a string, got {text!r}")
-    text = text.strip().lower()
+    text = _normalised(text, "size")
     if text == "native":
         return text
     match = re.fullmatch(rf"([0-9]{{1,{_MAX_DIGITS}}})(?:x([0-9]{{1,{_MAX_DIGITS}}}))?", text)
@@ -343,6 +348,12 @@ _MOTORCYCLE_NATIVE = (741, 500)
 
 def case_memory(case: Case) -> int | None:
     """A rough peak memory of one case in bytes (pixels × a method's bytes per pixel).
+
+    Parameters
+    ----------
+    case : Case
+        The case: its size (the Motorcycle's stored size for ``native``) and its
+        method set the estimate.
 
     Returns
     -------
@@ -392,9 +403,7 @@ def parse_sampling(text: str) -> str:
     >>> parse_sampling("g5_25"), parse_sampling("x078"), parse_sampling("distance")
     ('g5_25', 'x78', 'distance')
     """
-    if not isinstance(text, str):
-        raise ValueError(f"sampling must be a string, got {text!r}")
-    text = text.strip().lower()
+    text = _normalised(text, "sampling")
     match = re.fullmatch(r"g([0-9]+)_([0-9]+)", text)
     if match:
         rw, xw = int(match.group(1)), int(match.group(2))

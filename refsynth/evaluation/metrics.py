@@ -164,7 +164,7 @@ def rmse(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray) -> float:
     Parameters
     ----------
     estimate, truth, known
-        As in :func:`mar`.
+        As in :func:`mar`; the same residuals, squared before the mean.
 
     Returns
     -------
@@ -220,7 +220,7 @@ def evaluate(estimate: np.ndarray, truth: np.ndarray, known: np.ndarray) -> dict
     Parameters
     ----------
     estimate, truth, known
-        As in :func:`mar`.
+        As in :func:`mar`; every measure is taken over the same pixels.
 
     Returns
     -------

@@ -15,7 +15,7 @@ Modeling", IJCV 79:137–158 (2008), §3.3 (Tables 1–4, Figs. 7, 11, 13, 16,
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 
 from refsynth.evaluation.aggregation import fsum_mean
 from refsynth.evaluation.baselines import BASELINES
@@ -37,6 +37,23 @@ def _fmt_mar(row: dict) -> str:
     if row["mar_sd"] is not None:
         text += f" ± {row['mar_sd']:.3f}"
     return text
+
+
+def _table(header: Sequence[str], body: Iterable[Sequence[str]]) -> list[str]:
+    """The lines of a Markdown table: the header, the rule, then one line per row of cells."""
+    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header),
+            *("| " + " | ".join(cells) + " |" for cells in body)]
+
+
+def _titled(title: str, header: Sequence[str], body: Iterable[Sequence[str]]) -> str:
+    """A title line, a blank line, then the table."""
+    return "\n".join([title, "", *_table(header, body)])
+
+
+def _by_scene(rows: Sequence[dict]) -> Iterator[tuple[str, list[dict]]]:
+    """Each scene, in order of first appearance, with its rows."""
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        yield scene, [r for r in rows if r["scene"] == scene]
 
 
 def format_results(rows: Sequence[dict], *, timing: bool = True) -> str:
@@ -74,21 +91,15 @@ def format_results(rows: Sequence[dict], *, timing: bool = True) -> str:
     | x78 | 75.0 % | nearest | 1 | 0.300 | 0.300 | 0.0 % | 1.0 % |
     """
     blocks = []
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        members = [r for r in rows if r["scene"] == scene]
+    for scene, members in _by_scene(rows):
         units = members[0]["units"]
         header = ["sampling", "unknown", "method", "seeds", f"MAR ({units})", "RMSE",
                   "bad>1", "bad>3"] + (["seconds"] if timing else [])
-        lines = [f"### {scene} ({units})", "", "| " + " | ".join(header) + " |",
-                 "|" + "---|" * len(header)]
-        for r in members:
-            cells = [r["sampling"], f"{r['unknown_percent']:.1f} %", r["method"],
-                     str(len(r["seeds"])), _fmt_mar(r), f"{r['rmse']:.3f}",
-                     f"{100 * r['bad1']:.1f} %", f"{100 * r['bad3']:.1f} %"]
-            if timing:
-                cells.append(f"{r['seconds']:.2f}")
-            lines.append("| " + " | ".join(cells) + " |")
-        blocks.append("\n".join(lines))
+        body = [[r["sampling"], f"{r['unknown_percent']:.1f} %", r["method"],
+                 str(len(r["seeds"])), _fmt_mar(r), f"{r['rmse']:.3f}",
+                 f"{100 * r['bad1']:.1f} %", f"{100 * r['bad3']:.1f} %"]
+                + ([f"{r['seconds']:.2f}"] if timing else []) for r in members]
+        blocks.append(_titled(f"### {scene} ({units})", header, body))
     return "\n\n".join(blocks)
 
 
@@ -99,7 +110,8 @@ def format_pivot(rows: Sequence[dict]) -> str:
     Parameters
     ----------
     rows : sequence of dict
-        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+        Rows of :func:`~refsynth.evaluation.aggregation.aggregate`, one per scene ×
+        sampling × method; their ``mar`` and ``mar_sd`` fill the cells.
 
     Returns
     -------
@@ -108,32 +120,30 @@ def format_pivot(rows: Sequence[dict]) -> str:
 
     Examples
     --------
-    >>> row = dict(scene="room", size="16x16", units="m", sampling="x78", unknown_percent=75.0,
-    ...            seeds=[0], mar_sd=None, bad1=0.0, bad3=0.01, seconds=0.5)
-    >>> rows = [dict(row, method=m, mar=e, rmse=e)
-    ...         for m, e in [("np", 0.2), ("bp", 0.1), ("nearest", 0.3)]]
+    >>> rows = [dict(scene="room", units="m", sampling=s, unknown_percent=u, method=m, mar=e,
+    ...              mar_sd=None)
+    ...         for s, u, m, e in [("x78", 75.0, "np", 0.2), ("x78", 75.0, "bp", 0.1),
+    ...                            ("x63", 60.0, "np", 0.3)]]
     >>> print(format_pivot(rows))
     MAR, room (m)
     <BLANKLINE>
-    | sampling | unknown | np | bp | nearest |
-    |---|---|---|---|---|
-    | x78 | 75.0 % | 0.200 | 0.100 | 0.300 |
+    | sampling | unknown | np | bp |
+    |---|---|---|---|
+    | x78 | 75.0 % | 0.200 | 0.100 |
+    | x63 | 60.0 % | 0.300 | – |
     """
     blocks = []
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        members = [r for r in rows if r["scene"] == scene]
+    for scene, members in _by_scene(rows):
         methods = list(dict.fromkeys(r["method"] for r in members))
         index = {(r["sampling"], r["method"]): r for r in members}
-        lines = [f"MAR, {scene} ({members[0]['units']})", "",
-                 "| sampling | unknown | " + " | ".join(methods) + " |",
-                 "|---|---|" + "---|" * len(methods)]
+        body = []
         for sampling in dict.fromkeys(r["sampling"] for r in members):
             first = next(r for r in members if r["sampling"] == sampling)
-            cells = [_fmt_mar(index[sampling, m]) if (sampling, m) in index else "–"
-                     for m in methods]
-            lines.append(f"| {sampling} | {first['unknown_percent']:.1f} % | "
-                         + " | ".join(cells) + " |")
-        blocks.append("\n".join(lines))
+            body.append([sampling, f"{first['unknown_percent']:.1f} %"]
+                        + [_fmt_mar(index[sampling, m]) if (sampling, m) in index else "–"
+                           for m in methods])
+        blocks.append(_titled(f"MAR, {scene} ({members[0]['units']})",
+                              ["sampling", "unknown", *methods], body))
     return "\n\n".join(blocks)
 
 
@@ -144,7 +154,8 @@ def format_runtimes(rows: Sequence[dict]) -> str:
     Parameters
     ----------
     rows : sequence of dict
-        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+        Rows of :func:`~refsynth.evaluation.aggregation.aggregate`; each row's
+        ``seconds`` counts once per seed, a row without ``seconds`` not at all.
 
     Returns
     -------
@@ -153,31 +164,29 @@ def format_runtimes(rows: Sequence[dict]) -> str:
 
     Examples
     --------
-    >>> row = dict(scene="room", size="16x16", units="m", sampling="x78", unknown_percent=75.0,
-    ...            seeds=[0], mar_sd=None, bad1=0.0, bad3=0.01, seconds=0.5)
-    >>> rows = [dict(row, method=m, mar=e, rmse=e)
-    ...         for m, e in [("np", 0.2), ("bp", 0.1), ("nearest", 0.3)]]
-    >>> print(format_runtimes(rows[:2]))
-    | method | 16x16 |
-    |---|---|
-    | np | 0.50 s |
-    | bp | 0.50 s |
+    >>> rows = [dict(size="16x16", method="np", seconds=0.5, seeds=[0, 1]),
+    ...         dict(size="32x32", method="np", seconds=2.0, seeds=[0]),
+    ...         dict(size="16x16", method="bp", seconds=0.25, seeds=[0])]
+    >>> print(format_runtimes(rows))
+    | method | 16x16 | 32x32 |
+    |---|---|---|
+    | np | 0.50 s | 2.00 s |
+    | bp | 0.25 s | – |
     """
     timed = [r for r in rows if r.get("seconds") is not None]
     if not timed:
         return ""
     sizes = list(dict.fromkeys(r["size"] for r in timed))
-    methods = list(dict.fromkeys(r["method"] for r in timed))
-    lines = ["| method | " + " | ".join(sizes) + " |", "|---|" + "---|" * len(sizes)]
-    for method in methods:
-        cells = []
+    body = []
+    for method in dict.fromkeys(r["method"] for r in timed):
+        cells = [method]
         for size in sizes:
             runs = [(r["seconds"], len(r["seeds"])) for r in timed
                     if r["method"] == method and r["size"] == size]
             total = sum(n for _, n in runs)
             cells.append(f"{sum(t * n for t, n in runs) / total:.2f} s" if total else "–")
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        body.append(cells)
+    return "\n".join(_table(["method", *sizes], body))
 
 
 def _finding_group(item: dict) -> str:
@@ -220,25 +229,26 @@ def format_findings(items: Sequence[dict], *, detail: bool = True) -> str:
         verdicts = [m["verdict"] for m in members]
         return " / ".join(str(verdicts.count(v)) for v in ("holds", "tie", "fails"))
 
-    lines = ["Each cell: holds / ties / fails (a tie: the difference is within the sum of the "
-             "two standard deviations over seeds).", "",
-             "| finding (paper) | " + " | ".join(scenes) + " | all |",
-             "|---|" + "---|" * (len(scenes) + 1)]
+    summary = []
     for group in groups:
         members = [f for f in items if _finding_group(f) == group]
-        cells = [counts([m for m in members if m["scene"] == scene]) for scene in scenes]
-        lines.append(f"| {group} ({sources[group]}) | " + " | ".join(cells)
-                     + f" | {counts(members)} |")
+        summary.append([f"{group} ({sources[group]})",
+                        *(counts([m for m in members if m["scene"] == scene]) for scene in scenes),
+                        counts(members)])
+    lines = ["Each cell: holds / ties / fails (a tie: the difference is within the sum of the "
+             "two standard deviations over seeds).", "",
+             *_table(["finding (paper)", *scenes, "all"], summary)]
     if detail:
-        lines += ["", "| finding (paper) | scene | sampling | MAR (first vs second) | verdict |",
-                  "|---|---|---|---|---|"]
+        checks = []
         for f in items:
             if f["worse"] is None:
                 mar = " → ".join(f"{m:.3f}" for m in f["better"])
             else:
                 mar = f"{f['better']:.3f} vs {f['worse']:.3f}"
-            lines.append(f"| {f['finding']} ({f['source']}) | {f['scene']} | {f['sampling']} "
-                         f"| {mar} | {f['verdict']} |")
+            checks.append([f"{f['finding']} ({f['source']})", f["scene"], f["sampling"], mar,
+                           f["verdict"]])
+        lines += ["", *_table(["finding (paper)", "scene", "sampling", "MAR (first vs second)",
+                               "verdict"], checks)]
     return "\n".join(lines)
 
 
@@ -255,7 +265,8 @@ def format_winners(rows: Sequence[dict]) -> str:
     Parameters
     ----------
     rows : sequence of dict
-        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+        Rows of :func:`~refsynth.evaluation.aggregation.aggregate`, compared by
+        ``mar`` within each scene × sampling.
 
     Returns
     -------
@@ -265,17 +276,14 @@ def format_winners(rows: Sequence[dict]) -> str:
 
     Examples
     --------
-    >>> row = dict(scene="room", size="16x16", units="m", sampling="x78", unknown_percent=75.0,
-    ...            seeds=[0], mar_sd=None, bad1=0.0, bad3=0.01, seconds=0.5)
-    >>> rows = [dict(row, method=m, mar=e, rmse=e)
-    ...         for m, e in [("np", 0.2), ("bp", 0.1), ("nearest", 0.3)]]
+    >>> rows = [dict(scene="room", sampling="x78", method=m, mar=e, mar_sd=None)
+    ...         for m, e in [("np", 0.2), ("bp", 0.1), ("nearest", 0.3), ("linear", 0.25)]]
     >>> print(format_winners(rows))
     | scene | sampling | best | np | bp | best refsynth variant | best baseline | nearest |
     |---|---|---|---|---|---|---|---|
-    | room | x78 | bp 0.100 | 0.200 | 0.100 | bp 0.100 | nearest 0.300 | 0.300 |
+    | room | x78 | bp 0.100 | 0.200 | 0.100 | bp 0.100 | linear 0.250 | 0.300 |
     """
-    lines = ["| scene | sampling | best | np | bp | best refsynth variant | best baseline "
-             "| nearest |", "|---|---|---|---|---|---|---|---|"]
+    body = []
     for scene, sampling in dict.fromkeys((r["scene"], r["sampling"]) for r in rows):
         members = {r["method"]: r for r in rows
                    if r["scene"] == scene and r["sampling"] == sampling}
@@ -283,11 +291,13 @@ def format_winners(rows: Sequence[dict]) -> str:
         theirs = [r for m, r in members.items() if m in BASELINES]
         if not ours or not theirs:
             continue
-        cells = [_fmt_mar(members[m]) if m in members else "–" for m in ("np", "bp")]
-        nearest = _fmt_mar(members["nearest"]) if "nearest" in members else "–"
-        lines.append(f"| {scene} | {sampling} | {_best(list(members.values()))} | "
-                     f"{cells[0]} | {cells[1]} | {_best(ours)} | {_best(theirs)} | {nearest} |")
-    return "\n".join(lines) if len(lines) > 2 else ""
+        np_mar, bp_mar, nearest_mar = (_fmt_mar(members[m]) if m in members else "–"
+                                       for m in ("np", "bp", "nearest"))
+        body.append([scene, sampling, _best(list(members.values())), np_mar, bp_mar,
+                     _best(ours), _best(theirs), nearest_mar])
+    header = ["scene", "sampling", "best", "np", "bp", "best refsynth variant", "best baseline",
+              "nearest"]
+    return "\n".join(_table(header, body)) if body else ""
 
 
 #: The paper's MARs (cm for USF, the units of its range images for
@@ -330,7 +340,8 @@ def format_paper_comparison(rows: Sequence[dict]) -> str:
     Parameters
     ----------
     rows : sequence of dict
-        Aggregated rows (:func:`refsynth.evaluation.aggregation.aggregate`).
+        Rows of :func:`~refsynth.evaluation.aggregation.aggregate`; only those of
+        the scenes, sizes and samplings above are read.
 
     Returns
     -------
@@ -358,60 +369,59 @@ def format_paper_comparison(rows: Sequence[dict]) -> str:
     blocks = []
     table1 = PAPER["Table 1 (USF 128×128, cm)"]
     if any(("synthetic-room-0", s, "np") in index for s in table1):
-        lines = ["Table 1 analogue: synthetic room 0, 128×128 (m) — paper: USF images (cm)", "",
-                 "| rw/xw | unknown (ours) | paper NP | paper BP | paper BP/NP | ours NP | ours BP "
-                 "| ours BP/NP |", "|---|---|---|---|---|---|---|---|"]
+        body = []
         for sampling, paper in table1.items():
             row = index.get(("synthetic-room-0", sampling, "np"))
-            unknown = f"{row['unknown_percent']:.1f} %" if row else "–"
-            lines.append(f"| {sampling[1:].replace('_', '/')} | {unknown} | {paper['np']:.2f} | "
-                         f"{paper['bp']:.2f} | {_ratio(paper['bp'], paper['np'])} | "
-                         f"{ours('synthetic-room-0', sampling, 'np')} | "
-                         f"{ours('synthetic-room-0', sampling, 'bp')} | "
-                         f"{ours_ratio('synthetic-room-0', sampling)} |")
-        blocks.append("\n".join(lines))
+            body.append([sampling[1:].replace("_", "/"),
+                         f"{row['unknown_percent']:.1f} %" if row else "–",
+                         f"{paper['np']:.2f}", f"{paper['bp']:.2f}",
+                         _ratio(paper["bp"], paper["np"]),
+                         ours("synthetic-room-0", sampling, "np"),
+                         ours("synthetic-room-0", sampling, "bp"),
+                         ours_ratio("synthetic-room-0", sampling)])
+        header = ["rw/xw", "unknown (ours)", "paper NP", "paper BP", "paper BP/NP", "ours NP",
+                  "ours BP", "ours BP/NP"]
+        blocks.append(_titled("Table 1 analogue: synthetic room 0, 128×128 (m) — paper: USF "
+                              "images (cm)", header, body))
     rooms = sorted({r["scene"] for r in rows if r["scene"].startswith("synthetic-room-")
                     and r["sampling"] == "g5_25" and r["size"] == "128x128"})
     if rooms:
-        lines = ["Table 3 analogue: rooms at g5_25, 128×128 (m) — paper: four USF images at "
-                 "61 % (cm)", "",
-                 "| paper image | paper no-edge / NP / BP | our scene | ours no-edge | ours NP "
-                 "| ours BP |", "|---|---|---|---|---|---|"]
+        body = []
         for (label, paper), scene in zip(PAPER["Table 3 (USF 128×128, 61 %, cm)"].items(),
                                          rooms):
-            lines.append(f"| {label} | {paper['np-noedges']:.2f} / {paper['np']:.2f} / "
-                         f"{paper['bp']:.2f} | "
-                         f"{scene} | {ours(scene, 'g5_25', 'np-noedges')} | "
-                         f"{ours(scene, 'g5_25', 'np')} | {ours(scene, 'g5_25', 'bp')} |")
+            body.append([label, f"{paper['np-noedges']:.2f} / {paper['np']:.2f} / "
+                         f"{paper['bp']:.2f}", scene,
+                         *(ours(scene, "g5_25", m) for m in ("np-noedges", "np", "bp"))])
         means = []
         for method in ("np-noedges", "np", "bp"):
             found = [index[scene, "g5_25", method]["mar"] for scene in rooms
                      if (scene, "g5_25", method) in index]
             means.append(f"{fsum_mean(found):.3f}" if found else "–")
         table2 = PAPER["Table 2 (USF 128×128, mean of 32 images at 61 %, cm)"]["mean"]
-        lines.append(f"| Table 2: mean of 32 | – / {table2['np']:.2f} / {table2['bp']:.2f} | "
-                     f"mean of {len(rooms)} rooms | " + " | ".join(means) + " |")
-        blocks.append("\n".join(lines))
+        body.append(["Table 2: mean of 32", f"– / {table2['np']:.2f} / {table2['bp']:.2f}",
+                     f"mean of {len(rooms)} rooms", *means])
+        header = ["paper image", "paper no-edge / NP / BP", "our scene", "ours no-edge",
+                  "ours NP", "ours BP"]
+        blocks.append(_titled("Table 3 analogue: rooms at g5_25, 128×128 (m) — paper: four "
+                              "USF images at 61 % (cm)", header, body))
     moto = "motorcycle-450x375"
     if any((moto, s, "np") in index for s in ("x63", "x78", "x85")):
-        lines = ["Table 4 analogue: Motorcycle 450×375, x-stripes (disparity px) — paper: "
-                 "Middlebury images (its range units)", "",
-                 "| unknown (paper / ours) | paper NP | paper BP | paper BP/NP | ours NP | ours BP "
-                 "| ours BP/NP |", "|---|---|---|---|---|---|---|"]
+        body = []
         for sampling, paper in PAPER["Table 4 (Middlebury 450×375)"].items():
             row = index.get((moto, sampling, "np"))
-            unknown = f"{sampling[1:]} % / {row['unknown_percent']:.1f} %" if row else "–"
-            lines.append(f"| {unknown} | {paper['np']:.2f} | {paper['bp']:.2f} | "
-                         f"{_ratio(paper['bp'], paper['np'])} | {ours(moto, sampling, 'np')} | "
-                         f"{ours(moto, sampling, 'bp')} | {ours_ratio(moto, sampling)} |")
-        blocks.append("\n".join(lines))
+            body.append([f"{sampling[1:]} % / {row['unknown_percent']:.1f} %" if row else "–",
+                         f"{paper['np']:.2f}", f"{paper['bp']:.2f}",
+                         _ratio(paper["bp"], paper["np"]), ours(moto, sampling, "np"),
+                         ours(moto, sampling, "bp"), ours_ratio(moto, sampling)])
+        header = ["unknown (paper / ours)", "paper NP", "paper BP", "paper BP/NP", "ours NP",
+                  "ours BP", "ours BP/NP"]
+        blocks.append(_titled("Table 4 analogue: Motorcycle 450×375, x-stripes (disparity "
+                              "px) — paper: Middlebury images (its range units)", header, body))
         if (moto, "x63", "np-noisophotes") in index:
-            lines = ["Fig. 16 analogue: isophotes off / on — paper: 10.5 → 6.5 (65 %) and "
-                     "12.2 → 7.3 (62 %)", "",
-                     "| sampling | ours without isophotes | ours with |", "|---|---|---|"]
-            for sampling in ("x63", "x78", "x85"):
-                lines.append(f"| {sampling} | {ours(moto, sampling, 'np-noisophotes')} | "
-                             f"{ours(moto, sampling, 'np')} |")
-            blocks.append("\n".join(lines))
+            body = [[sampling, ours(moto, sampling, "np-noisophotes"), ours(moto, sampling, "np")]
+                    for sampling in ("x63", "x78", "x85")]
+            blocks.append(_titled("Fig. 16 analogue: isophotes off / on — paper: 10.5 → 6.5 "
+                                  "(65 %) and 12.2 → 7.3 (62 %)",
+                                  ["sampling", "ours without isophotes", "ours with"], body))
     return "\n\n".join(blocks)
 

@@ -170,11 +170,9 @@ def write_csv(path: str | Path, rows: Sequence[dict]) -> None:
 
     Parameters
     ----------
-    path : str or Path
-        The file to write (overwritten if it exists).
-    rows : sequence of dict
-        Rows of :func:`refsynth.evaluation.aggregation.aggregate`; the
-        columns are :data:`CSV_FIELDS`.
+    path, rows
+        As for :func:`write_json`; the columns are those of :data:`CSV_FIELDS`
+        that the first row has (lists joined with spaces, None left empty).
 
     Examples
     --------
