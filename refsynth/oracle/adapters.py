@@ -27,7 +27,36 @@ BP_MODEL = ("labels", "candidates", "unary", "pairs", "log_psi", "messages", "be
 
 
 def refsynth_reference(inputs: dict, options: dict) -> dict:
-    """The literal reference in the checker's convention (it passes by construction)."""
+    """The literal reference in the checker's convention (it passes by construction).
+
+    Every kind of case is handled: NP and BP runs by
+    :mod:`refsynth.synthesis.reference` (from the raw inputs, not the
+    prepared arrays), the equations by the functions that wrote their
+    expected values (:func:`~refsynth.oracle.cases.expected_outputs`).
+
+    Parameters
+    ----------
+    inputs : dict of str to ndarray
+        The case's ``input`` and ``prepared`` arrays (for a run
+        ``intensity`` (H, W) or (H, W, 3), ``partial_range`` (H, W), NaN
+        unknown, ``edges`` (H, W) bool, …).
+    options : dict
+        The case's options plus ``method`` (its kind: ``"np"``, ``"eq7"`` …)
+        and ``seed``.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The outputs, prepared arrays and trace, named as the case's.
+
+    Examples
+    --------
+    Eq. 7, ``log Φ = −d / 2σ_i²`` (§3.2.3):
+
+    >>> options = {"method": "eq7", "seed": None, "sigma_i": 0.5}
+    >>> refsynth_reference({"distances": np.array([[0.0, 0.5, 2.0]])}, options)["log_phi"]
+    array([[-0., -1., -4.]])
+    """
     from refsynth.oracle.cases import Case, expected_outputs
 
     options = dict(options)
@@ -67,7 +96,38 @@ def _fast_equation(kind: str, inputs: dict, options: dict):
 
 
 def refsynth_fast(inputs: dict, options: dict) -> dict | None:
-    """refsynth's fast code in the checker's convention (NP, BP, Eqs. 5–7; else None)."""
+    """refsynth's fast code in the checker's convention (NP, BP, Eqs. 5–7; else None).
+
+    Whole runs go through :func:`refsynth.synthesize` (with the case's
+    ``edges`` unless ``use_edges`` is off); Eqs. 5, 6 and 7 through the fast
+    code's :func:`~refsynth.synthesis.nonparametric.eq5_set`,
+    :func:`~refsynth.synthesis.bp.pair_compatibilities`,
+    :func:`~refsynth.synthesis.bp.psi` and :func:`~refsynth.synthesis.bp.phi`.
+
+    Parameters
+    ----------
+    inputs : dict of str to ndarray
+        The case's ``input`` and ``prepared`` arrays (see
+        :func:`refsynth_reference`).
+    options : dict
+        The case's options plus ``method`` and ``seed``.
+
+    Returns
+    -------
+    dict of str to ndarray or None
+        A run: ``range`` and ``confidence`` (H, W), ``order`` (M, 2) and,
+        for BP, the parts of its model in :data:`BP_MODEL`,
+        ``candidate_values`` and ``iterations``; an equation: its outputs.
+        None for the kinds it does not handle (the checker skips them).
+
+    Examples
+    --------
+    >>> distances = {"distances": np.array([[0.0, 0.5, 2.0]])}
+    >>> refsynth_fast(distances, {"method": "eq7", "seed": None, "sigma_i": 0.5})["log_phi"]
+    array([[-0., -1., -4.]])
+    >>> refsynth_fast({}, {"method": "eq13", "seed": None}) is None
+    True
+    """
     import refsynth
 
     options = dict(options)

@@ -32,7 +32,40 @@ CASE_SET_VERSION = 1
 
 @dataclass
 class Case:
-    """One golden case: what to call (``kind``, ``options``, ``seed``) and on which arrays."""
+    """One golden case: what to call (``kind``, ``options``, ``seed``) and on which arrays.
+
+    Its :attr:`tolerance` is the loosest comparison the case needs:
+    ``"exact"`` for the kinds under the numeric contract (the synthesis
+    stage), ``"float64"`` for Eq. 13 and the registration stage (Eqs. 14–21).
+
+    Attributes
+    ----------
+    name : str
+        A file-name-safe identifier (``"np-8x8-noise"``, ``"eq7"``).
+    kind : str
+        A key of :data:`~refsynth.oracle.equations.KINDS`: ``"np"`` or
+        ``"bp"`` for a whole run (§3.2.2, §3.2.3), ``"eq2"`` … ``"eq21"`` or
+        ``"canny"`` for a per-equation batch.
+    inputs : dict of str to ndarray
+        What the function under test receives. A whole run: ``intensity``
+        (H, W) or (H, W, 3) float in [0, 1], ``partial_range`` (H, W) float
+        (NaN unknown) and ``edges`` (H, W) bool; an equation: its batch
+        (Eq. 7's ``distances`` (B, K), Eq. 13's ``estimate``, ``truth``,
+        ``known`` (H, W) …).
+    options : dict, default {}
+        Keyword arguments: :func:`refsynth.synthesize`'s for a run, the
+        equation's parameters otherwise (Eq. 7's ``sigma_i`` …).
+    seed : int or None, default None
+        The run's seed; None for the equation cases.
+
+    Examples
+    --------
+    >>> known = np.array([[True, False], [False, True]])
+    >>> case = Case("mar", "eq13", dict(estimate=np.ones((2, 2)), truth=np.zeros((2, 2)),
+    ...                                 known=known))
+    >>> case.tolerance   # Eq. 13 is not under the numeric contract
+    'float64'
+    """
 
     name: str
     kind: str                      # a key of refsynth.oracle.equations.KINDS
@@ -121,7 +154,28 @@ def _run_cases(large: bool) -> list[Case]:
 def build_cases(*, large: bool = False) -> list[Case]:
     """The versioned case set: whole runs from 8×8 to 64×64, then the per-equation batches.
 
-    ``large`` adds a 48×64 NP run with the priority order (about a minute in the reference).
+    Only the inputs and options are built here (in milliseconds); the
+    expected values come from :func:`expected_outputs`.
+
+    Parameters
+    ----------
+    large : bool, default False
+        Add a 48×64 NP run with the priority order (about a minute in the
+        reference).
+
+    Returns
+    -------
+    list of Case
+        Version :data:`CASE_SET_VERSION`: the NP and BP runs first, then one
+        or more cases per equation (:data:`~refsynth.oracle.equations.KINDS`).
+
+    Examples
+    --------
+    >>> cases = build_cases()
+    >>> cases[0].name, cases[0].inputs["intensity"].shape, cases[0].seed
+    ('np-8x8-noise', (8, 8), 0)
+    >>> [case.name for case in cases if case.kind == "eq6"]
+    ['eq6-h', 'eq6-v']
     """
     cases = _run_cases(large)
     cases += [Case(name, kind, inputs, options) for name, kind, inputs, options
@@ -141,7 +195,35 @@ def select_cases(cases: list[Case], patterns) -> list[Case]:
 
 
 def expected_outputs(case: Case) -> dict:
-    """Run the reference on ``case``: prepared arrays, outputs and (NP, BP) the step trace."""
+    """Run the reference on ``case``: prepared arrays, outputs and (NP, BP) the step trace.
+
+    Parameters
+    ----------
+    case : Case
+        A whole run (``kind`` "np" or "bp") or a per-equation batch.
+
+    Returns
+    -------
+    dict of str to ndarray
+        A whole run: the prepared arrays (``q_intensity`` (H, W, C) and
+        ``q_range`` (H, W) on the contract's grids, the integer ``window``
+        (n, n), NP's ``tie`` (H, W) and Eq. 5 ``draws`` (M,)), the outputs
+        ``range`` and ``confidence`` (H, W) and ``order`` (M, 2) (the M
+        unknown pixels in synthesis order), then the trace (NP's per-step
+        ``step_*`` and per-candidate ``cand_*`` rows; BP's candidates, unary
+        terms, compatibilities, messages and beliefs, and ``sweep_messages``).
+        An equation case: its outputs (the table of
+        :mod:`refsynth.oracle.equations`).
+
+    Examples
+    --------
+    The smallest NP run (§3.2.2), 8×8: every unknown pixel is filled once.
+
+    >>> run = build_cases()[0]
+    >>> out = expected_outputs(run)
+    >>> out["range"].shape, len(out["order"]) == int(np.isnan(run.inputs["partial_range"]).sum())
+    ((8, 8), True)
+    """
     if case.kind in ("np", "bp"):
         return run_outputs(case.kind, case.inputs, case.options, case.seed)
     return equation_outputs(case.kind, case.inputs, case.options)

@@ -49,7 +49,30 @@ _BP_ORDER = ("candidates", "candidate_values", "unary", "pairs", "log_psi", "swe
 
 @dataclass(frozen=True)
 class Mismatch:
-    """The first difference found: which case and array, where, and the two values."""
+    """The first difference found: which case and array, where, and the two values.
+
+    Attributes
+    ----------
+    case : str
+        The case's name.
+    key : str
+        The array that differs (``"range"``, ``"step_value"``,
+        ``"sweep_messages"`` …), or what went wrong (``"(the function
+        raised)"``, ``"(the result)"``).
+    step : int or None
+        NP's synthesis step or BP's sweep where it starts, if any.
+    pixel : tuple of int or None
+        ``(row, column)`` of the pixel concerned, if any.
+    expected, got : object
+        The two values (a number, a list, or words such as ``"shape (8, 8)"``).
+    where : str, default ""
+        The place in words; by default built from ``step`` and ``pixel``.
+
+    Examples
+    --------
+    >>> print(Mismatch("np-8x8-noise", "range", None, (2, 3), 1.5, 1.25))
+    case np-8x8-noise: range pixel (2, 3): expected 1.5, got 1.25
+    """
 
     case: str
     key: str
@@ -70,7 +93,28 @@ class Mismatch:
 
 @dataclass
 class CheckReport:
-    """What :func:`check_function` found: the first mismatch (None: pass) and the case lists."""
+    """What :func:`check_function` found: the first mismatch (None: pass) and the case lists.
+
+    ``passed`` is True when there is no mismatch and at least one case was
+    checked; ``str()`` gives the one-line verdict ``oracle check`` prints.
+
+    Attributes
+    ----------
+    mismatch : Mismatch or None
+        The first difference; None if every checked case agreed.
+    checked : list of str
+        The cases compared, in manifest order.
+    skipped : list of str
+        The cases the function returned None for (kinds it does not handle).
+    tolerance : str, default "exact"
+        The tolerance asked for (a key of :data:`TOLERANCES`).
+
+    Examples
+    --------
+    >>> report = CheckReport(None, checked=["eq7"], skipped=["eq13"])
+    >>> report.passed, str(report)
+    (True, 'PASS 1 cases at tolerance exact, 1 skipped (not handled)')
+    """
 
     mismatch: Mismatch | None
     checked: list = field(default_factory=list)
@@ -92,7 +136,31 @@ class CheckReport:
 
 
 def resolve_function(spec: str):
-    """``"package.module:function"`` → the callable (ValueError, one line, if it is not one)."""
+    """``"package.module:function"`` → the callable (ValueError, one line, if it is not one).
+
+    Parameters
+    ----------
+    spec : str
+        ``MODULE:FUNCTION``, as ``oracle check`` takes it; ``FUNCTION`` may
+        be dotted (``"package.module:Class.method"``). The module must be
+        importable (on ``sys.path``).
+
+    Returns
+    -------
+    callable
+        The function to pass to :func:`check_function`.
+
+    Raises
+    ------
+    ValueError
+        If ``spec`` is not ``MODULE:FUNCTION``, the module does not import,
+        or the name is not a callable of it.
+
+    Examples
+    --------
+    >>> resolve_function("refsynth.oracle:refsynth_reference").__name__
+    'refsynth_reference'
+    """
     if not isinstance(spec, str) or spec.count(":") != 1:
         raise ValueError(f"The function must be given as MODULE:FUNCTION, got {spec!r}")
     module, name = spec.split(":")
@@ -111,7 +179,39 @@ def resolve_function(spec: str):
 
 
 def load_manifest(directory) -> dict:
-    """The manifest of an exported case set (ValueError / FileNotFoundError, one line)."""
+    """The manifest of an exported case set (ValueError / FileNotFoundError, one line).
+
+    Parameters
+    ----------
+    directory : str or Path
+        A folder written by :func:`~refsynth.oracle.export.export_cases`.
+
+    Returns
+    -------
+    dict
+        ``manifest.json``: ``format`` (``"refsynth-oracle"``), ``version``,
+        ``contract``, ``case_set``, the ``refsynth`` and ``numpy`` versions
+        and ``cases``, a list of dicts (``name``, ``kind``, ``json``, ``npz``,
+        ``sha256``).
+
+    Raises
+    ------
+    FileNotFoundError
+        If the folder or its ``manifest.json`` does not exist.
+    ValueError
+        If the manifest is not valid JSON or not a refsynth oracle manifest.
+
+    Examples
+    --------
+    >>> from tempfile import mkdtemp
+    >>> from refsynth.oracle import build_cases, export_cases
+    >>> folder = mkdtemp()
+    >>> export_cases(folder, build_cases()[:1])   # the first case, an 8×8 NP run
+    ['np-8x8-noise']
+    >>> manifest = load_manifest(folder)
+    >>> manifest["format"], [entry["kind"] for entry in manifest["cases"]]
+    ('refsynth-oracle', ['np'])
+    """
     root = Path(directory)
     if not root.is_dir():
         raise FileNotFoundError(f"No such case folder: '{root}' (write it with "
@@ -129,7 +229,41 @@ def load_manifest(directory) -> dict:
 
 
 def load_case(directory, name: str) -> tuple[dict, dict]:
-    """The case's JSON metadata and its arrays."""
+    """The case's JSON metadata and its arrays.
+
+    Parameters
+    ----------
+    directory : str or Path
+        A folder written by :func:`~refsynth.oracle.export.export_cases`.
+    name : str
+        The case's name (one of the manifest's).
+
+    Returns
+    -------
+    meta : dict
+        ``cases/<name>.json``: ``name``, ``kind``, ``equation``,
+        ``function``, ``tolerance``, ``options``, ``seed`` and ``arrays``
+        (each array's ``role``, ``dtype`` and ``shape``).
+    arrays : dict of str to ndarray
+        ``cases/<name>.npz``: the inputs, the prepared arrays, the expected
+        outputs and the trace.
+
+    Examples
+    --------
+    An Eq. 2 case (§3.2.2): 32 pairs of quantised 3×3 neighbourhoods in,
+    the integer Gaussian window prepared, their two distances out.
+
+    >>> import tempfile
+    >>> from refsynth.oracle.cases import build_cases, select_cases
+    >>> from refsynth.oracle.export import export_cases
+    >>> folder = tempfile.mkdtemp()
+    >>> written = export_cases(folder, select_cases(build_cases(), ["eq2-n3*"]))
+    >>> meta, arrays = load_case(folder, "eq2-n3-c1")
+    >>> {key: meta["arrays"][key]["role"] for key in ("q_range", "window", "distance_mean")}
+    {'q_range': 'input', 'window': 'prepared', 'distance_mean': 'output'}
+    >>> arrays["q_intensity"].shape, meta["tolerance"]
+    ((32, 2, 3, 3, 1), 'exact')
+    """
     root = Path(directory)
     meta = json.loads((root / "cases" / f"{name}.json").read_text())
     with np.load(root / "cases" / f"{name}.npz", allow_pickle=False) as data:
@@ -360,10 +494,54 @@ def check_function(function, directory, *, case: str | None = None,
                    tolerance: str = "exact") -> CheckReport:
     """Run ``function`` on every exported case (or the one named) and report the first mismatch.
 
-    Raises ``ValueError`` / ``FileNotFoundError`` (one line) for a missing or foreign folder,
-    an unknown case or tolerance. An exception raised by ``function`` is a mismatch (the case
-    and the exception). See the module's docstring for the calling convention and the order
-    of comparison.
+    An exception raised by ``function`` is a mismatch (the case and the
+    exception). See the module's docstring for the calling convention and the
+    order of comparison.
+
+    Parameters
+    ----------
+    function : callable
+        ``function(inputs, options) -> dict of str to ndarray or None``
+        (:func:`resolve_function` turns ``MODULE:FUNCTION`` into one).
+    directory : str or Path
+        A folder written by :func:`~refsynth.oracle.export.export_cases`.
+    case : str, optional
+        Check only this case; default: every case, in manifest order.
+    tolerance : {"exact", "float64", "float32"}, default "exact"
+        For float arrays (:data:`TOLERANCES`); a case that is not under the
+        contract is compared at least as loosely as its own tolerance.
+
+    Returns
+    -------
+    CheckReport
+        The first mismatch (None if all agree) and the cases checked and
+        skipped.
+
+    Raises
+    ------
+    ValueError
+        For an unknown case or tolerance, or a foreign folder.
+    FileNotFoundError
+        For a missing folder or manifest.
+
+    Examples
+    --------
+    Eqs. 5–7's cases, against refsynth's fast code and against a port of
+    Eq. 7 that forgot the evidence (it skips the other kinds):
+
+    >>> import tempfile
+    >>> from refsynth.oracle import build_cases, export_cases, refsynth_fast
+    >>> from refsynth.oracle.cases import select_cases
+    >>> folder = tempfile.mkdtemp()
+    >>> export_cases(folder, select_cases(build_cases(), ["eq[567]*"]))
+    ['eq5-ties', 'eq5-eps0', 'eq6-h', 'eq6-v', 'eq7']
+    >>> print(check_function(refsynth_fast, folder))
+    PASS 5 cases at tolerance exact
+    >>> def no_evidence(inputs, options):
+    ...     if options["method"] == "eq7":
+    ...         return {"log_phi": np.zeros(inputs["distances"].shape)}
+    >>> print(check_function(no_evidence, folder))
+    FAIL case eq7: log_phi item 0, index (0,): expected -2.4803499999999996, got 0.0
     """
     if tolerance not in TOLERANCES:
         raise ValueError(f"The tolerance must be one of {', '.join(TOLERANCE_NAMES)}, "

@@ -125,8 +125,39 @@ def _json_value(value):
 def export_cases(directory, cases: list[Case] | None = None) -> list[str]:
     """Write ``cases`` (default :func:`~refsynth.oracle.cases.build_cases`) under ``directory``.
 
-    ``directory`` is created if needed; files already there are overwritten. Returns the
-    case names, in manifest order.
+    The layout is the module's: ``manifest.json``, ``schema.json`` and, per
+    case, ``cases/<name>.json`` and ``cases/<name>.npz``, its inputs with the
+    expected values of :func:`~refsynth.oracle.cases.expected_outputs`.
+
+    Parameters
+    ----------
+    directory : str or Path
+        Created if needed; files already there are overwritten.
+    cases : list of Case, optional
+        Default: the whole set, :func:`~refsynth.oracle.cases.build_cases`
+        (several seconds: the reference runs every case).
+
+    Returns
+    -------
+    list of str
+        The case names, in manifest order.
+
+    Raises
+    ------
+    ValueError
+        If a case's outputs are named as its inputs.
+
+    Examples
+    --------
+    One Eq. 7 case (``log Φ = −d / 2σ_i²``, §3.2.3):
+
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> phi = Case("phi", "eq7", {"distances": np.array([[0.0, 0.5, 2.0]])}, {"sigma_i": 0.5})
+    >>> export_cases(folder, [phi])
+    ['phi']
+    >>> sorted(path.name for path in folder.rglob("*.*"))
+    ['manifest.json', 'phi.json', 'phi.npz', 'schema.json']
     """
     import refsynth
 

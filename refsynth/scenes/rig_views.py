@@ -68,8 +68,30 @@ def view_width(focal: float, pan_step: float, overlap: float) -> int:
     r"""Width (px) of perspective views whose cylindrical images overlap by ``overlap``.
 
     A view ``W`` px wide covers ``W_c = 2 f \arctan(W / 2f)`` px of the
-    cylinder; consecutive views ``f · pan_step`` apart overlap by
-    ``1 − f · pan_step / W_c``. Returns the nearest even width.
+    cylinder (Eq. 14); consecutive views ``f · pan_step`` apart overlap by
+    ``1 − f · pan_step / W_c`` (Appendix A.1: 10–30 % between images taken
+    every 18°).
+
+    Parameters
+    ----------
+    focal : float
+        The focal length ``f`` in pixels, > 0 (the rig's is 300).
+    pan_step : float
+        The pan angle between consecutive views, radians, > 0.
+    overlap : float
+        The wanted overlap, a fraction in [0, 1) of a view's cylindrical
+        width.
+
+    Returns
+    -------
+    int
+        The nearest even width, px.
+
+    Raises
+    ------
+    ValueError
+        If ``overlap`` is not in [0, 1), or the views would need a field of
+        view of 180° or more.
 
     Examples
     --------
@@ -105,6 +127,18 @@ class RigViews:
     translations : ndarray of shape (N − 1, 2)
         The true ``t`` of view ``k + 1`` against view ``k`` in their
         cylindrical frames: ``(f (ψ_{k+1} − ψ_k), J_{k+1} − J_k)``.
+
+    Examples
+    --------
+    Five views a radian apart cut from a random texture; the true
+    translations (Eq. 15's ``t``) follow from the poses drawn:
+
+    >>> photo = np.random.default_rng(0).random((40, 300))
+    >>> views = texture_views(photo, focal=50.0, pan_step=1.0)
+    >>> views.images.shape, views.translations.shape
+    ((5, 30, 62), (4, 2))
+    >>> bool(np.all(views.translations[:, 0] == views.focal * np.diff(views.true_pan)))
+    True
     """
 
     images: np.ndarray
@@ -220,6 +254,17 @@ def render_views(
     Returns
     -------
     RigViews
+        ``images`` of shape ``(n_views, height, W)``, ``W`` from
+        :func:`view_width`.
+
+    Examples
+    --------
+    Two small views (f = 30 px, 8 rows, one ray per pixel):
+
+    >>> from refsynth.scenes.rig import rig_room
+    >>> views = render_views(rig_room(0), focal=30.0, n_views=2, height=8, supersample=1)
+    >>> views.images.shape, views.translations.shape
+    ((2, 8, 12), (1, 2))
     """
     focal = check_real("focal", focal, positive=True)
     n_views = check_int("n_views", n_views, 2)

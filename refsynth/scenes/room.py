@@ -65,7 +65,25 @@ AMBIENT = 0.35
 
 
 class Texture(Protocol):
-    """A room's surface albedo: what a layout adds to the shared geometry."""
+    """A room's surface albedo: what a layout adds to the shared geometry.
+
+    Any object with this ``albedo`` method will do:
+    :class:`~refsynth.scenes.synthetic.SyntheticTexture` and
+    :class:`~refsynth.scenes.rig.RigTexture` are the two layouts' own.
+
+    Examples
+    --------
+    A uniform grey, in an empty 4 m cube:
+
+    >>> class Grey:
+    ...     def albedo(self, room, rays, origin, hits):
+    ...         return np.full(rays.shape[:-1], 0.5)
+    >>> cube = RoomGeometry(lower=np.full(3, -2.0), upper=np.full(3, 2.0),
+    ...                     boxes=np.zeros((0, 8)), light=np.array([0.0, 1.0, 0.0]),
+    ...                     texture=Grey())
+    >>> cast_rays(cube, np.array([[0.0, 0.0, 1.0]])).albedo
+    array([0.5])
+    """
 
     def albedo(
         self, room: RoomGeometry, rays: np.ndarray, origin: np.ndarray, hits: Intersections
@@ -104,6 +122,13 @@ class RoomGeometry:
     seed : int or None, default None
         The seed the room was drawn from (None: a Generator, or fresh
         entropy).
+
+    Examples
+    --------
+    >>> from refsynth.scenes import room_geometry
+    >>> room = room_geometry(0)
+    >>> room.boxes.shape[1], bool(1.3 <= room.camera_height <= 1.6), room.seed
+    (8, True, 0)
     """
 
     lower: np.ndarray
@@ -153,6 +178,18 @@ class Intersections(NamedTuple):
     exit : ndarray of shape (..., 3)
         The point where the ray leaves the room box (NaN components on a ray
         through an open side).
+
+    Examples
+    --------
+    Straight down from the camera: the floor (axis 1, the lower face), no box.
+
+    >>> from refsynth.scenes import rig_room
+    >>> room = rig_room(0)
+    >>> down = intersect(room, np.array([[0.0, -1.0, 0.0]]), np.zeros(3))
+    >>> int(down.axis[0]), float(down.sign[0]), int(down.box[0])
+    (1, -1.0, -1)
+    >>> bool(down.distance[0] == room.camera_height)
+    True
     """
 
     distance: np.ndarray
@@ -180,6 +217,16 @@ class RayHits:
     shading : ndarray of shape (...), float64
         Lambertian shading ``a + (1 − a) max(0, n·l)`` with ``a = 0.35``; the
         noise-free intensity is ``albedo * shading``.
+
+    Examples
+    --------
+    The rig room's ceiling (albedo 0.85) faces away from the light above it,
+    so only the ambient term lights it:
+
+    >>> from refsynth.scenes import rig_room
+    >>> up = cast_rays(rig_room(0), np.array([[0.0, 1.0, 0.0]]))
+    >>> up.albedo.tolist(), up.shading.tolist()
+    ([0.85], [0.35])
     """
 
     distance: np.ndarray
@@ -246,6 +293,16 @@ def ray_box(
         To the first hit along the ray (inf on a miss).
     normal : ndarray of shape (..., 3)
         World-frame unit normal of the face hit (zero on a culled ray).
+
+    Examples
+    --------
+    A 2 m cube 5 m ahead: the ray along z meets its near face at 4 m, the
+    ray straight up misses.
+
+    >>> rays = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    >>> distance, normal = ray_box(np.zeros(3), rays, np.array([0.0, 0.0, 5.0]), np.ones(3), 0.0)
+    >>> distance.tolist(), normal[0].tolist()
+    ([4.0, inf], [0.0, 0.0, -1.0])
     """
     cos, sin = portable_cos(yaw), portable_sin(yaw)
     to_local = np.array([[cos, 0.0, -sin], [0.0, 1.0, 0.0], [sin, 0.0, cos]])  # Rᵀ
@@ -290,6 +347,18 @@ def intersect(
     Returns
     -------
     Intersections
+        Arrays of shape ``rays.shape[:-1]`` (``normal`` and ``exit``:
+        ``rays.shape``).
+
+    Examples
+    --------
+    In the rig room of seed 0, box 7 stands in front of box 1: the ray aimed
+    at box 1's centre hits box 7 first.
+
+    >>> from refsynth.scenes import rig_room
+    >>> room = rig_room(0)
+    >>> intersect(room, room.boxes[[1, 7], :3], np.zeros(3)).box.tolist()
+    [7, 7]
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         exits = np.where(
@@ -317,7 +386,32 @@ def intersect(
 
 
 def shading(room: RoomGeometry, normal: np.ndarray) -> np.ndarray:
-    """Lambertian shading under the room's light, ``a + (1 − a) max(0, n·l)``, ``a = 0.35``."""
+    """Lambertian shading under the room's light, ``a + (1 − a) max(0, n·l)``, ``a = 0.35``.
+
+    The shading term of the synthetic intensity (§3.3, §4): surface
+    orientation shows as intensity, so creases and occluding boundaries are
+    intensity edges.
+
+    Parameters
+    ----------
+    room : RoomGeometry
+        Its ``light``, a unit vector of shape (3,) towards the distant light.
+    normal : ndarray of shape (..., 3), float64
+        World-frame unit surface normals.
+
+    Returns
+    -------
+    ndarray of shape (...), float64
+        In ``[a, 1]``: :data:`AMBIENT` where the surface faces away from the
+        light, 1 where it faces it squarely.
+
+    Examples
+    --------
+    >>> from refsynth.scenes import rig_room
+    >>> room = rig_room(0)
+    >>> shading(room, np.stack([room.light, -room.light])).tolist()
+    [1.0, 0.35]
+    """
     return AMBIENT + (1 - AMBIENT) * np.clip(dot3(normal, room.light), 0.0, None)
 
 
@@ -354,6 +448,17 @@ def cast_rays(
     the back wall, the door on a side wall, the wood grain of one box; for
     the rig: textured walls, posters, doors, a tiled floor, wood grain on
     every box); :func:`shading` its Lambertian shading.
+
+    Examples
+    --------
+    Ahead, to the right and down from the synthetic room's camera; the floor
+    is ``camera_height`` below it.
+
+    >>> from refsynth.scenes import room_geometry
+    >>> room = room_geometry(0)
+    >>> hits = cast_rays(room, np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]))
+    >>> hits.normal.shape, bool(hits.distance[2] == room.camera_height)
+    ((3, 3), True)
     """
     if not isinstance(room, RoomGeometry):
         raise TypeError(f"The parameter `room` must be a RoomGeometry, got {type(room).__name__}")

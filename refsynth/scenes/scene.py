@@ -37,6 +37,13 @@ class Scene:
     identity (``eq=False``: arrays have no single truth value). The arrays
     themselves are ordinary writeable arrays; refsynth never writes to
     them.
+
+    Examples
+    --------
+    >>> truth = np.array([[2.0, np.nan, 2.5], [3.0, 3.0, 3.5]])
+    >>> scene = Scene(intensity=np.full((2, 3), 0.5), range=truth, units="m", name="tiny")
+    >>> scene.shape, int(scene.has_truth.sum())
+    ((2, 3), 5)
     """
 
     intensity: np.ndarray

@@ -46,8 +46,14 @@ def gaussian_window(n: int, sigma: float | None = None) -> np.ndarray:
 
     Returns
     -------
-    ndarray of shape (n, n)
+    ndarray of shape (n, n), float64
         Non-negative weights summing to 1, largest at the centre.
+
+    Examples
+    --------
+    >>> g = gaussian_window(5)
+    >>> g.shape, round(float(g.sum()), 12), bool(g[2, 2] == g.max())
+    ((5, 5), 1.0, True)
     """
     n = check_int("n", n, minimum=1)
     if n % 2 == 0:
@@ -60,14 +66,55 @@ def gaussian_window(n: int, sigma: float | None = None) -> np.ndarray:
 
 
 def window_offsets(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Row and column offsets of the n×n window, in raster order (row-major)."""
+    """Row and column offsets of the n×n window ``N_p``, in raster order (row-major; §3.2.1).
+
+    The offsets ``v − v0`` over which Eq. 2 sums.
+
+    Parameters
+    ----------
+    n : int
+        Odd side of the neighbourhood (5 by default in the paper, 3 for very
+        sparse data).
+
+    Returns
+    -------
+    dr, dc : ndarray of shape (n²,), int
+        Row and column offsets, from ``(-n // 2, -n // 2)`` to
+        ``(n // 2, n // 2)``, the centre ``(0, 0)`` in the middle.
+
+    Examples
+    --------
+    >>> dr, dc = window_offsets(3)
+    >>> dr.tolist(), dc.tolist()
+    ([-1, -1, -1, 0, 0, 0, 1, 1, 1], [-1, 0, 1, -1, 0, 1, -1, 0, 1])
+    """
     h = n // 2
     dr, dc = np.mgrid[-h : h + 1, -h : h + 1]
     return dr.ravel(), dc.ravel()
 
 
 def disc_offsets(radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """Row and column offsets ``v`` with ``‖v‖ ≤ radius`` (Eq. 3), centre excluded."""
+    """Row and column offsets ``v`` with ``‖v‖ ≤ radius`` (Eq. 3), centre excluded.
+
+    The pixels ``q`` of the local training set ``A_p`` lie at these offsets
+    from ``p`` (Eq. 3: ``distance(p, q) ≤ r``, the paper's ``r = 10``).
+
+    Parameters
+    ----------
+    radius : float
+        The search radius ``r`` in pixels (Euclidean distance, inclusive).
+
+    Returns
+    -------
+    dr, dc : ndarray of shape (K,), int
+        Row and column offsets in raster order, ``(0, 0)`` left out.
+
+    Examples
+    --------
+    >>> dr, dc = disc_offsets(1.0)   # the 4-neighbours: the diagonals are √2 away
+    >>> list(zip(dr.tolist(), dc.tolist()))
+    [(-1, 0), (0, -1), (0, 1), (1, 0)]
+    """
     k = int(np.floor(radius))
     dr, dc = np.mgrid[-k : k + 1, -k : k + 1]
     inside = (dr**2 + dc**2 <= radius**2) & ((dr != 0) | (dc != 0))
@@ -82,7 +129,8 @@ def intensity_patches(image: np.ndarray, n: int) -> np.ndarray:
 
     Parameters
     ----------
-    image : ndarray of shape (H, W, C)
+    image : ndarray of shape (H, W, C), float
+        The intensity image, ``C = 1`` for grey, 3 for colour.
     n : int
         Odd window side.
 
@@ -90,6 +138,13 @@ def intensity_patches(image: np.ndarray, n: int) -> np.ndarray:
     -------
     ndarray of shape (H, W, n, n, C)
         A read-only view; ``out[r, c]`` is the window centred on ``(r, c)``.
+
+    Examples
+    --------
+    >>> image = np.arange(6.0).reshape(2, 3, 1)
+    >>> patches = intensity_patches(image, 3)
+    >>> patches.shape, patches[0, 0, :, :, 0].tolist()   # mirrored at the top-left corner
+    ((2, 3, 3, 3, 1), [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [3.0, 3.0, 4.0]])
     """
     h = n // 2
     padded = np.pad(image, ((h, h), (h, h), (0, 0)), mode="symmetric")
@@ -102,7 +157,7 @@ def range_patches(range_image: np.ndarray, n: int) -> np.ndarray:
 
     Parameters
     ----------
-    range_image : ndarray of shape (H, W)
+    range_image : ndarray of shape (H, W), float
         NaN marks unknown range.
     n : int
         Odd window side.
@@ -110,6 +165,16 @@ def range_patches(range_image: np.ndarray, n: int) -> np.ndarray:
     Returns
     -------
     ndarray of shape (H, W, n, n)
+        A read-only view; ``out[r, c]`` is the (partial) range neighbourhood
+        centred on ``(r, c)``.
+
+    Examples
+    --------
+    >>> partial = np.array([[1.0, np.nan], [3.0, 4.0]])
+    >>> range_patches(partial, 3)[0, 0]
+    array([[nan, nan, nan],
+           [nan,  1., nan],
+           [nan,  3.,  4.]])
     """
     h = n // 2
     padded = np.pad(range_image, h, mode="constant", constant_values=np.nan)
