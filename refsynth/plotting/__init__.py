@@ -20,6 +20,7 @@ Modeling", IJCV 79:137–158 (2008), §3.2.4 (Fig. 7), §3.3 (Figs. 11–17),
 doi:10.1007/s11263-007-0108-2.
 """
 
+from refsynth.plotting import figures
 from refsynth.plotting.demo import (
     DEMO_FIGURES,
     DEMO_METHODS,
@@ -28,15 +29,7 @@ from refsynth.plotting.demo import (
     run_pipeline_demo,
 )
 from refsynth.plotting.examples import example_ramp
-from refsynth.plotting.figures import (
-    FIGURES,
-    confidence_figure,
-    fill_order_image,
-    make_figures,
-    mar_curve_figure,
-    ordering_figure,
-    scenes_figure,
-)
+from refsynth.plotting.figures import *  # noqa: F403 (the names of figures.__all__)
 from refsynth.plotting.layouts import (
     comparison_figure,
     finish_figure,
@@ -54,14 +47,8 @@ __all__ = [
     "result_figure",
     "comparison_figure",
     "methods_figure",
-    # the figures builders
-    "FIGURES",
-    "fill_order_image",
-    "ordering_figure",
-    "scenes_figure",
-    "mar_curve_figure",
-    "confidence_figure",
-    "make_figures",
+    # the figures builders: all of refsynth.plotting.figures
+    *figures.__all__,
     # the demos
     "DEMO_METHODS",
     "DEMO_FIGURES",
