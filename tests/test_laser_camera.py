@@ -243,7 +243,9 @@ def test_local_refinement_stretches_the_range_onto_the_intensity_edges():
     after = resample_range(cylinder, warp, image.shape, displacement)
     assert after[51, 60] == 2.0 and after[48, 60] == 6.0
     assert after[41, 140] == 3.0 and after[38, 140] == 6.0
-    assert history[0]["misalignment"] > 2 * history[-1]["misalignment"]
+    # the misalignment averages every matched segment, also the box's sides, which are
+    # matched within 0.5 px and need no stretch: it falls, and ends below 0.6 px
+    assert history[-1]["misalignment"] < history[0]["misalignment"]
     assert history[-1]["misalignment"] < 0.6
     assert np.isnan(after[:, 185:]).all()  # not scanned stays unknown
     found = range_edges(cylinder)
@@ -251,6 +253,9 @@ def test_local_refinement_stretches_the_range_onto_the_intensity_edges():
     tops = found.axis == 1
     expected = np.where(found.r[tops] == 2.0, 49.5, 39.5)
     error = np.abs(moved[tops, 1] - expected)
+    # the tops, the segments the stretch must move: their error falls by more than half
+    unstretched = np.abs(_forward(warp, None, found.phi, found.h)[tops, 1] - expected)
+    assert np.mean(unstretched) > 2 * np.mean(error)
     # a smooth stretch between control points: exact in the middle of the tops, less at corners
     assert np.median(error) < 0.3 and np.mean(error < 0.75) > 0.8
 

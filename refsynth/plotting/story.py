@@ -5,8 +5,9 @@ default; :mod:`refsynth.cli.demo` prints the results). The three stages of
 the paper (§1), on the simulated rig's room:
 
 1. **Acquisition and registration** (§3.1, §4, Appendix A). The simulated
-   rig (:class:`~refsynth.acquisition.RigSimulator`, on pseudo-terminals,
-   driven by the real drivers) scans the room from each pose of
+   rig (:func:`~refsynth.acquisition.simulate_scan`: the
+   :class:`~refsynth.acquisition.RigSimulator` on pseudo-terminals, driven
+   by the real drivers) scans the room from each pose of
    :data:`DEMO_POSES` — 40 % of the 500 slices in stripes, a picture every
    18° — into ``scan/`` and ``scan-2/``. The pictures and the partial scan
    are registered (:func:`refsynth.registration.register_scan`: the
@@ -66,15 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
-from refsynth.acquisition import (
-    PanUnit,
-    Rangefinder,
-    RigPose,
-    RigSimulator,
-    ScanSettings,
-    load_scan,
-    run_scan,
-)
+from refsynth.acquisition import RigPose, ScanSettings, load_scan, simulate_scan
 from refsynth.acquisition.manifest import saved_manifest
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.evaluation.metrics import evaluate
@@ -182,20 +175,18 @@ class _Position:
 def _acquire(folder: Path, seed: int, pose: RigPose, fraction: float) -> None:
     """Scan from ``pose`` into ``folder``, or keep the scan there if it is this one."""
     settings = ScanSettings("stripes", fraction=fraction)
-    source = {"simulated": True, "seed": seed, "faults": "none", "pose": pose.as_dict()}
     manifest = saved_manifest(folder)  # {} without a manifest.json
     if manifest:
         recorded = manifest.get("source", {})
         if ((recorded.get("seed"), recorded.get("pose", RigPose().as_dict())) != (seed,
-                                                                                source["pose"])
+                                                                                pose.as_dict())
                 or ScanSettings.from_dict(manifest["settings"]) != settings):
             raise ValueError(f"{folder} holds another scan (seed {recorded.get('seed')}, pose "
                              f"{recorded.get('pose')}, or other settings): choose another --out")
         if (folder / "scan.npz").is_file():
             return
-    with RigSimulator(seed=seed, camera_dir=folder / "images", pose=pose) as sim, \
-            PanUnit(sim.pan_port) as pan, Rangefinder(sim.laser_port) as laser:
-        run_scan(folder, pan, laser, settings, resume=True, source=source)
+    # the source recorded: {"simulated": True, "seed": seed, "faults": "none", "pose": ...}
+    simulate_scan(folder, settings, seed=seed, pose=pose, resume=True)
 
 
 def _register(position: _Position, shrink: int) -> None:
@@ -374,6 +365,17 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods: Sequence[str] = ("np", 
         ``triangles`` per position, ``alignment`` per refined position),
         ``files`` (every path written, in order) and ``seconds`` (per
         stage).
+
+    Examples
+    --------
+    Stage 1 alone (no fill, so no model): one position scanned and registered,
+    a few seconds:
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     summary = run_pipeline_demo(Path(folder), methods=(), poses=DEMO_POSES[:1])
+    >>> summary["panorama"], round(summary["known"], 2), summary["rows"]
+    ((228, 961), 0.39, [])
     """
     out = Path(out)
     methods = [str(m).lower() for m in methods]

@@ -284,6 +284,14 @@ def match_edges(
     return np.where(np.isfinite(distance.min(axis=1)), out, np.nan)
 
 
+def _segment_votes(hits, segment, n_segments):
+    """Per segment and offset: how many of its points have a hit within ±1 px of the offset."""
+    near = ndi.maximum_filter1d(hits.astype(np.int64), 3, axis=1)  # ±1 px tolerance
+    votes = np.zeros((n_segments, hits.shape[1]), dtype=np.int64)
+    np.add.at(votes, segment, near)
+    return votes
+
+
 def match_segments(
     positions: np.ndarray,
     found: RangeEdges,
@@ -297,15 +305,35 @@ def match_segments(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Match each range-edge segment as a whole to intensity edges: one offset per segment.
 
-    Every point of a segment votes for the offsets (along its normal,
-    within ``±radius`` px, ±1 px tolerance) at which a compatible intensity
-    edge lies (:func:`match_edges`' candidates). The segment takes the most
-    voted offset if at least ``support`` of its points voted for it and no
-    other offset two or more pixels away got ``distinct`` as many votes;
-    its offset is the median of those points' sub-pixel positions. A wrong
-    intensity edge (a texture line, a skirting board beside a box top that
-    blends into the floor) rarely runs along a whole segment at one
-    offset, and a parallel one two pixels off makes the segment ambiguous.
+    Every point of a segment votes for the whole-pixel offsets (along its
+    normal, within ``±radius`` px, ±1 px tolerance) at which a compatible
+    intensity edge lies (:func:`match_edges`' candidates). The rule:
+
+    1. *The winner* is the offset with the most points within ±1 px of it;
+       ties go to the offset with the most points exactly at it, then to
+       the smaller offset. (An edge exactly ``d`` px away gives ``d − 1``,
+       ``d`` and ``d + 1`` equal tolerant votes; the exact votes pick
+       ``d``.)
+    2. *Rivals* are intensity edges two or more pixels from the winner: an
+       offset ``o`` with ``|o − winner| ≥ 2`` counts the points with a hit
+       within ±1 px of ``o`` among their hits two or more pixels from the
+       winner. The winner's own hits never count for a rival, so its ±1 px
+       neighbours do not make the segment ambiguous.
+    3. The segment is matched if at least ``support`` of its points (and
+       at least two) voted for the winner and no rival got ``distinct`` as
+       many votes; its offset is the median of its points' sub-pixel
+       positions nearest the winner (within 1.5 px).
+    4. An intensity edge is the match of one segment only: where two
+       matched segments of one orientation matched the same Canny pixels,
+       the one with the smaller ``|offset|`` keeps them, and a segment
+       that loses half of its pixels or more is unmatched (two depth edges
+       cannot both lie on one intensity edge, and the stretch could not
+       move the one onto the other without a fold).
+
+    A wrong intensity edge (a texture line, a skirting board beside a box
+    top that blends into the floor) rarely runs along a whole segment at one
+    offset, and a parallel one two or more pixels off (on either side)
+    makes the segment ambiguous.
 
     Parameters
     ----------
@@ -321,8 +349,9 @@ def match_segments(
     support : float, default 0.5
         The fraction of a segment's points that must vote for its offset.
     distinct : float, default 0.7
-        A segment is ambiguous (unmatched) if an offset two or more pixels
-        from the winner gets at least this fraction of its votes.
+        A segment is ambiguous (unmatched) if a rival (an intensity edge two
+        or more pixels from the winner, step 2 above) gets at least this
+        fraction of the winner's votes.
 
     Returns
     -------
@@ -330,18 +359,51 @@ def match_segments(
         The segment's offset, for each of its points; NaN if unmatched.
     votes : ndarray of shape (N,)
         The fraction of the segment's points that agreed.
+
+    Examples
+    --------
+    One segment of a vertical depth edge, at column 4 on rows 2–3 and column 3
+    on rows 4–5, and an intensity edge along column 6: the whole segment moves
+    by the median of its points' offsets (2, 2, 3, 3).
+
+    >>> edges = np.zeros((9, 9), dtype=bool)
+    >>> edges[:, 6] = True
+    >>> gx, gy = np.ones((9, 9)), np.zeros((9, 9))
+    >>> found = RangeEdges(phi=np.zeros(4), h=np.zeros(4), axis=np.zeros(4, dtype=int),
+    ...                    r=np.ones(4), segment=np.zeros(4, dtype=int))
+    >>> positions = np.array([[4.0, 2.0], [4.0, 3.0], [3.0, 4.0], [3.0, 5.0]])
+    >>> match_segments(positions, found, edges, gx, gy, 3)
+    (array([2.5, 2.5, 2.5, 2.5]), array([1., 1., 1., 1.]))
+
+    A straight segment on column 4 is matched two pixels off; a second
+    intensity edge as far on the other side makes it ambiguous:
+
+    >>> positions[:, 0] = 4.0
+    >>> match_segments(positions, found, edges, gx, gy, 4)[0]
+    array([2., 2., 2., 2.])
+    >>> edges[:, 2] = True
+    >>> match_segments(positions, found, edges, gx, gy, 4)[0]
+    array([nan, nan, nan, nan])
     """
     radius = int(radius)
     hits, offsets = _candidates(positions, found.axis, edges, gx, gy, radius)
-    near = ndi.maximum_filter1d(hits.astype(np.int64), 3, axis=1)  # ±1 px tolerance
     n_segments = int(found.segment.max()) + 1 if found.segment.size else 0
-    votes = np.zeros((n_segments, hits.shape[1]))
-    np.add.at(votes, found.segment, near)
     size = np.bincount(found.segment, minlength=n_segments)
     steps = np.arange(-radius, radius + 1)
-    best = (votes - 1e-3 * np.abs(steps)).argmax(axis=1)  # ties: the smaller offset
-    peak = votes[np.arange(n_segments), best]
-    rival = np.where(np.abs(steps[None, :] - steps[best][:, None]) >= 2, votes, 0).max(axis=1)
+    near = _segment_votes(hits, found.segment, n_segments)
+    exact = np.zeros((n_segments, steps.size), dtype=np.int64)
+    np.add.at(exact, found.segment, hits.astype(np.int64))
+    # the winner: most points within ±1 px; ties to the most exact votes, then the smaller offset
+    tall = int(size.max()) + 1 if n_segments else 1
+    rank = (near * tall + exact) * (radius + 1) + (radius - np.abs(steps))
+    best = rank.argmax(axis=1)
+    peak = near[np.arange(n_segments), best]
+    # rivals: intensity edges two or more pixels from the winner, their own ±1 px merged
+    apart = np.abs(steps[None, :] - steps[best][found.segment][:, None]) >= 2
+    others = _segment_votes(hits & apart, found.segment, n_segments)
+    rival = np.where(np.abs(steps[None, :] - steps[best][:, None]) >= 2, others, 0).max(
+        axis=1, initial=0
+    )
     accepted = (peak >= np.maximum(support * size, 2)) & (rival < distinct * peak)
     # each point's candidate nearest the segment's offset, within 1.5 px
     wanted = steps[best][found.segment]
@@ -362,5 +424,35 @@ def match_segments(
     lower, upper = (starts + (counts - 1) // 2)[has], (starts + counts // 2)[has]
     median[has] = 0.5 * (values[lower] + values[upper])
     segment_offset = np.where(accepted, median, np.nan)
+    claimed = accepted[found.segment] & finite
+    taken = _claimed_by_nearer(positions, found, steps[nearest], claimed, segment_offset,
+                               edges.shape)
+    segment_offset[taken >= 0.5 * np.maximum(np.bincount(found.segment[claimed],
+                                                         minlength=n_segments), 1)] = np.nan
     agreement = np.where(size > 0, peak / np.maximum(size, 1), 0.0)
     return segment_offset[found.segment], agreement[found.segment]
+
+
+def _claimed_by_nearer(positions, found, step, claimed, segment_offset, shape):
+    """Per segment: how many of the intensity-edge pixels its points matched a nearer segment holds.
+
+    ``step[i]``: the whole-pixel offset of point ``i``'s matched Canny pixel;
+    ``claimed``: the points of matched segments that matched one. Where two
+    segments of one orientation matched the same pixel, the one with the
+    smaller ``|offset|`` holds it (ties: the smaller id).
+    """
+    height, width = shape
+    pick = np.nonzero(claimed)[0]
+    if pick.size == 0:
+        return np.zeros(segment_offset.size, dtype=np.int64)
+    base = np.round(positions[pick]).astype(np.int64)
+    axis = found.axis[pick]
+    col = base[:, 0] + np.where(axis == 0, step[pick], 0)
+    row = base[:, 1] + np.where(axis == 1, step[pick], 0)
+    key = (axis * height + row) * width + col
+    owner = found.segment[pick]
+    order = np.lexsort((owner, np.abs(segment_offset[owner]), key))
+    key, owner = key[order], owner[order]
+    first = np.r_[True, key[1:] != key[:-1]]
+    holder = owner[first][np.cumsum(first) - 1]
+    return np.bincount(owner[owner != holder], minlength=segment_offset.size)
