@@ -18,11 +18,15 @@ that the set always holds the best match, even when its distance is 0.
 
 How each step stays a few numpy calls
 -------------------------------------
-The Eq. 2 distances of the whole candidate set ``A_p`` are one gather and one
-matrix–vector product of :class:`refsynth.synthesis.similarity.PatchTable`
-(Eq. 2 with its squares expanded), whose rows are updated in place on the n×n
-windows around each newly filled voxel; the fill order is kept up to date the
-same way by :class:`refsynth.synthesis.priority.FillFront`.
+The Eq. 2 distances of the whole candidate set ``A_p`` are one gather and
+three matrix–vector products of :class:`refsynth.synthesis.filltable.FillTable`
+(Eq. 2 with its squares expanded, on narrow float32 rows holding the
+contract's integers), whose rows are updated in place on the n×n windows
+around each newly filled voxel; the fill order is kept up to date the same
+way by :class:`refsynth.synthesis.priority.FillFront`, whose
+:class:`~refsynth.synthesis.frontqueue.FrontQueue` pops the next voxel with two
+``argmax`` over short arrays. Every step makes the decisions of the literal
+reference; the cost per synthesized voxel is the same at every image size.
 
 The numeric contract
 --------------------
@@ -68,16 +72,17 @@ from collections.abc import Callable
 import numpy as np
 
 from refsynth.numeric import (
+    CONFIDENCE_BITS,
     INTENSITY_BITS,
     RANGE_BITS,
-    on_confidence_grid,
     quantise_grey,
     quantise_intensity,
     quantise_range,
 )
+from refsynth.synthesis.filltable import FillTable
 from refsynth.synthesis.neighbourhood import disc_offsets
-from refsynth.synthesis.priority import FillFront, onion_order
-from refsynth.synthesis.similarity import PatchTable
+from refsynth.synthesis.onion import onion_order
+from refsynth.synthesis.priority import FillFront
 
 #: The readings of the confidence a synthesized voxel receives (Eq. 11).
 CONFIDENCE_UPDATES = ("product", "best")
@@ -99,6 +104,12 @@ def eq5_set(distances: np.ndarray, epsilon: float) -> np.ndarray:
     -------
     ndarray of int
         Indices into ``distances``, ascending; always includes ``argmin``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> eq5_set(np.array([2.0, 1.0, 1.05, 3.0]), 0.1).tolist()
+    [1, 2]
     """
     return np.flatnonzero(distances <= (1.0 + epsilon) * distances.min())
 
@@ -133,17 +144,43 @@ def np_fill(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fill the unknown range by NP sampling in the chosen order (§3.2.2, §3.2.4).
 
-    Called by :func:`refsynth.synthesize`, which validates the inputs.
+    Called by :func:`refsynth.synthesize`, which validates the inputs and
+    describes the options in full.
 
     Parameters
     ----------
     image : ndarray of shape (H, W, C), float
-    range_values : ndarray of shape (H, W), NaN where unknown
+        The intensity, normalised to [0, 1] (quantised here to ``2**-16``).
+    range_values : ndarray of shape (H, W)
+        The measured range, NaN where unknown.
     edges : ndarray of shape (H, W), bool
+        The Canny edge map (Eq. 10's ``E``).
     rng : numpy.random.Generator
-    neighbourhood, radius, epsilon, use_edges, use_isophotes, ordering, range_weight,
-    missing_range, confidence_update, colour, edges_last, progress
-        See :func:`refsynth.synthesize`.
+        Draws the tie-break permutation, then one number per synthesized voxel.
+    neighbourhood : int, default 5
+        Odd side ``n`` of ``N_p``.
+    radius : float, default 10
+        ``r`` of Eq. 3.
+    epsilon : float, default 0.1
+        ``ε`` of Eq. 5.
+    use_edges : bool, default True
+        Eq. 10's edge term (and, with ``edges_last``, the edge tier).
+    use_isophotes : bool, default True
+        Eq. 12's data term.
+    ordering : {"priority", "onion"}
+        Eqs. 10–12's order, or the onion-peel order (Fig. 7).
+    range_weight : float, default 1
+        ``λ`` of Eq. 2.
+    missing_range : {"mean", "ignore"}
+        Eq. 2's treatment of offsets the candidate has no range at.
+    confidence_update : {"best", "product"}
+        The confidence a synthesized voxel receives (Eq. 11, see above).
+    colour : bool, default True
+        Eq. 2 on the colour channels (False: on BT.709 grey).
+    edges_last : bool, default True
+        Edge voxels form a second tier, filled last.
+    progress : callable, optional
+        Called as ``progress(done, total)`` every few thousand voxels and at the end.
 
     Returns
     -------
@@ -153,6 +190,16 @@ def np_fill(
         1 where measured, the Eq. 11 confidence assigned at synthesis elsewhere.
     order : ndarray of shape (N, 2), int64
         Synthesized pixels (row, col) in fill order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> image = np.linspace(0, 1, 36).reshape(6, 6, 1)
+    >>> measured = np.where(np.arange(6)[:, None] % 3 == 0, 2.0, np.nan) * np.ones(6)
+    >>> dense, confidence, order = np_fill(image, measured, np.zeros((6, 6), dtype=bool),
+    ...                                    np.random.default_rng(0), neighbourhood=3)
+    >>> bool((dense == 2.0).all()), order.shape
+    (True, (24, 2))
     """
     H, W = range_values.shape
     n = neighbourhood
@@ -165,8 +212,8 @@ def np_fill(
         levels = quantise_grey(levels)[:, :, None]
 
     pad = max(int(np.ceil(radius)), n // 2 + 1)
-    table = PatchTable(levels * 2.0**-INTENSITY_BITS, range_norm, n, pad, range_weight,
-                       missing_range)
+    table = FillTable(levels * 2.0**-INTENSITY_BITS, range_norm, n, pad, range_weight,
+                      missing_range)
     front = FillFront(
         known,
         range_norm,
@@ -193,23 +240,33 @@ def np_fill(
         schedule = (schedule // W + pad) * Wp + (schedule % W + pad)
     order = np.empty(total, dtype=np.int64)
     tick = max(1, min(2000, total // 20))
+    # the loop body, in as few numpy calls as it takes: Python floats where the
+    # operands are scalars (the same IEEE operations as numpy's on float64)
+    draws = draws.tolist()
+    scale = 1.0 + epsilon
+    update = ordering != "onion"
+    pop, fill, distances, set_range = front.queue.pop, front.fill, table.distances, table.set_range
+    confidence_of = front.confidence_of
+    grid, unit = 2.0**CONFIDENCE_BITS, 2.0**-CONFIDENCE_BITS
     for step in range(total):
-        p = int(schedule[step]) if ordering == "onion" else front.pop()
+        p = int(schedule[step]) if not update else pop()
         candidates = p + disc
         candidates = candidates[filled[candidates]]
         if candidates.size == 0:
             candidates = _widened_candidates(p, filled, Wp, radius)
-        d = table.distances(p, candidates)
-        best = int(np.argmin(d))
-        members = eq5_set(d, epsilon)
+        d = distances(p, candidates)
+        best = int(d.argmin())
+        # Eq. 5 (eq5_set): the members within (1 + epsilon) of the best, in candidate order
+        members = (d <= scale * d[best]).nonzero()[0]
         q = int(candidates[members[int(draws[step] * members.size)]])
         value = float(values[q])
         original[p] = original[q]
-        confidence = float(front.confidence_at(candidates[best]))
+        confidence = confidence_of(int(candidates[best]))  # Eq. 11 of N_best
         if confidence_update == "product":
-            confidence = float(front.confidence_at(p)) * confidence
-        front.fill(p, value, on_confidence_grid(confidence), update=ordering != "onion")
-        table.set_range(p, value)
+            confidence = confidence_of(p) * confidence
+        # on_confidence_grid: round half to even onto multiples of 2**-40
+        fill(p, value, round(confidence * grid) * unit, update=update)
+        set_range(p, value)
         order[step] = p
         if progress is not None and (step + 1) % tick == 0:
             progress(step + 1, total)

@@ -42,7 +42,8 @@ below is exact and equals a fresh sum in any order; ``‖n_p‖`` is
 The functions below compute each term over the whole image; :class:`FillFront`
 keeps the same quantities up to date incrementally as voxels are filled (box
 sums updated on the n×n window around each new voxel), so each step of the
-sequential fill costs a few small array operations and heap pushes.
+sequential fill costs a few small array operations, and the highest priority is
+kept by :class:`refsynth.synthesis.frontqueue.FrontQueue` (no heap, no stale entries).
 
 References
 ----------
@@ -54,12 +55,12 @@ inpainting", CVPR 2003 (the notation and the confidence/data-term scheme).
 
 from __future__ import annotations
 
-import heapq
-
 import numpy as np
 from scipy import ndimage
 
 from refsynth._checks import check_int
+from refsynth.synthesis.frontqueue import ABSENT, FrontQueue
+from refsynth.synthesis.onion import onion_order  # re-exported: Fig. 7's order
 
 __all__ = [
     "box_sum",
@@ -80,14 +81,49 @@ _EIGHT = np.ones((3, 3), dtype=bool)
 
 
 def box_sum(values: np.ndarray, n: int) -> np.ndarray:
-    """Sum of ``values`` over the n×n window centred on each pixel (zeros outside)."""
+    """Sum of ``values`` over the n×n window centred on each pixel (zeros outside).
+
+    Parameters
+    ----------
+    values : ndarray of shape (H, W)
+        Any real values (bool is counted as 0/1).
+    n : int
+        Odd window side.
+
+    Returns
+    -------
+    ndarray of shape (H, W), float64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> box_sum(np.ones((3, 3)), 3).tolist()
+    [[4.0, 6.0, 4.0], [6.0, 9.0, 6.0], [4.0, 6.0, 4.0]]
+    """
     return ndimage.correlate(
         np.asarray(values, dtype=np.float64), np.ones((n, n)), mode="constant", cval=0.0
     )
 
 
 def fill_front(filled: np.ndarray) -> np.ndarray:
-    """The fill front δΩ: unknown pixels with a filled 8-neighbour."""
+    """The fill front δΩ: unknown pixels with a filled 8-neighbour.
+
+    Parameters
+    ----------
+    filled : ndarray of shape (H, W), bool
+        Where the range is known or already synthesized.
+
+    Returns
+    -------
+    ndarray of shape (H, W), bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> filled = np.zeros((3, 4), dtype=bool); filled[:, 0] = True
+    >>> fill_front(filled).astype(int).tolist()
+    [[0, 1, 0, 0], [0, 1, 0, 0], [0, 1, 0, 0]]
+    """
     filled = np.asarray(filled, dtype=bool)
     return ~filled & ndimage.binary_dilation(filled, structure=_EIGHT)
 
@@ -101,13 +137,44 @@ def confidence_term(confidence: np.ndarray, n: int) -> np.ndarray:
         Per-pixel confidence, 0 where the range is unknown.
     n : int
         Odd window side.
+
+    Returns
+    -------
+    ndarray of shape (H, W)
+        ``C(V_p)`` in [0, 1].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> confidence = np.zeros((3, 3)); confidence[0, 0] = 1.0
+    >>> confidence_term(confidence, 3)[0, 0]   # 1 of the corner's 4 in-image voxels
+    np.float64(0.25)
     """
     counts = box_sum(np.ones(confidence.shape), n)
     return box_sum(confidence, n) / counts
 
 
 def edge_count(edges: np.ndarray, n: int) -> np.ndarray:
-    """``E`` of Eq. 10: the number of edge pixels in ``N_p``."""
+    """``E`` of Eq. 10: the number of edge pixels in ``N_p``.
+
+    Parameters
+    ----------
+    edges : ndarray of shape (H, W), bool
+        The Canny edge map.
+    n : int
+        Odd window side.
+
+    Returns
+    -------
+    ndarray of shape (H, W), float64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> edges = np.eye(3, dtype=bool)
+    >>> edge_count(edges, 3)[1, 1], edge_count(edges, 1)[0, 1]
+    (np.float64(3.0), np.float64(0.0))
+    """
     return box_sum(np.asarray(edges, dtype=np.float64), n)
 
 
@@ -152,9 +219,26 @@ def range_gradient(
     adjacent voxels of the window (both voxels in it) that both have range; 0
     where there is none.
 
+    Parameters
+    ----------
+    range_norm : ndarray of shape (H, W)
+        Normalised range (any value where not ``filled``).
+    filled : ndarray of shape (H, W), bool
+        Where range is known or already synthesized.
+    n : int
+        Odd window side.
+
     Returns
     -------
     g_row, g_col : ndarray of shape (H, W)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ramp = np.tile(np.arange(4.0), (3, 1))          # rises by 1 per column
+    >>> g_row, g_col = range_gradient(ramp, np.ones((3, 4), dtype=bool), 3)
+    >>> float(g_row[1, 1]), float(g_col[1, 1])
+    (0.0, 1.0)
     """
     d_row, v_row, d_col, v_col = _pair_differences(range_norm, filled)
     g_row = _pair_sum(d_row, n, 0) / np.maximum(_pair_sum(v_row, n, 0), 1.0)
@@ -166,6 +250,23 @@ def front_normals(filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit normal ``n_p`` of the fill front: the normalised Sobel gradient of the mask.
 
     Zero where the mask is locally flat.
+
+    Parameters
+    ----------
+    filled : ndarray of shape (H, W), bool
+        Where range is known or already synthesized.
+
+    Returns
+    -------
+    n_row, n_col : ndarray of shape (H, W)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> filled = np.zeros((3, 4), dtype=bool); filled[:, :2] = True
+    >>> n_row, n_col = front_normals(filled)
+    >>> float(n_row[1, 2]), float(n_col[1, 2])   # the filled side is to the left
+    (0.0, -1.0)
     """
     mask = np.asarray(filled, dtype=np.float64)
     m_row = ndimage.correlate(mask, _SOBEL_ROW, mode="constant", cval=0.0)
@@ -196,6 +297,18 @@ def data_term(
         Odd window side.
     alpha : float, default 1
         The normalisation ``α``.
+
+    Returns
+    -------
+    ndarray of shape (H, W)
+        ``D(V_p)`` in [0, 1].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> filled = np.zeros((5, 5), dtype=bool); filled[:, :2] = True
+    >>> float(data_term(np.full((5, 5), 0.5), filled, 3)[2, 2])   # constant range
+    1.0
     """
     g_row, g_col = range_gradient(range_norm, filled, n)
     n_row, n_col = front_normals(filled)
@@ -216,6 +329,37 @@ def priority(
 
     With ``use_edges=False`` the edge term is dropped (``E = 0``); with
     ``use_isophotes=False`` ``D = 1``.
+
+    Parameters
+    ----------
+    confidence : ndarray of shape (H, W)
+        Per-pixel confidence, 0 where the range is unknown.
+    range_norm : ndarray of shape (H, W)
+        Range normalised by the span of the known range.
+    filled : ndarray of shape (H, W), bool
+        Where range is known or already synthesized.
+    edges : ndarray of shape (H, W), bool
+        The Canny edge map.
+    n : int
+        Odd window side.
+    use_edges : bool, default True
+        Keep Eq. 10's ``1 / (1 + E)`` term (else ``E = 0``).
+    use_isophotes : bool, default True
+        Keep Eq. 12's data term (else ``D = 1``).
+
+    Returns
+    -------
+    ndarray of shape (H, W)
+        ``P(V_p)`` on the front, NaN elsewhere.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> filled = np.zeros((3, 3), dtype=bool); filled[:, 0] = True
+    >>> p = priority(filled.astype(float), np.zeros((3, 3)), filled,
+    ...              np.zeros((3, 3), dtype=bool), 3)
+    >>> float(p[1, 1]), bool(np.isnan(p[1, 2]))   # C = 3/9, D = 1, E = 0
+    (1.3333333333333333, True)
     """
     c = confidence_term(confidence, n)
     d = data_term(range_norm, filled, n) if use_isophotes else np.ones(c.shape)
@@ -224,26 +368,9 @@ def priority(
     return np.where(fill_front(filled), p, np.nan)
 
 
-def onion_order(known: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """The onion-peel order (Fig. 7): layer by layer from the known region inwards.
-
-    A pixel's layer is its chessboard distance to the nearest known pixel; the
-    schedule is fixed before synthesis starts. Within a layer the order is a
-    seeded random permutation.
-
-    Returns
-    -------
-    ndarray of shape (N,)
-        Flat indices of the unknown pixels, in fill order.
-    """
-    layer = ndimage.distance_transform_cdt(~known, metric="chessboard")
-    unknown = np.flatnonzero(~known)
-    tie = rng.permutation(unknown.size)
-    return unknown[np.lexsort((tie, layer.ravel()[unknown]))]
-
-
 # fields of FillFront's per-pixel state (last axis)
-_CONF, _DROW, _VROW, _DCOL, _VCOL, _MROW, _MCOL, _NEIGH, _COUNT, _EDGE = range(10)
+# (ordered so that Eq. 10 reads contiguous slices: numerators, then their denominators)
+_CONF, _DROW, _DCOL, _COUNT, _VROW, _VCOL, _MCOL, _MROW, _NEIGH, _EDGE = range(10)
 _FIELDS = 10
 
 
@@ -286,7 +413,11 @@ class FillFront:
     filled mask (the front normal) and the 3×3 count of filled neighbours
     (the front). These live side by side in one pixel-major array, so filling
     a voxel is one small matrix product (:func:`_update_templates`) added to
-    the (n+2)×(n+2) block around it, and re-prioritising reads that block once.
+    the max(n, 3)² block around it (where the sums change), and re-prioritising
+    reads that block once and hands its keys to a
+    :class:`~refsynth.synthesis.frontqueue.FrontQueue`. The order is that of
+    the key ``(tier, −P, tie)``: lowest tier, highest Eq. 10 priority, smallest
+    tie-break rank.
 
     Parameters
     ----------
@@ -306,6 +437,19 @@ class FillFront:
         With ``use_edges``: edge voxels form a second tier, taken only when no
         other voxel is left on the front; False keeps only Eq. 10's
         ``1 / (1 + E)`` term.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> known = np.zeros((3, 4), dtype=bool); known[:, 0] = True
+    >>> front = FillFront(known, np.where(known, 0.5, 0.0), np.zeros((3, 4), dtype=bool),
+    ...                   3, 2, np.random.default_rng(0))
+    >>> p = front.pop()                        # padded flat index, on column 1 of the image
+    >>> divmod(p, front.shape[1])[1] - 2
+    1
+    >>> front.fill(p, 0.5, 1.0)
+    >>> front.filled.sum()
+    np.int64(4)
     """
 
     def __init__(
@@ -344,38 +488,43 @@ class FillFront:
         edge_pad = np.pad(np.asarray(edges, dtype=bool), pad)
         state[..., _EDGE] = 1.0 / (1.0 + box_sum(edge_pad, n)) if use_edges else 1.0
         self.state = state
-        self.templates = _update_templates(n)
+        self.flat_state = state.reshape(-1, _FIELDS)
+        self.reach = k = max(h, 1)
+        templates = _update_templates(n).reshape(10, n + 2, n + 2, _FIELDS)
+        centre = templates[:, h + 1 - k : h + 2 + k, h + 1 - k : h + 2 + k]
+        assert np.count_nonzero(templates) == np.count_nonzero(centre)
+        self.templates = centre.reshape(10, -1).copy()
+        side = 2 * k + 1
+        self.scratch = [np.empty((side, side, 3)), np.empty((side, side, 3)),
+                        np.empty((side, side)), np.empty((side, side))]
         tiered = use_edges and edges_last
         self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
         self.tie = rng.permutation(self.inside.size).reshape(self.shape)
-        self.current = np.full(self.shape, np.nan)
+        # unknown voxels inside the image; tier 1 (edge voxels) adds -2**63 to the key
+        self.open = self.inside & ~self.filled
+        self.tier_offset = np.where(self.tier != 0, ABSENT, 0).astype(np.int64)
+        self.queue = FrontQueue(self.tie.ravel())
+        self.tie_block = self.tie >> self.queue.shift
 
-        front = self.inside & ~self.filled & (state[..., _NEIGH] > 0)
-        p = self._priority(state)
-        self.current[front] = p[front]
+        self.front = front = self.open & (state[..., _NEIGH] > 0)
         flat = np.flatnonzero(front)
-        self.heap: list[tuple[int, float, int, int]] = list(
-            zip(
-                self.tier.ravel()[flat].tolist(),
-                (-p.ravel()[flat]).tolist(),
-                self.tie.ravel()[flat].tolist(),
-                flat.tolist(),
-            )
-        )
-        heapq.heapify(self.heap)
+        p = self._priority(state).ravel()[flat]
+        self.queue.set(flat, p.view(np.int64) + self.tier_offset.ravel()[flat])
 
     # -- Eq. 10 on a block of the state ---------------------------------------
     def _priority(self, block: np.ndarray) -> np.ndarray:
         c = block[..., _CONF] / block[..., _COUNT]
         if not self.use_isophotes:
             return c + block[..., _EDGE]
+        # (g_row, g_col): the pair sums over their counts (a zero count has a zero sum)
         g_row = block[..., _DROW] / np.maximum(block[..., _VROW], 1.0)
         g_col = block[..., _DCOL] / np.maximum(block[..., _VCOL], 1.0)
         m_row, m_col = block[..., _MROW], block[..., _MCOL]
-        norm = np.sqrt(m_row * m_row + m_col * m_col)
-        norm[norm == 0] = 1.0
+        # the Sobel sums are integers: the norm is 0 (taken as 1) or at least 1
+        norm = np.sqrt(np.maximum(m_row * m_row + m_col * m_col, 1.0))
         # Eq. 12 with alpha = 1; the isophote is the gradient turned by 90 degrees
-        d = 1.0 - np.abs(g_row * m_col - g_col * m_row) / norm  # <= 1 by construction
+        flow = g_row * m_col - g_col * m_row
+        d = 1.0 - np.abs(flow) / norm  # <= 1 by construction
         return c * np.maximum(d, 0.0) + block[..., _EDGE]
 
     def priorities(self) -> np.ndarray:
@@ -389,17 +538,17 @@ class FillFront:
         s = self.state.reshape(-1, _FIELDS)
         return s[flat, _CONF] / s[flat, _COUNT]
 
+    def confidence_of(self, flat: int) -> float:
+        """Eq. 11 at one padded flat index, as a Python float (:meth:`confidence_at`'s value)."""
+        s = self.flat_state
+        return float(s[flat, _CONF]) / float(s[flat, _COUNT])
+
     def pop(self) -> int:
         """Remove and return the padded flat index of the highest-priority front voxel.
 
         Returns -1 when the front is empty.
         """
-        heap, current, filled = self.heap, self.current.ravel(), self.filled.ravel()
-        while heap:
-            _, neg_p, _, p = heapq.heappop(heap)
-            if not filled[p] and current[p] == -neg_p:
-                return p
-        return -1
+        return self.queue.pop()
 
     def fill(self, p: int, value: float, confidence: float, *, update: bool = True) -> None:
         """Record that padded flat index ``p`` received range ``value`` (normalised).
@@ -420,32 +569,44 @@ class FillFront:
         if filled[i + 1, j]:
             coef[7], coef[8] = r[i + 1, j] - value, 1.0
         filled[i, j] = True
+        self.open[i, j] = False
         r[i, j] = value
         self.confidence[i, j] = confidence
-        k = self.h + 1
+        # the templates' support: the central max(n, 3)² of the (n+2)² block, so no
+        # other voxel's sums, and hence priority, change
+        k = self.reach
         rows, cols = slice(i - k, i + k + 1), slice(j - k, j + k + 1)
         block = self.state[rows, cols]
         block += (np.array(coef) @ self.templates).reshape(block.shape)
+        # every 8-neighbour now has a filled neighbour: the open ones are on the front
+        self.front[i - 1 : i + 2, j - 1 : j + 2] = self.open[i - 1 : i + 2, j - 1 : j + 2]
         if update:
-            self._reprioritise(block, rows, cols, i - k, j - k)
+            self._reprioritise(block, rows, cols)
 
-    def _reprioritise(self, block, rows, cols, top: int, left: int) -> None:
-        front = (block[..., _NEIGH] > 0) & self.inside[rows, cols] & ~self.filled[rows, cols]
-        p = self._priority(block)
-        current = self.current[rows, cols]
-        changed = front & (p != current)
-        li, lj = np.nonzero(changed)
-        if li.size == 0:
-            return
-        new = p[li, lj]
-        current[li, lj] = new
-        flat = ((li + top) * self.shape[1] + (lj + left)).tolist()
-        entries = zip(
-            self.tier[rows, cols][li, lj].tolist(),
-            (-new).tolist(),
-            self.tie[rows, cols][li, lj].tolist(),
-            flat,
-        )
-        push, heap = heapq.heappush, self.heap
-        for entry in entries:
-            push(heap, entry)
+    def _reprioritise(self, block: np.ndarray, rows: slice, cols: slice) -> None:
+        # every voxel of the block gets its key afresh: Eq. 10 on the front, absent elsewhere
+        keys = self._block_priority(block).view(np.int64) + self.tier_offset[rows, cols]
+        self.queue.set_in_blocks(self.tie[rows, cols], self.tie_block[rows, cols],
+                                 np.where(self.front[rows, cols], keys, ABSENT))
+
+    def _block_priority(self, block: np.ndarray) -> np.ndarray:
+        """:meth:`_priority` on the block a fill changed: the same operations, in buffers."""
+        if not self.use_isophotes:
+            return self._priority(block)
+        quotient, products, norm, flow = self.scratch
+        # [C, Δ_row, Δ_col] / [|N_p|, pairs_row, pairs_col]: c and the gradient (|N_p| >= 1)
+        np.maximum(block[..., _COUNT : _VCOL + 1], 1.0, out=products[..., :3])
+        np.divide(block[..., _CONF : _DCOL + 1], products[..., :3], out=quotient)
+        m = block[..., _MCOL : _MROW + 1]
+        np.multiply(quotient[..., 1:], m, out=products[..., :2])  # g_row m_col, g_col m_row
+        np.subtract(products[..., 0], products[..., 1], out=flow)
+        np.multiply(m, m, out=products[..., :2])
+        np.add(products[..., 1], products[..., 0], out=norm)  # m_row² + m_col²
+        np.maximum(norm, 1.0, out=norm)
+        np.sqrt(norm, out=norm)
+        np.abs(flow, out=flow)
+        np.divide(flow, norm, out=flow)
+        np.subtract(1.0, flow, out=flow)
+        np.maximum(flow, 0.0, out=flow)
+        np.multiply(quotient[..., 0], flow, out=flow)
+        return np.add(flow, block[..., _EDGE], out=flow)

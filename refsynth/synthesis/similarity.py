@@ -109,13 +109,45 @@ _SUPPORT_PRIOR = SUPPORT_PRIOR
 
 
 def intensity_scale(image: np.ndarray) -> float:
-    """The span of an intensity image (max − min), or 1 for a constant image."""
+    """The span of an intensity image (max − min), or 1 for a constant image.
+
+    Parameters
+    ----------
+    image : ndarray
+        Intensity, any shape.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> intensity_scale(np.array([0.25, 0.75])), intensity_scale(np.full(3, 5.0))
+    (0.5, 1.0)
+    """
     span = float(np.max(image) - np.min(image))
     return span if span > 0 else 1.0
 
 
 def range_scale(range_image: np.ndarray) -> tuple[float, float]:
-    """Offset and span of the known range: ``(min, max − min)``, span 1 if constant."""
+    """Offset and span of the known range: ``(min, max − min)``, span 1 if constant.
+
+    Parameters
+    ----------
+    range_image : ndarray
+        Range, NaN where unknown; at least one finite value.
+
+    Returns
+    -------
+    low, span : float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> range_scale(np.array([2.0, np.nan, 6.0]))
+    (2.0, 4.0)
+    """
     known = range_image[np.isfinite(range_image)]
     low = float(known.min())
     span = float(known.max()) - low
@@ -228,6 +260,16 @@ class PatchTable:
     dtype : numpy dtype, default float64
         float64 holds the integers exactly (the contract). float32 halves the
         memory traffic but rounds ``R²`` and the sums: for experiments only.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> image = np.zeros((3, 3, 1)); image[1, 1] = 1.0
+    >>> table = PatchTable(image, np.full((3, 3), 0.5), 3, 1, 1.0, "ignore")
+    >>> p = 2 * 5 + 2                                  # the centre, in the padded frame
+    >>> d = table.distances(p, np.array([p, p + 1]))
+    >>> float(d[0]), bool(d[1] > 0)                    # itself at 0; its neighbour further
+    (0.0, True)
     """
 
     def __init__(
