@@ -2,6 +2,15 @@
 
 Prints, as Markdown tables:
 
+0. BP against the colorization fill (issue #15): the Motorcycle at 112×94,
+   225×188, 450×375 and 900×750, x-stripes 78 % unknown, each size in a fresh
+   process: BP's time, its iteration count and the peak resident memory of the
+   process after BP (scene loaded, BP run; nothing else yet), then
+   :func:`refsynth.evaluation.baselines.colorization_fill` on the same input in
+   the same process (the faster of two runs) and the ratio, of wall-clock and of
+   CPU time (the latter steadier on a shared machine). Targets: ≤ 6× at
+   450×375, ≤ 5× at 900×750, peak ≤ 1 GB at 900×750. ``--big`` adds BP on a
+   2048×2048 Motorcycle (about 4 minutes; within 4 GB, its estimate printed);
 1. speed: BP on the 128×128 synthetic room at 61 % (grid 5/25) and on the
    Motorcycle at 450×375, 78 % unknown (x-stripes), with peak memory; time
    against ``k`` and against the number of unknown pixels (the paper's
@@ -19,8 +28,9 @@ Every case runs in a fresh process, so that its peak resident memory
 
 Run::
 
-    python benchmarks/bench_bp.py            # about 12 minutes on 2 cores
-    python benchmarks/bench_bp.py --quick    # speed section only
+    python benchmarks/bench_bp.py            # about 15 minutes on 2 cores
+    python benchmarks/bench_bp.py --quick    # sections 0 and 1 only
+    python benchmarks/bench_bp.py --ratios   # section 0 only (about 3 minutes)
 """
 
 from __future__ import annotations
@@ -99,6 +109,63 @@ def _case(args):
     return row
 
 
+def _ratio_case(size):
+    """BP, then the colorization fill twice, on the Motorcycle at ``size``, x-stripes 78 %."""
+    import refsynth
+    from refsynth.evaluation.baselines import colorization_fill
+
+    scene = _scene("motorcycle", size)
+    known = _sampling(scene.range.shape, "x78") & scene.has_truth
+    partial = np.where(known, scene.range, np.nan)
+    before = _rss_mb()
+    start, cpu = time.perf_counter(), time.process_time()
+    result = refsynth.synthesize(scene.intensity, partial, method="bp")
+    bp_seconds, bp_cpu = time.perf_counter() - start, time.process_time() - cpu
+    peak = _rss_mb()
+    times, cpus = [], []
+    for _ in range(2):
+        start, cpu = time.perf_counter(), time.process_time()
+        colorization_fill(scene.intensity, partial)
+        times.append(time.perf_counter() - start)
+        cpus.append(time.process_time() - cpu)
+    return dict(size=size, n_unknown=int((~known).sum()), bp=bp_seconds, bp_cpu=bp_cpu,
+                colorization=min(times), colorization_cpu=min(cpus),
+                iterations=result.iterations, rss_before=before, rss_peak=peak)
+
+
+def _big_case(size):
+    """BP on a large Motorcycle: its memory estimate, time and peak memory."""
+    import refsynth
+    from refsynth.synthesis.bp_memory import bp_memory_estimate
+
+    scene = _scene("motorcycle", size)
+    known = _sampling(scene.range.shape, "x78") & scene.has_truth
+    partial = np.where(known, scene.range, np.nan)
+    unknown = ~known
+    pairs = int(np.count_nonzero(unknown[:, :-1] & unknown[:, 1:])
+                + np.count_nonzero(unknown[:-1, :] & unknown[1:, :]))
+    estimate = bp_memory_estimate(partial.shape, int(unknown.sum()), n_pairs=pairs)
+    before = _rss_mb()
+    start = time.perf_counter()
+    result = refsynth.synthesize(scene.intensity, partial, method="bp")
+    seconds = time.perf_counter() - start
+    return (f"\nBP on {size[0]}×{size[1]} ({int(unknown.sum())} unknown pixels): "
+            f"{seconds:.0f} s, {result.iterations} iterations; estimate "
+            f"{estimate / 2**20:.0f} MB; RSS {before:.0f} → {_rss_mb():.0f} MB")
+
+
+def _ratio_table(pool):
+    print("| size | unknown pixels | BP s | colorization s | BP / colorization "
+          "| (CPU time) | iterations | µs per unknown pixel | RSS before → after BP MB |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in pool.imap(_ratio_case, [(112, 94), (225, 188), (450, 375), (900, 750)]):
+        print(f"| {r['size'][0]}×{r['size'][1]} | {r['n_unknown']} | {r['bp']:.2f} | "
+              f"{r['colorization']:.2f} | {r['bp'] / r['colorization']:.1f}× | "
+              f"{r['bp_cpu'] / r['colorization_cpu']:.1f}× | {r['iterations']} | "
+              f"{1e6 * r['bp'] / r['n_unknown']:.1f} | "
+              f"{r['rss_before']:.0f} → {r['rss_peak']:.0f} |", flush=True)
+
+
 def _run(cases, pool):
     rows = []
     for row in pool.imap(_case, cases):
@@ -136,12 +203,22 @@ def _accuracy_table(rows):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="the speed section only")
+    parser.add_argument("--quick", action="store_true", help="sections 0 and 1 only")
+    parser.add_argument("--ratios", action="store_true",
+                        help="section 0 only: BP against the colorization fill")
+    parser.add_argument("--big", action="store_true",
+                        help="with section 0, BP on a 2048×2048 Motorcycle too")
     parser.add_argument("--seeds", type=int, default=3, help="NP seeds (default 3)")
     args = parser.parse_args(argv)
     ctx = mp.get_context("spawn")
     with ctx.Pool(1, maxtasksperchild=1) as pool:
-        print("## 1. Speed and memory\n")
+        print("## 0. BP against the colorization fill (Motorcycle, x-stripes 78 %)\n")
+        _ratio_table(pool)
+        if args.big:
+            print(pool.apply(_big_case, ((2048, 2048),)))
+        if args.ratios:
+            return 0
+        print("\n## 1. Speed and memory\n")
         cases = [("room", 128, "g5_25", "BP", 0, {}),
                  ("motorcycle", (450, 375), "x78", "BP", 0, {})]
         rows = _run(cases, pool)

@@ -52,11 +52,21 @@ The algorithm of Fig. 6, step by step:
    as doubt about the range where there is none.
 
 Everything is array operations over all nodes × k (× k for Ψ and the
-messages), in chunks that bound the memory.
+messages), in blocks that bound the memory: the candidate search runs tile by
+tile over measured offsets only (:mod:`refsynth.synthesis.bp_search`), Ψ is
+computed block by block where the messages need it and never held whole
+(:attr:`BPResult.log_psi` computes it on first access), and the sends after
+the first sweep touch only the edges whose inputs changed
+(:func:`~refsynth.synthesis.messages.belief_propagation`). What a call needs
+is estimated before any work (:func:`bp_memory_estimate`), and a call over the
+limit is refused then (:mod:`refsynth.synthesis.bp_memory`).
+
+Φ, Ψ and the grid of pairs (steps 3–4) are :mod:`refsynth.synthesis.bp_model`.
 
 The numeric contract (:mod:`refsynth.numeric`): the candidates are ranked by
-the exact Eq. 2 of :class:`~refsynth.synthesis.similarity.PatchTable` (stable
-sort: ties by the raster order of the disc offsets), Eq. 6's mean squares are
+the exact Eq. 2 of :class:`~refsynth.synthesis.similarity.PatchTable` (its
+integer sums, evaluated tile by tile; stable sort: ties by the raster order of
+the disc offsets), Eq. 6's mean squares are
 exact integer sums over the quantised range, and BP runs in float64 in the log
 domain. Max-product needs only ``+ − max``; a node's incoming messages are
 added in the order left, up, right, down, and the fixed neighbours' terms to
@@ -78,37 +88,37 @@ vision", IJCV 40:25–47 (2000) (patch candidates, overlap compatibilities).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import (
-    INTENSITY_BITS,
-    RANGE_BITS,
     left_to_right_sum,
     portable_exp,
     quantise_grey,
     quantise_intensity,
     quantise_range,
 )
+from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate, check_bp_memory
+from refsynth.synthesis.bp_model import (
+    Compatibilities,
+    fixed_neighbour_terms,
+    grid_edges,
+    pair_compatibilities,
+    phi,
+    psi,
+)
+from refsynth.synthesis.bp_search import candidates, search_candidates
 from refsynth.synthesis.messages import belief_propagation
-from refsynth.synthesis.neighbourhood import disc_offsets
-from refsynth.synthesis.similarity import PatchTable
 
-__all__ = [
-    "BPResult",
-    "bp_fill",
-    "candidates",
-    "phi",
-    "psi",
-    "pair_compatibilities",
-    "fixed_neighbour_terms",
-    "grid_edges",
-    "belief_propagation",
-]
+__all__ = ["BPResult", "bp_fill", "bp_memory_estimate", "BP_MEMORY_LIMIT", "candidates", "phi",
+           "psi", "pair_compatibilities", "fixed_neighbour_terms", "grid_edges",
+           "belief_propagation"]
 
-_CHUNK_FLOATS = 1 << 24  # about 128 MB of float64 per temporary block
+_FIXED_BLOCK = 4096  # nodes per block of the fixed neighbours' terms (about 8 MB each)
+_NODE_BLOCK = 1 << 16  # nodes per block of step 6
 
 #: The readings of the edge-constraint rule (see above).
 EDGE_RULES = ("silent", "paper")
@@ -129,10 +139,16 @@ class BPResult:
 
     Attributes
     ----------
-    range, confidence, order
-        As in :class:`refsynth.SynthesisResult`.
+    range : ndarray of shape (H, W)
+        The measured range with every unknown pixel filled (Eq. 8's MAP label's
+        centre range), in the caller's unit.
+    confidence : ndarray of shape (H, W)
+        1 where measured; elsewhere the normalised belief of the chosen range.
+    order : ndarray of shape (N, 2), int64
+        The synthesized pixels, (row, col), in raster order.
     iterations : int
-        The sweeps done.
+        The message-passing sweeps BP ran (at most ``iterations`` of
+        :func:`bp_fill`; fewer when the messages settled within ``tolerance``).
     candidate_values : ndarray of shape (N, k)
         The centre range of every candidate (label), in the caller's unit.
     labels : ndarray of shape (N,), int64
@@ -143,13 +159,25 @@ class BPResult:
         ``log Φ`` (Eq. 7) plus the terms of measured neighbours.
     pairs : ndarray of shape (E, 2), int64
         Node indices of each pair.
-    log_psi : ndarray of shape (E, k, k)
-        ``log Ψ`` (Eq. 6), label of ``pairs[e, 0]`` first.
     messages : ndarray of shape (2E, k)
         The final log messages: row ``e`` goes ``pairs[e, 0] → pairs[e, 1]``, row
         ``E + e`` back.
     beliefs : ndarray of shape (N, k)
         The unnormalised log beliefs ``unary + Σ incoming messages``.
+    compatibilities : callable, optional
+        ``compatibilities()`` computes :attr:`log_psi`; BP itself never holds
+        the whole table (see :func:`bp_fill`).
+
+    Examples
+    --------
+    >>> import refsynth
+    >>> image = np.tile(np.linspace(0, 1, 12), (10, 1))
+    >>> partial = np.where(np.arange(12) % 3 == 0, 2.0, np.nan) + np.zeros((10, 1))
+    >>> bp = refsynth.synthesize(image, partial, method="bp", radius=3.0).bp
+    >>> bp.labels.shape == (80,) and bp.log_psi.shape == (bp.pairs.shape[0], 8, 8)
+    True
+    >>> bool(np.all(bp.range == 2.0)), bp.iterations >= 1
+    (True, True)
     """
 
     range: np.ndarray
@@ -161,223 +189,20 @@ class BPResult:
     candidates: np.ndarray | None = None
     unary: np.ndarray | None = None
     pairs: np.ndarray | None = None
-    log_psi: np.ndarray | None = None
     messages: np.ndarray | None = None
     beliefs: np.ndarray | None = None
+    compatibilities: Callable[[], np.ndarray] | None = field(default=None, repr=False,
+                                                            compare=False)
 
+    @cached_property
+    def log_psi(self) -> np.ndarray | None:
+        """``log Ψ`` (Eq. 6) of every pair, (E, k, k): label of ``pairs[e, 0]`` first.
 
-# -- step 2: candidates -----------------------------------------------------------------
-
-
-def candidates(
-    table: PatchTable,
-    nodes: np.ndarray,
-    known: np.ndarray,
-    shape: tuple[int, int],
-    k: int,
-    radius: float,
-    proximity: float = 0.0,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The ``k`` closest training patches of each node, by Eq. 2 (Fig. 6, step 2).
-
-    Parameters
-    ----------
-    table : PatchTable
-        Patch rows of the padded frame (intensity and known range).
-    nodes : ndarray of int, shape (N,)
-        Padded flat indices of the unknown pixels.
-    known : ndarray of bool
-        Padded flat mask of the measured pixels (the training set's centres).
-    shape : (int, int)
-        Shape of the padded frame.
-    k : int
-        Number of candidates per node.
-    radius : float
-        Search radius ``r``; doubled for a node until it has ``k`` candidates.
-    proximity : float
-        μ of the spatial prior ``μ (|p − q| / r)²`` added to Eq. 2 (a
-        departure from the paper, which ranks by the observation alone).
-
-    Returns
-    -------
-    labels : ndarray of int, shape (N, k)
-        Padded flat indices of the candidates' centres, best first (ties in the
-        raster order of the disc offsets). Where the whole image holds fewer
-        than ``k`` training patches, the last one repeats.
-    distances : ndarray of float64, shape (N, k)
-        Their Eq. 2 distances (plus the proximity prior).
-    """
-    width = shape[1]
-    n_nodes = nodes.size
-    labels = np.zeros((n_nodes, k), dtype=np.int64)
-    dist = np.full((n_nodes, k), np.inf)
-    todo = np.arange(n_nodes)
-    r = float(radius)
-    total_known = int(known.sum())
-    while todo.size:
-        dr, dc = disc_offsets(r)
-        offsets = dr * width + dc
-        pad = int(np.ceil(r))
-        chunk = max(1, _CHUNK_FLOATS // (offsets.size * table.table.shape[1]))
-        found = np.zeros(todo.size, dtype=bool)
-        for start in range(0, todo.size, chunk):
-            sl = slice(start, start + chunk)
-            rows, cols = np.divmod(nodes[todo[sl]], width)
-            rr, cc = rows[:, None] + dr[None, :], cols[:, None] + dc[None, :]
-            valid = (rr >= 0) & (rr < shape[0]) & (cc >= 0) & (cc < width)
-            idx = np.where(valid, rr * width + cc, 0)
-            valid &= known[idx]
-            d = table.batch_distances(nodes[todo[sl]], idx)
-            if proximity:
-                d = d + (proximity / (radius * radius)) * (dr * dr + dc * dc).astype(np.float64)
-            d[~valid] = np.inf
-            kk = min(k, d.shape[1])
-            # a stable sort: ties in the raster order of the offsets (argpartition's
-            # order is whatever its selection algorithm, SIMD-dispatched, leaves)
-            best = np.argsort(d, axis=1, kind="stable")[:, :kk]
-            bd = np.take_along_axis(d, best, axis=1)
-            enough = np.isfinite(bd[:, -1]) if kk == k else np.zeros(bd.shape[0], bool)
-            exhausted = pad >= max(shape) or total_known <= np.isfinite(bd).sum(axis=1)
-            take = enough | exhausted
-            rows_sel = todo[sl][take]
-            cand = np.take_along_axis(idx, best, axis=1)[take]
-            cd = bd[take]
-            # too few training patches in the whole image: repeat the last finite one
-            if kk < k or not np.all(np.isfinite(cd)):
-                cand, cd = _pad_candidates(cand, cd, k)
-            labels[rows_sel] = cand
-            dist[rows_sel] = cd
-            found[sl] = take
-        todo = todo[~found]
-        r *= 2.0
-    return labels, dist
-
-
-def _pad_candidates(cand: np.ndarray, cd: np.ndarray, k: int):
-    finite = np.isfinite(cd)
-    count = np.maximum(finite.sum(axis=1), 1)
-    cols = np.minimum(np.arange(k)[None, :], count[:, None] - 1)
-    cols = np.minimum(cols, cand.shape[1] - 1)
-    return np.take_along_axis(cand, cols, axis=1), np.take_along_axis(cd, cols, axis=1)
-
-
-# -- steps 3 and 4: compatibilities ----------------------------------------------------
-
-
-def phi(distance: np.ndarray, sigma_i: float) -> np.ndarray:
-    r"""Eq. 7 in the log domain: ``log Φ = −|y^l − y|² / (2σ_i²)``.
-
-    ``distance`` is ``|y^l − y|²``, the Eq. 2 distance of the observation
-    patches.
-    """
-    return -np.asarray(distance, dtype=np.float64) / (2.0 * sigma_i * sigma_i)
-
-
-def psi(mean_square: np.ndarray, sigma_s: float) -> np.ndarray:
-    r"""Eq. 6 in the log domain: ``log Ψ = −|d^l − d^m|² / (2σ_s²)``."""
-    return -np.asarray(mean_square, dtype=np.float64) / (2.0 * sigma_s * sigma_s)
-
-
-def _overlap_mean_square(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Mean squared difference, over the entries both have, of every row pair.
-
-    ``a``: (E, K, F), ``b``: (E, L, F), normalised range, NaN = missing. Returns
-    (E, K, L); 0 where two rows share no entry. The range is put on the contract's
-    grid, ``rint(2**16 x)``: the expanded squares are then integer sums, exact in
-    any order, and one scaling and one division make the mean.
-    """
-    va = np.isfinite(a).astype(np.float64)
-    vb = np.isfinite(b).astype(np.float64)
-    a0 = np.where(va > 0, np.rint(a * 2.0**RANGE_BITS), 0.0)
-    b0 = np.where(vb > 0, np.rint(b * 2.0**RANGE_BITS), 0.0)
-    bt = np.swapaxes(b0, 1, 2)
-    s = np.matmul(a0 * a0, np.swapaxes(vb, 1, 2))
-    s -= 2.0 * np.matmul(a0, bt)
-    s += np.matmul(va, bt * bt)
-    count = np.matmul(va, np.swapaxes(vb, 1, 2))
-    s *= 2.0 ** (-2 * RANGE_BITS)
-    return np.divide(s, count, out=np.zeros_like(s), where=count > 0)
-
-
-def _overlap(patches: np.ndarray, direction: str, side: str) -> np.ndarray:
-    """The part of (…, n, n) patches that a 4-neighbour's patch also covers."""
-    if direction == "h":  # neighbour one column to the right
-        return patches[..., :, 1:] if side == "left" else patches[..., :, :-1]
-    return patches[..., 1:, :] if side == "left" else patches[..., :-1, :]
-
-
-def pair_compatibilities(
-    patches_j: np.ndarray, patches_k: np.ndarray, direction: str
-) -> np.ndarray:
-    """Mean square of Eq. 6 between every candidate of ``j`` and of its neighbour ``k``.
-
-    Parameters
-    ----------
-    patches_j, patches_k : ndarray of shape (E, K, n, n)
-        Range patches (normalised, NaN = missing) of the candidates of the
-        edges' first and second nodes; ``k`` lies one pixel right of ``j``
-        (``direction="h"``) or one pixel below (``"v"``).
-
-    Returns
-    -------
-    ndarray of shape (E, K, K), float64
-        ``|d_jk^l − d_kj^m|²`` for ``l`` at ``j`` and ``m`` at ``k``, on the
-        range quantised to ``2**-16`` (exact).
-    """
-    e, kk = patches_j.shape[:2]
-    a = _overlap(patches_j, direction, "left").reshape(e, kk, -1)
-    b = _overlap(patches_k, direction, "right").reshape(e, patches_k.shape[1], -1)
-    return _overlap_mean_square(a, b)
-
-
-def fixed_neighbour_terms(
-    candidate_patches: np.ndarray, fixed_patch: np.ndarray, direction: str, fixed_side: str
-) -> np.ndarray:
-    """Eq. 6's mean square between each candidate and a measured neighbour's patch.
-
-    A measured node is fixed, so its message is Ψ evaluated at its own patch:
-    a unary term on the unknown node. ``fixed_side`` says whether the fixed
-    node is the edge's first (``"left"``: left or upper) or second node.
-
-    Returns
-    -------
-    ndarray of shape (E, K)
-    """
-    e, kk = candidate_patches.shape[:2]
-    if fixed_side == "left":
-        a = _overlap(fixed_patch, direction, "left").reshape(e, 1, -1)
-        b = _overlap(candidate_patches, direction, "right").reshape(e, kk, -1)
-        return _overlap_mean_square(a, b)[:, 0, :]
-    a = _overlap(candidate_patches, direction, "left").reshape(e, kk, -1)
-    b = _overlap(fixed_patch, direction, "right").reshape(e, 1, -1)
-    return _overlap_mean_square(a, b)[:, :, 0]
-
-
-# -- the grid ------------------------------------------------------------------------------
-
-
-def grid_edges(unknown: np.ndarray) -> dict[str, np.ndarray]:
-    """The 4-neighbour pairs of an (H, W) grid, by kind.
-
-    Returns
-    -------
-    dict
-        ``"h"`` and ``"v"``: (E, 2) flat indices of pairs of unknown pixels
-        (right and lower neighbour second); ``"h_fixed"``, ``"v_fixed"``:
-        (E, 2) pairs with exactly one unknown pixel, in the same orientation.
-    """
-    H, W = unknown.shape
-    idx = np.arange(H * W).reshape(H, W)
-    out = {}
-    for name, a, b in (
-        ("h", idx[:, :-1], idx[:, 1:]),
-        ("v", idx[:-1, :], idx[1:, :]),
-    ):
-        ua, ub = unknown.ravel()[a.ravel()], unknown.ravel()[b.ravel()]
-        pairs = np.stack([a.ravel(), b.ravel()], axis=1)
-        out[name] = pairs[ua & ub]
-        out[name + "_fixed"] = pairs[ua ^ ub]
-    return out
+        Computed on first access (then kept): ``E·k²`` float64, 8 bytes each
+        (:func:`refsynth.synthesis.bp_memory.psi_bytes`; 522 MB at 900×750),
+        the same numbers BP's sends used.
+        """
+        return None if self.compatibilities is None else self.compatibilities()
 
 
 # -- the whole algorithm -------------------------------------------------------------------
@@ -404,42 +229,107 @@ def bp_fill(
     colour: bool = True,
     edge_rule: str = "silent",
     progress: Callable[[int, int], None] | None = None,
+    memory_limit: int | None = None,
 ) -> BPResult:
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
 
     Called by :func:`refsynth.synthesize`, which validates the inputs and
-    documents the parameters (``k`` is its ``candidates``). BP is
+    documents the parameters at length (``k`` is its ``candidates``). BP is
     deterministic: no random choice is made.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, C)
+        The intensity (any offset and scale; quantised to ``2**-16`` of its span).
+    range_values : ndarray of shape (H, W)
+        The measured range, NaN where unknown (the pixels to fill).
+    edges : ndarray of bool, shape (H, W)
+        The intensity edges of the edge-constraint rule (Canny, §3.2).
+    neighbourhood : int, default 5
+        Odd side ``n`` of the patches of Eq. 2 and Eq. 6.
+    radius : float, default 10
+        ``r``: a node's training set is the measured pixels within ``r``,
+        doubled until it holds ``k``.
+    k : int, default 8
+        Candidates (labels) per node.
+    sigma_i : float, default 0.1
+        σ_i of Eq. 7 (the local evidence Φ).
+    sigma_s : float, default 0.2
+        σ_s of Eq. 6 (the compatibility Ψ).
+    iterations : int, default 50
+        At most this many synchronous sweeps of Eq. 9.
+    tolerance : float, default 1e-4
+        Stop when no log message changes by more than this.
+    product : {"max", "sum"}, default "max"
+        Max-product (MAP) or sum-product messages.
+    damping : float in [0, 1), default 0
+        Log-domain damping of the messages.
+    use_edges : bool, default True
+        Apply the edge-constraint rule; ``False`` ignores ``edges``.
+    range_weight : float, default 1
+        λ of Eq. 2.
+    missing_range : {"mean", "ignore"}, default "mean"
+        Eq. 2's treatment of range a candidate lacks
+        (:mod:`refsynth.synthesis.similarity`).
+    proximity : float, default 1
+        μ of the candidates' spatial prior ``μ (|p − q| / r)²``; 0 ranks by
+        Eq. 2 alone.
+    colour : bool, default True
+        Compare all intensity channels in Eq. 2; ``False``: the grey level.
+    edge_rule : {"silent", "paper"}, default "silent"
+        The reading of the edge-constraint rule (see above).
+    progress : callable, optional
+        ``progress(step, 5)`` after each of the five stages.
+    memory_limit : int, optional
+        Bytes; refuse (``ValueError``), before any work, a call whose
+        :func:`bp_memory_estimate` exceeds it. Default
+        :data:`BP_MEMORY_LIMIT` (4 GiB).
 
     Returns
     -------
     BPResult
         ``range`` (measured values unchanged), ``confidence`` (1 where
         measured; the normalised belief of the MAP label elsewhere), ``order``
-        (the synthesized pixels in raster order), ``iterations``,
-        ``candidate_values`` ((N, k) centre range of every candidate, in the
-        caller's unit, rows in ``order``), ``labels`` ((N,) index of the MAP
+        (the synthesized pixels in raster order), ``iterations`` (the sweeps
+        run), ``candidate_values`` ((N, k) centre range of every candidate, in
+        the caller's unit, rows in ``order``), ``labels`` ((N,) index of the MAP
         candidate), and the model and its messages (see :class:`BPResult`).
+
+    Raises
+    ------
+    ValueError
+        When the call would need more memory than ``memory_limit``.
+
+    Examples
+    --------
+    >>> image = np.tile(np.linspace(0, 1, 12), (10, 1))[:, :, None]
+    >>> partial = np.where(np.arange(12) % 3 == 0, 2.0, np.nan) + np.zeros((10, 1))
+    >>> result = bp_fill(image, partial, np.zeros((10, 12), bool), radius=3.0)
+    >>> bool(np.all(result.range == 2.0)), result.order.shape
+    (True, (80, 2))
+    >>> bp_fill(image, partial, np.zeros((10, 12), bool), memory_limit=10**5)
+    ... # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: BP on 12×10 (80 unknown pixels) with k=8 ... more than the limit of 0.0001 GB; ...
     """
     H, W = range_values.shape
     n = neighbourhood
     h = n // 2
     known = np.isfinite(range_values)
+    unknown = ~known
+    # up front: the memory this call needs, against the limit
+    channels = 1 if not colour or np.ndim(image) == 2 else np.shape(image)[2]
+    check_bp_memory((H, W), int(unknown.sum()), k=k, neighbourhood=n, channels=channels,
+                    n_pairs=_count_pairs(unknown), limit=memory_limit)
     # the contract: intensity and range on the 2**-16 grids of their spans
     rq, _, span = quantise_range(range_values)
-    range_norm = np.where(known, rq * 2.0**-RANGE_BITS, np.nan)
     levels = quantise_intensity(image)
     if not colour:
         levels = quantise_grey(levels)[:, :, None]
-    pad = max(int(np.ceil(radius)), h + 1)
-    table = PatchTable(levels * 2.0**-INTENSITY_BITS, range_norm, n, pad, range_weight,
-                       missing_range)
-    Hp, Wp = H + 2 * pad, W + 2 * pad
-    known_pad = np.pad(known, pad).ravel()
-    unknown = ~known
+    pad = max(int(np.ceil(radius)), h + 1)  # the literal search's frame (its stopping rule)
     flat = np.flatnonzero(unknown)
     rows, cols = np.divmod(flat, W)
-    nodes = (rows + pad) * Wp + (cols + pad)
     on_edge = (np.asarray(edges, dtype=bool) & use_edges).ravel()
     deaf = on_edge[flat] if edge_rule == "paper" else np.zeros(flat.size, dtype=bool)
     total = 5
@@ -452,14 +342,17 @@ def bp_fill(
             progress(step, total)
 
     # step 2: candidates, and step 3: log Phi
-    labels, dist = candidates(table, nodes, known_pad, (Hp, Wp), k, radius, proximity)
+    labels, dist = search_candidates(levels, rq, rows, cols, n=n, k=k, radius=radius,
+                                     proximity=proximity, range_weight=range_weight,
+                                     missing_range=missing_range, pad=pad)
+    del levels
     unary = phi(dist, sigma_i)
+    del dist
     tick()
-    # range patches of the padded frame (NaN outside measured range)
-    rpad = np.pad(range_norm, pad + h, constant_values=np.nan)
-    patches = sliding_window_view(rpad, (n, n))  # (Hp, Wp, n, n), a view
-    patches = patches.reshape(Hp * Wp, n, n)
-    cand_rows, cand_cols = np.divmod(labels, Wp)
+    # every pixel's range patch on the contract's grid (−1 where unknown), a view
+    qpad = np.pad(np.where(known, rq, -1).astype(np.float64), h, constant_values=-1.0)
+    del rq
+    patches = sliding_window_view(qpad, (n, n))  # (H, W, n, n)
 
     node_of = np.full(H * W, -1, dtype=np.int64)
     node_of[flat] = np.arange(flat.size)
@@ -468,7 +361,7 @@ def bp_fill(
     # the edge rule: a measured node on an edge sends no term (and, with the paper's
     # rule, a node on an edge receives none)
     for direction in ("h", "v"):
-        fixed_pairs = pairs_all[direction + "_fixed"]
+        fixed_pairs = pairs_all.pop(direction + "_fixed")
         if fixed_pairs.size == 0:
             continue
         first_unknown = unknown.ravel()[fixed_pairs[:, 0]]
@@ -482,68 +375,71 @@ def bp_fill(
                 continue
             fr, fc = np.divmod(fixed_pix, W)
             node = node_of[node_pix]
-            chunk = max(1, _CHUNK_FLOATS // (k * n * n * 4))
-            for start in range(0, node.size, chunk):
-                s = slice(start, start + chunk)
-                cp = patches[labels[node[s]]]
-                fp = patches[((fr[s] + pad) * Wp + fc[s] + pad)][:, None]
-                ms = fixed_neighbour_terms(cp, fp, direction, side)
+            for start in range(0, node.size, _FIXED_BLOCK):
+                s = slice(start, start + _FIXED_BLOCK)
+                cr, cc = np.divmod(labels[node[s]], W)
+                cp = patches[cr, cc]
+                fp = patches[fr[s], fc[s]][:, None]
+                ms = fixed_neighbour_terms(cp, fp, direction, side, quantised=True)
                 # each node has one such neighbour per direction and side
                 unary[node[s]] += psi(ms, sigma_s)
     tick()
-    # step 4: k x k compatibilities between unknown neighbours
-    pair_list, psi_list = [], []
-    for direction in ("h", "v"):
-        pairs = node_of[pairs_all[direction]]
-        if pairs.size == 0:
-            continue
-        out = np.empty((pairs.shape[0], k, k))
-        chunk = max(1, _CHUNK_FLOATS // (k * k * 4))
-        for start in range(0, pairs.shape[0], chunk):
-            s = slice(start, start + chunk)
-            pj = patches[labels[pairs[s, 0]]]
-            pk = patches[labels[pairs[s, 1]]]
-            out[s] = psi(pair_compatibilities(pj, pk, direction), sigma_s)
-        pair_list.append(pairs)
-        psi_list.append(out)
-    pairs = np.concatenate(pair_list) if pair_list else np.zeros((0, 2), np.int64)
-    log_psi = np.concatenate(psi_list) if psi_list else np.zeros((0, k, k))
-    del psi_list
+    # step 4: k x k compatibilities between unknown neighbours, computed where needed
+    pair_h, pair_v = node_of[pairs_all.pop("h")], node_of[pairs_all.pop("v")]
+    del node_of, pairs_all
+    pairs = np.concatenate([pair_h, pair_v]).reshape(-1, 2).astype(np.int64)
+    compatibilities = Compatibilities(qpad, n, labels, W, pairs, pair_h.shape[0], sigma_s)
+    del pair_h, pair_v
     tick()
     # step 5: messages; the edge-constraint rule silences (and deafens) edge nodes
     belief, done, messages = belief_propagation(
-        unary, pairs, log_psi, silent=on_edge[flat] if use_edges else None,
+        unary, pairs, compatibilities, silent=on_edge[flat] if use_edges else None,
         deaf=deaf if edge_rule == "paper" else None, iterations=iterations,
         tolerance=tolerance, product=product, damping=damping, return_messages=True,
     )
     tick()
-    # step 6: MAP label, its centre range, and its normalised belief
+    # step 6: MAP label, its centre range, and its normalised belief (by blocks of nodes)
+    centre = np.where(known, range_values, 0.0)
+    out = range_values.copy()
+    confidence = known.astype(np.float64)
+    best = np.empty(flat.size, dtype=np.int64)
+    cand_values = np.empty((flat.size, k))
+    chosen_all = np.empty(flat.size)
+    pooled_all = np.empty(flat.size)
+    for start in range(0, flat.size, _NODE_BLOCK):
+        sl = slice(start, start + _NODE_BLOCK)
+        cand_rows, cand_cols = np.divmod(labels[sl], W)
+        cand_values[sl] = centre[cand_rows, cand_cols]
+        best[sl], chosen_all[sl], pooled_all[sl] = _map_and_belief(belief[sl], cand_values[sl],
+                                                                   span)
+    out[unknown] = chosen_all
+    confidence[unknown] = np.minimum(pooled_all, 1.0)
+    del chosen_all, pooled_all
+    cand = np.empty((flat.size, k, 2), dtype=np.int64)
+    for start in range(0, flat.size, _NODE_BLOCK):
+        sl = slice(start, start + _NODE_BLOCK)
+        cand[sl, :, 0], cand[sl, :, 1] = np.divmod(labels[sl], W)
+    tick()
+    order = np.stack([rows, cols], axis=1).astype(np.int64)
+    return BPResult(range=out, confidence=confidence, order=order, iterations=done,
+                    candidate_values=cand_values, labels=best, candidates=cand, unary=unary,
+                    pairs=pairs, messages=messages, beliefs=belief,
+                    compatibilities=compatibilities.all)
+
+
+def _map_and_belief(belief: np.ndarray, cand_values: np.ndarray, span: float):
+    """Eq. 8 for a block of nodes: the MAP label, its centre range, its pooled belief."""
     best = np.argmax(belief, axis=1)
     prob = portable_exp(belief - belief.max(axis=1, keepdims=True))
     prob = prob / left_to_right_sum(prob, axis=1)[:, None]
-    centre = np.where(known, range_values, 0.0)
-    cand_values = centre[cand_rows - pad, cand_cols - pad]
-    out = range_values.copy()
-    out[unknown] = cand_values[np.arange(flat.size), best]
-    confidence = known.astype(np.float64)
     # the belief that the range is the chosen value: candidates whose centres lie
     # within VALUE_TOLERANCE of the known span of it are the same range hypothesis
-    chosen = cand_values[np.arange(flat.size), best]
+    chosen = cand_values[np.arange(cand_values.shape[0]), best]
     same = np.abs(cand_values - chosen[:, None]) <= VALUE_TOLERANCE * span
-    pooled = left_to_right_sum(np.where(same, prob, 0.0), axis=1)
-    confidence[unknown] = np.minimum(pooled, 1.0)
-    tick()
-    return BPResult(
-        range=out,
-        confidence=confidence,
-        order=np.stack([rows, cols], axis=1).astype(np.int64),
-        iterations=done,
-        candidate_values=cand_values,
-        labels=best,
-        candidates=np.stack([cand_rows - pad, cand_cols - pad], axis=-1).astype(np.int64),
-        unary=unary,
-        pairs=pairs.astype(np.int64),
-        log_psi=log_psi,
-        messages=messages,
-        beliefs=belief,
-    )
+    return best, chosen, left_to_right_sum(np.where(same, prob, 0.0), axis=1)
+
+
+def _count_pairs(unknown: np.ndarray) -> int:
+    """The number of 4-neighbour pairs of unknown pixels."""
+    return int(np.count_nonzero(unknown[:, :-1] & unknown[:, 1:])
+               + np.count_nonzero(unknown[:-1, :] & unknown[1:, :]))

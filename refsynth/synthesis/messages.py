@@ -12,6 +12,13 @@ reading, nodes that receive none either (``deaf``);
 :func:`refsynth.synthesis.bp.bp_fill` builds the model (the candidates, Φ and Ψ)
 and calls :func:`belief_propagation`.
 
+The cost: a sweep sends only the messages whose inputs changed bit for bit in
+the last one (the others would come out the same bits), so after the first
+sweep the work follows the few places still settling; Ψ may be a function that
+computes the rows of a block of edges, so the (E, K, K) table need not be held.
+The result is that of plain synchronous sweeps over every edge, bit for bit
+(``tests/test_bp_speed_memory.py`` compares the two).
+
 The numeric contract (:mod:`refsynth.numeric`): float64 throughout;
 max-product needs only ``+ − max``, whose results do not depend on any order but
 that of the additions, which is fixed: a node's incoming messages are added slot
@@ -34,7 +41,8 @@ from refsynth.numeric import left_to_right_sum, portable_exp, portable_log
 
 __all__ = ["belief_propagation"]
 
-_CHUNK_FLOATS = 1 << 24  # about 128 MB of float64 per temporary block
+_CHUNK_FLOATS = 1 << 22  # about 32 MB of float64 per temporary block
+_PSI_CACHE = 1 << 26  # bytes of Ψ rows kept between sweeps (64 MB)
 
 
 def belief_propagation(
@@ -58,8 +66,11 @@ def belief_propagation(
         ``log Φ`` plus the terms of fixed neighbours, per node and label.
     pairs : ndarray of shape (E, 2), int
         Node indices of each undirected edge ``(a, b)``.
-    log_psi : ndarray of shape (E, K, K)
-        ``log Ψ[e, l, m]`` for label ``l`` at ``a`` and ``m`` at ``b``.
+    log_psi : ndarray of shape (E, K, K), or callable
+        ``log Ψ[e, l, m]`` for label ``l`` at ``a`` and ``m`` at ``b``; or a
+        function that returns those rows, ``log_psi(edges)`` for an int array
+        of edge indices (so that the whole table need not be held:
+        :func:`refsynth.synthesis.bp.bp_fill` computes Ψ where it is needed).
     silent : ndarray of shape (N,), bool, optional
         Nodes that send no message (the edge-constraint rule).
     deaf : ndarray of shape (N,), bool, optional
@@ -96,6 +107,31 @@ def belief_propagation(
     added to ``unary``; sum-product's log-sum-exp uses
     :func:`~refsynth.numeric.portable_exp`, :func:`~refsynth.numeric.portable_log`
     and left-to-right sums over the labels (the numeric contract).
+
+    Only the messages that can change are recomputed: a message ``i → j`` is a
+    function of ``i``'s unary term and of all of ``i``'s incoming messages (its
+    belief, less the message from ``j``), and, with damping, of its own last
+    value. When none of these changed bit for bit in the last sweep, the new
+    message is the old one, bit for bit, and contributes 0 to the change; so
+    after the first sweep only the edges near a changing message are sent
+    (on the Motorcycle at 450×375, 35 000 of 424 000 in the second sweep and
+    under 1 000 from the twelfth). A message holding a non-finite value is
+    always recomputed, so that the change is the literal ``max |new − old|``.
+    The messages are updated in place, an undirected edge's two messages at
+    a time (each reads only the other's old value), in chunks: the memory is
+    the messages and the beliefs, with no copy of either.
+
+    Examples
+    --------
+    A chain of three nodes with two labels; the middle node's evidence is
+    neutral, its neighbours pull it to label 0 through an agreeing Ψ:
+
+    >>> unary = np.log(np.array([[0.9, 0.1], [0.5, 0.5], [0.8, 0.2]]))
+    >>> pairs = np.array([[0, 1], [1, 2]])
+    >>> log_psi = np.log(np.array([[[0.9, 0.1], [0.1, 0.9]]] * 2))
+    >>> beliefs, sweeps = belief_propagation(unary, pairs, log_psi)
+    >>> np.argmax(beliefs, axis=1).tolist(), sweeps
+    ([0, 0, 0], 3)
     """
     n, k = unary.shape
     e = pairs.shape[0]
@@ -104,7 +140,6 @@ def belief_propagation(
     messages = np.zeros((2 * e + 1, k))  # the last row: "no message"
     src = np.concatenate([a, b])
     dst = np.concatenate([b, a])
-    rev = np.concatenate([np.arange(e, 2 * e), np.arange(e)])
     # incoming messages of each node: up to 4 (the 4-neighbourhood), by row:
     # left (a horizontal pair's a -> b), up, right (b -> a), down
     order = np.argsort(dst, kind="stable")
@@ -112,37 +147,140 @@ def belief_propagation(
     slot = np.arange(2 * e) - np.repeat(np.cumsum(counts) - counts, counts)
     incoming = np.full((n, max(int(counts.max(initial=0)), 1)), 2 * e, dtype=np.int64)
     incoming[dst[order], slot] = order
+    del order, slot, counts
     sends = np.ones(2 * e, dtype=bool)
     if silent is not None:
         sends &= ~np.asarray(silent, dtype=bool)[src]
     if deaf is not None:
         sends &= ~np.asarray(deaf, dtype=bool)[dst]
     unary = np.asarray(unary, dtype=np.float64)
-    log_psi = np.asarray(log_psi, dtype=np.float64)
+    log_psi = _PsiRows(log_psi, k)
+    belief = np.empty((n, k))
+    unfinite = np.zeros(2 * e, dtype=bool)  # messages holding a non-finite value
+    chunk = max(1, _CHUNK_FLOATS // (k * k))
 
-    def beliefs():
-        total = np.zeros((n, k))
+    def update_beliefs(nodes):
+        """``unary + Σ incoming`` (left, up, right, down) of ``nodes`` (a slice or indices)."""
+        rows = incoming[nodes]
+        total = np.zeros((rows.shape[0], k))
         for column in range(incoming.shape[1]):  # left, up, right, down
-            total = total + messages[incoming[:, column]]
-        return unary + total
+            total = total + messages[rows[:, column]]
+        belief[nodes] = unary[nodes] + total
 
+    # iteration 1: every node's belief, every edge sent
+    dirty = None  # None: all nodes
+    active = None  # None: all edges
     done = 0
     for done in range(1, iterations + 1):  # noqa: B007 - the count is returned
-        h = beliefs()[src] - messages[rev]  # leave out the receiver's own message
-        new = np.empty((2 * e, k))
-        _send(new[:e], h[:e], log_psi, axis=1, product=product)
-        _send(new[e:], h[e:], log_psi, axis=2, product=product)
-        new[~sends] = 0.0
-        if damping:
-            new = new * (1.0 - damping) + damping * messages[:-1]
-        change = float(np.max(np.abs(new - messages[:-1]), initial=0.0))
-        messages[:-1] = new
+        if dirty is None:
+            for start in range(0, n, chunk):
+                update_beliefs(slice(start, start + chunk))
+        elif dirty.size:
+            for start in range(0, dirty.size, chunk):
+                update_beliefs(dirty[start : start + chunk])
+        if active is not None:
+            log_psi.keep(active)
+        changed = np.zeros(2 * e, dtype=bool)  # this sweep's changes, bit for bit
+        change = [0.0]
+        total_edges = e if active is None else active.size
+        for start in range(0, total_edges, chunk):
+            if active is None:
+                idx = slice(start, min(start + chunk, e))
+                rows = np.arange(idx.start, idx.stop)
+            else:
+                rows = idx = active[start : start + chunk]
+            change.append(_sweep_block(messages, belief, log_psi, a, b, e, rows, idx, sends,
+                                       (changed, unfinite), product=product, damping=damping))
+        change = float(np.max(np.array(change)))
         if change <= tolerance:
             break
-    belief = beliefs()
+        # the next sweep: nodes that heard a changed message, the edges they send on
+        # (and, with damping, the changed edges themselves, and any non-finite message)
+        dirty_mask = np.zeros(n, dtype=bool)
+        dirty_mask[dst[changed]] = True
+        again = dirty_mask[src]
+        if damping:
+            again |= changed
+        again &= sends
+        again |= unfinite
+        dirty = np.flatnonzero(dirty_mask)
+        active = np.flatnonzero(again[:e] | again[e:])
+    for start in range(0, n, chunk):
+        update_beliefs(slice(start, start + chunk))
     if return_messages:
-        return belief, done, messages[:-1].copy()
+        return belief, done, messages[:-1]
     return belief, done
+
+
+class _PsiRows:
+    """Rows of Ψ for blocks of edges: from a table, or from a function with a cache.
+
+    A function (Ψ computed on demand) is asked once per edge and sweep at most; the
+    rows of the edges still active are kept (up to :data:`_PSI_CACHE` bytes), since
+    the active edges of later sweeps are mostly among them.
+    """
+
+    def __init__(self, log_psi, k):
+        self.k = k
+        self.function = log_psi if callable(log_psi) else None
+        self.table = None if callable(log_psi) else np.asarray(log_psi, dtype=np.float64)
+        self.ids = np.zeros(0, dtype=np.int64)
+        self.rows = np.zeros((0, k, k))
+
+    def keep(self, edges: np.ndarray) -> None:
+        """Keep the rows of ``edges`` (sorted) for the coming sweep, if they fit."""
+        if self.function is None:
+            return
+        if edges.size * self.k * self.k * 8 > _PSI_CACHE:
+            self.ids, self.rows = np.zeros(0, dtype=np.int64), np.zeros((0, self.k, self.k))
+            return
+        rows = self(edges)
+        self.ids, self.rows = edges, rows
+
+    def __call__(self, edges: np.ndarray) -> np.ndarray:
+        if self.table is not None:
+            return self.table[edges]
+        if self.ids.size == 0:
+            return self.function(edges)
+        pos = np.minimum(np.searchsorted(self.ids, edges), self.ids.size - 1)
+        hit = self.ids[pos] == edges
+        out = np.empty((edges.size, self.k, self.k))
+        out[hit] = self.rows[pos[hit]]
+        if not hit.all():
+            out[~hit] = self.function(edges[~hit])
+        return out
+
+
+def _sweep_block(messages, belief, log_psi, a, b, e, rows, idx, sends, marks, *, product,
+                 damping):
+    """Both messages of the undirected edges ``rows`` (``idx``: the same, maybe a slice).
+
+    Reads the old messages and the beliefs, writes the new messages in place and
+    marks (``marks``: two boolean arrays over the messages) the rows that changed bit
+    for bit and those holding a non-finite value; returns this block's largest change.
+    """
+    changed, unfinite = marks
+    # leave out the receiver's own message
+    h_fwd = belief[a[idx]] - messages[rows + e]
+    h_bwd = belief[b[idx]] - messages[rows]
+    psi_rows = log_psi(rows)
+    out = []
+    for h, message_rows, axis in ((h_fwd, rows, 1), (h_bwd, rows + e, 2)):
+        new = np.empty(h.shape)
+        _send(new, h, psi_rows, axis=axis, product=product)
+        new[~sends[message_rows]] = 0.0
+        old = messages[message_rows]
+        if damping:
+            new = new * (1.0 - damping) + damping * old
+        out.append(np.abs(new - old))
+        changed[message_rows] = np.any(new != old, axis=1)
+        unfinite[message_rows] = ~np.isfinite(new).all(axis=1)
+        out.append(new)
+    # write after both directions have read the old values
+    messages[rows] = out[1]
+    messages[rows + e] = out[3]
+    # np.max propagates NaN, as the literal max over all messages does
+    return float(np.max(np.array([np.max(out[0], initial=0.0), np.max(out[2], initial=0.0)])))
 
 
 def _send(out: np.ndarray, h: np.ndarray, log_psi: np.ndarray, *, axis: int, product: str):

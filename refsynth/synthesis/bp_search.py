@@ -1,0 +1,432 @@
+r"""BP's candidate search (§3.2.3, Fig. 6, step 2), evaluated tile by tile.
+
+Step 2 of Fig. 6 ranks, for every unknown pixel ``p``, the measured pixels ``q``
+within ``r`` of it by the distance of Eq. 2 between their neighbourhoods (with
+the mean-filled range term of :mod:`refsynth.synthesis.similarity`), plus the
+proximity prior ``μ (|p − q| / r)²``. :func:`refsynth.synthesis.bp.candidates`
+does it one node at a time over every offset of the disc, measured or not,
+from the rows of a :class:`~refsynth.synthesis.similarity.PatchTable` — a
+table of 150 float64 per pixel (850 MB at 900×750). Most disc offsets are
+unmeasured (78 % on the x-stripes benchmark), and neighbouring nodes share
+most of their training patches, so :func:`search_candidates` instead
+
+1. groups the nodes into square tiles (16 pixels, or ``r`` when the search has
+   widened), and takes as candidate rows ``U`` only the *measured* pixels
+   within ``r`` of the tile;
+2. evaluates the expanded sums of Eq. 2 for every (candidate, node) pair of
+   the tile as three matrix products — ``[I]·(−2 G I_p)``,
+   ``[V | R | R²]·[G R_p² | −2 G R_p | G V_p]`` and ``[V]·(G V_p)`` — on
+   patch rows built on the fly from the quantised image (no table);
+3. reads each node's disc from those products (a measured offset only) and
+   ranks it as :func:`~refsynth.synthesis.bp.candidates` does.
+
+The same numbers: under the numeric contract (:mod:`refsynth.numeric`) the
+intensity and range are integers on ``2**-16`` grids and the window is the
+integer table :func:`~refsynth.numeric.window_weights`, so every partial sum of
+the three products is an integer below ``2**53`` and is exact, whatever the
+order in which BLAS adds it up; :func:`~refsynth.numeric.combine_eq2` then
+makes the distance from the same four sums by the same IEEE operations. The
+ranking is the stable sort's (ties in the raster order of the disc offsets),
+found with a partition: the ``k`` smallest are those below the ``k``-th
+value and the first of those equal to it, sorted. So the candidates and
+their distances are bit for bit those of
+:func:`~refsynth.synthesis.bp.candidates` (and of the literal reference).
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.2.2–§3.2.3, Eqs. 2 and 6–9, Fig. 6,
+doi:10.1007/s11263-007-0108-2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from refsynth.numeric import NO_RANGE, combine_eq2, window_weights
+from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
+from refsynth.synthesis.similarity import PatchTable
+
+__all__ = ["search_candidates", "candidates", "stable_smallest"]
+
+_CHUNK_FLOATS = 1 << 24  # about 128 MB of float64 per block of the literal search
+_BLOCK = 1 << 21  # entries of a (candidate rows × nodes) or (nodes × offsets) block
+_TILE = 16  # the side of a tile of nodes in the first search
+_ONE_THREAD = 4 * 65536  # m·n·k of the largest matrix product run on one thread
+
+
+def stable_smallest(values: np.ndarray, count: int) -> np.ndarray:
+    """``np.argsort(values, axis=1, kind="stable")[:, :count]``, by a partition.
+
+    The ``count`` smallest of a row in the stable order are those below its
+    ``count``-th value and, of those equal to it, the first in index order;
+    sorted stably by value, they are the sort's first ``count``. Rows holding a
+    NaN are sorted outright.
+
+    Parameters
+    ----------
+    values : ndarray of float, shape (B, M)
+    count : int
+        ``1 ≤ count ≤ M``.
+
+    Returns
+    -------
+    ndarray of int64, shape (B, count)
+
+    Examples
+    --------
+    >>> stable_smallest(np.array([[3.0, 1.0, 2.0, 1.0, np.inf]]), 3).tolist()
+    [[1, 3, 2]]
+    """
+    values = np.asarray(values)
+    b, m = values.shape
+    if b == 0:
+        return np.zeros((0, count), dtype=np.int64)
+    if count >= m:
+        return np.argsort(values, axis=1, kind="stable")[:, :count]
+    kth = np.partition(values, count - 1, axis=1)[:, count - 1 : count]
+    less = values < kth
+    equal = values == kth
+    need = count - less.sum(axis=1)
+    take = less | (equal & (np.cumsum(equal, axis=1) <= need[:, None]))
+    nan_rows = np.isnan(kth[:, 0]) | (take.sum(axis=1) != count)
+    out = np.empty((b, count), dtype=np.int64)
+    ok = ~nan_rows
+    if ok.any():
+        cols = np.nonzero(take[ok])[1].reshape(-1, count)  # in index order
+        order = np.argsort(np.take_along_axis(values[ok], cols, axis=1), axis=1, kind="stable")
+        out[ok] = np.take_along_axis(cols, order, axis=1)
+    if nan_rows.any():
+        out[nan_rows] = np.argsort(values[nan_rows], axis=1, kind="stable")[:, :count]
+    return out
+
+
+class _Features:
+    """Patch rows of any pixels, built on demand from the quantised image (no table).
+
+    The rows are those of :class:`~refsynth.synthesis.similarity.PatchTable`: the
+    intensity window (mirror-extended) and the range window's has-range ``V``, range
+    ``R`` (0 where unknown) and ``R²``, all integers held in float64.
+    """
+
+    def __init__(self, levels: np.ndarray, rq: np.ndarray, n: int) -> None:
+        h = n // 2
+        self.h = h
+        self.channels = levels.shape[2]
+        self.g = window_weights(n).ravel().astype(np.float64)
+        self.gi = np.repeat(self.g, self.channels)  # intensity columns: (offset, channel)
+        self.ipad = np.pad(levels.astype(np.float64), ((h, h), (h, h), (0, 0)),
+                           mode="symmetric")
+        rf = np.where(rq != NO_RANGE, rq, 0).astype(np.float64)
+        self.rpad = np.pad(rf, h)
+        self.vpad = np.pad((rq != NO_RANGE).astype(np.float64), h)
+        wr, wc = window_offsets(n)
+        self.wr, self.wc = wr + h, wc + h
+        H, W = rq.shape
+        # Σ_v G_v Σ_c I² and Σ_v G_v V of every pixel: integer sums, exact in any order
+        self.self_term = np.zeros((H, W))
+        self.support = np.zeros((H, W))
+        for g, r, c in zip(self.g, self.wr, self.wc, strict=True):
+            sq = self.ipad[r : r + H, c : c + W] ** 2
+            self.self_term += g * sq.sum(axis=2)
+            self.support += g * self.vpad[r : r + H, c : c + W]
+
+    def rows(self, r: np.ndarray, c: np.ndarray):
+        """``(I, V, R)`` rows of the pixels ``(r, c)``: (P, nn·C), (P, nn), (P, nn)."""
+        rr, cc = r[:, None] + self.wr, c[:, None] + self.wc
+        return (self.ipad[rr, cc].reshape(r.size, -1), self.vpad[rr, cc], self.rpad[rr, cc])
+
+
+def search_candidates(
+    levels: np.ndarray,
+    rq: np.ndarray,
+    node_rows: np.ndarray,
+    node_cols: np.ndarray,
+    *,
+    n: int,
+    k: int,
+    radius: float,
+    proximity: float,
+    range_weight: float,
+    missing_range: str,
+    pad: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` closest training patches of each node by Eq. 2 (Fig. 6, step 2).
+
+    The result of :func:`refsynth.synthesis.bp.candidates` on the
+    :class:`~refsynth.synthesis.similarity.PatchTable` of the same image, bit for
+    bit, computed tile by tile from measured offsets only (see above).
+
+    Parameters
+    ----------
+    levels : ndarray of int, shape (H, W, C)
+        The quantised intensity (:func:`refsynth.numeric.quantise_intensity`,
+        or its grey level).
+    rq : ndarray of int, shape (H, W)
+        The quantised range (:func:`refsynth.numeric.quantise_range`),
+        :data:`~refsynth.numeric.NO_RANGE` where unknown.
+    node_rows, node_cols : ndarray of int, shape (N,)
+        The unknown pixels (image coordinates).
+    n : int
+        Odd window side of Eq. 2.
+    k : int
+        Candidates per node.
+    radius : float
+        Search radius ``r``, doubled for a node until it has ``k`` candidates.
+    proximity : float
+        μ of the spatial prior ``μ (|p − q| / r)²``.
+    range_weight : float
+        λ of Eq. 2.
+    missing_range : {"mean", "ignore"}
+        Eq. 2's treatment of range the candidate lacks.
+    pad : int
+        Padding of the literal search's frame (:func:`candidates`): as there,
+        the search of a node that has not found ``k`` candidates stops once
+        ``ceil(r)`` reaches the frame's larger side, ``max(H, W) + 2 pad``.
+
+    Returns
+    -------
+    labels : ndarray of int64, shape (N, k)
+        Flat indices (``row · W + col``) of the candidates' centres, best first.
+    distances : ndarray of float64, shape (N, k)
+        Their Eq. 2 distances plus the proximity prior.
+
+    Examples
+    --------
+    A 4×4 grey ramp whose left half is measured: the best two candidates of the
+    pixel (0, 2) are the measured pixels nearest to it.
+
+    >>> from refsynth.numeric import quantise_range
+    >>> levels = (np.arange(16).reshape(4, 4, 1) * 4096)
+    >>> rq, _, _ = quantise_range(np.where(np.arange(4) < 2, 1.0, np.nan) + np.zeros((4, 1)))
+    >>> labels, d = search_candidates(levels, rq, np.array([0]), np.array([2]), n=3, k=2,
+    ...                               radius=2.0, proximity=1.0, range_weight=1.0,
+    ...                               missing_range="mean", pad=2)
+    >>> [(int(r), int(c)) for r, c in zip(*np.divmod(labels[0], 4))]  # (row, col)
+    [(0, 1), (1, 1)]
+    """
+    H, W = rq.shape
+    features = _Features(levels, rq, n)
+    known = rq != NO_RANGE
+    total_known = int(known.sum())
+    n_nodes = node_rows.size
+    labels = np.zeros((n_nodes, k), dtype=np.int64)
+    dist = np.full((n_nodes, k), np.inf)
+    todo = np.arange(n_nodes)
+    r = float(radius)
+    # no offset longer than the image's diagonal can reach a pixel: the disc stops there
+    longest = float(np.hypot(H, W))
+    options = dict(k=k, radius=radius, proximity=proximity, range_weight=range_weight,
+                   missing_range=missing_range, frame=max(H, W) + 2 * pad,
+                   total_known=total_known)
+    while todo.size:
+        dr, dc = disc_offsets(min(r, longest))
+        tile = max(_TILE, int(min(r, longest)))
+        key = (node_rows[todo] // tile) * (W // tile + 1) + node_cols[todo] // tile
+        grouped = todo[np.argsort(key, kind="stable")]
+        bounds = np.flatnonzero(np.diff(np.sort(key))) + 1
+        step = max(1, _BLOCK // max(dr.size, 1))
+        found = []
+        for members in np.split(grouped, bounds):
+            for start in range(0, members.size, step):
+                part = members[start : start + step]
+                found.append(_rank_block(features, known, node_rows[part], node_cols[part],
+                                         part, (dr, dc), r, labels, dist, options))
+        done = np.concatenate(found) if found else np.zeros(0, dtype=np.int64)
+        todo = np.setdiff1d(todo, done)
+        r *= 2.0
+    return labels, dist
+
+
+def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, options):
+    """Eq. 2 over the disc of the nodes ``members`` (one tile); rank; store the complete."""
+    H, W = known.shape
+    dr, dc = disc
+    k = options["k"]
+    reach = int(max(np.abs(dr).max(initial=0), np.abs(dc).max(initial=0)))
+    # the box the tile's discs cover, with the measured pixels' indices in it (−1: none)
+    top, left = int(rows.min()) - reach, int(cols.min()) - reach
+    bh, bw = int(rows.max()) + reach + 1 - top, int(cols.max()) + reach + 1 - left
+    t0, l0 = max(top, 0), max(left, 0)
+    ur, uc = np.nonzero(known[t0 : top + bh, l0 : left + bw])
+    uid = np.full((bh, bw), -1, dtype=np.int64)
+    uid[ur + (t0 - top), uc + (l0 - left)] = np.arange(ur.size)
+    ur, uc = ur + t0, uc + l0
+    u = uid.ravel()[((rows - top) * bw + (cols - left))[:, None] + (dr * bw + dc)[None, :]]
+    bi, mi = np.nonzero(u >= 0)  # the measured offsets, node by node in raster order
+    d = np.full(u.shape, np.inf)
+    if bi.size:
+        values = _distances(features, rows, cols, ur, uc, bi, u[bi, mi], options)
+        if options["proximity"]:
+            radius = options["radius"]
+            prior = (options["proximity"] / (radius * radius)) * (dr * dr + dc * dc).astype(
+                np.float64)
+            values = values + prior[mi]
+        d[bi, mi] = values
+    kk = min(k, d.shape[1])
+    best = stable_smallest(d, kk) if kk else np.zeros((rows.size, 0), dtype=np.int64)
+    bd = np.take_along_axis(d, best, axis=1)
+    enough = np.isfinite(bd[:, -1]) if kk == k else np.zeros(bd.shape[0], bool)
+    exhausted = int(np.ceil(r)) >= options["frame"] or options["total_known"] <= np.isfinite(
+        bd).sum(axis=1)
+    take = enough | exhausted
+    qr, qc = rows[:, None] + dr[best], cols[:, None] + dc[best]
+    inside = (qr >= 0) & (qr < H) & (qc >= 0) & (qc < W)
+    cand = np.where(inside, qr * W + qc, 0)[take]
+    cd = bd[take]
+    if kk < k or not np.all(np.isfinite(cd)):
+        cand, cd = _pad_candidates(cand, cd, k)
+    labels[members[take]] = cand
+    dist[members[take]] = cd
+    return members[take]
+
+
+def _distances(features, rows, cols, ur, uc, b_index, u_valid, options):
+    """Eq. 2 of every (node, candidate) pair: three exact matrix products per block of ``U``."""
+    si_u = features.self_term[ur, uc]
+    bi, bv, brr = features.rows(rows, cols)
+    w0 = bi * (-2.0 * features.gi)
+    w1 = np.concatenate([brr * brr * features.g, brr * (-2.0 * features.g),
+                         bv * features.g], axis=1)
+    w2 = bv * features.g
+    node_self = features.self_term[rows, cols]
+    support = features.support[rows, cols]
+    out = np.empty(u_valid.size)
+    step = max(1, _BLOCK // max(rows.size, w0.shape[1] + 3 * bv.shape[1]))
+    for start in range(0, ur.size, step):
+        stop = min(start + step, ur.size)
+        ui, uv, urr = features.rows(ur[start:stop], uc[start:stop])
+        uvr = np.concatenate([uv, urr, urr * urr], axis=1)
+        t0 = np.empty((stop - start, rows.size))
+        t1 = np.empty_like(t0)
+        t2 = np.empty_like(t0)
+        # products small enough for BLAS to run them on one thread (OpenBLAS splits
+        # m·n·k above 4·65536 over threads, which on a busy machine is far slower)
+        cols_step = max(1, _ONE_THREAD // ((stop - start) * w0.shape[1]))
+        for j in range(0, rows.size, cols_step):
+            sl = slice(j, j + cols_step)
+            t0[:, sl] = ui @ w0[sl].T
+            t1[:, sl] = uvr @ w1[sl].T
+            t2[:, sl] = uv @ w2[sl].T
+        if start == 0 and stop == ur.size:
+            uu, bb, sel = u_valid, b_index, slice(None)
+        else:
+            sel = (u_valid >= start) & (u_valid < stop)
+            uu, bb = u_valid[sel] - start, b_index[sel]
+        si = t0[uu, bb] + (si_u[uu + start] + node_self[bb])
+        out[sel] = combine_eq2(si, t1[uu, bb], t2[uu, bb], support[bb], features.channels,
+                               options["range_weight"], options["missing_range"])
+    return out
+
+
+# -- the literal search, from a PatchTable ------------------------------------------------
+
+
+def candidates(
+    table: PatchTable,
+    nodes: np.ndarray,
+    known: np.ndarray,
+    shape: tuple[int, int],
+    k: int,
+    radius: float,
+    proximity: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` closest training patches of each node, by Eq. 2 (Fig. 6, step 2).
+
+    Parameters
+    ----------
+    table : PatchTable
+        Patch rows of the padded frame (intensity and known range).
+    nodes : ndarray of int, shape (N,)
+        Padded flat indices of the unknown pixels.
+    known : ndarray of bool
+        Padded flat mask of the measured pixels (the training set's centres).
+    shape : (int, int)
+        Shape of the padded frame.
+    k : int
+        Number of candidates per node.
+    radius : float
+        Search radius ``r``; doubled for a node until it has ``k`` candidates.
+    proximity : float
+        μ of the spatial prior ``μ (|p − q| / r)²`` added to Eq. 2 (a
+        departure from the paper, which ranks by the observation alone).
+
+    Returns
+    -------
+    labels : ndarray of int, shape (N, k)
+        Padded flat indices of the candidates' centres, best first (ties in the
+        raster order of the disc offsets). Where the whole image holds fewer
+        than ``k`` training patches, the last one repeats.
+    distances : ndarray of float64, shape (N, k)
+        Their Eq. 2 distances (plus the proximity prior).
+
+    Notes
+    -----
+    The literal reading, one block of nodes at a time over every disc offset,
+    from the rows of a table. :func:`~refsynth.synthesis.bp.bp_fill` uses
+    :func:`search_candidates`, which gives the same numbers without the table
+    (its tests compare the two).
+
+    Examples
+    --------
+    >>> from refsynth.synthesis.similarity import PatchTable
+    >>> image = (np.arange(16.0).reshape(4, 4, 1)) / 16
+    >>> partial = np.where(np.arange(4) < 2, 0.5, np.nan) + np.zeros((4, 1))
+    >>> table = PatchTable(image, partial, 3, 2, 1.0)
+    >>> known = np.pad(np.isfinite(partial), 2).ravel()
+    >>> labels, d = candidates(table, np.array([2 * 8 + 4]), known, (8, 8), 2, 2.0)
+    >>> [(int(r) - 2, int(c) - 2) for r, c in zip(*np.divmod(labels[0], 8))]  # (row, col)
+    [(0, 1), (1, 1)]
+    """
+    width = shape[1]
+    n_nodes = nodes.size
+    labels = np.zeros((n_nodes, k), dtype=np.int64)
+    dist = np.full((n_nodes, k), np.inf)
+    todo = np.arange(n_nodes)
+    r = float(radius)
+    total_known = int(known.sum())
+    while todo.size:
+        dr, dc = disc_offsets(r)
+        offsets = dr * width + dc
+        pad = int(np.ceil(r))
+        chunk = max(1, _CHUNK_FLOATS // (offsets.size * table.table.shape[1]))
+        found = np.zeros(todo.size, dtype=bool)
+        for start in range(0, todo.size, chunk):
+            sl = slice(start, start + chunk)
+            rows, cols = np.divmod(nodes[todo[sl]], width)
+            rr, cc = rows[:, None] + dr[None, :], cols[:, None] + dc[None, :]
+            valid = (rr >= 0) & (rr < shape[0]) & (cc >= 0) & (cc < width)
+            idx = np.where(valid, rr * width + cc, 0)
+            valid &= known[idx]
+            d = table.batch_distances(nodes[todo[sl]], idx)
+            if proximity:
+                d = d + (proximity / (radius * radius)) * (dr * dr + dc * dc).astype(np.float64)
+            d[~valid] = np.inf
+            kk = min(k, d.shape[1])
+            # a stable sort: ties in the raster order of the offsets (argpartition's
+            # order is whatever its selection algorithm, SIMD-dispatched, leaves)
+            best = np.argsort(d, axis=1, kind="stable")[:, :kk]
+            bd = np.take_along_axis(d, best, axis=1)
+            enough = np.isfinite(bd[:, -1]) if kk == k else np.zeros(bd.shape[0], bool)
+            exhausted = pad >= max(shape) or total_known <= np.isfinite(bd).sum(axis=1)
+            take = enough | exhausted
+            rows_sel = todo[sl][take]
+            cand = np.take_along_axis(idx, best, axis=1)[take]
+            cd = bd[take]
+            # too few training patches in the whole image: repeat the last finite one
+            if kk < k or not np.all(np.isfinite(cd)):
+                cand, cd = _pad_candidates(cand, cd, k)
+            labels[rows_sel] = cand
+            dist[rows_sel] = cd
+            found[sl] = take
+        todo = todo[~found]
+        r *= 2.0
+    return labels, dist
+
+
+def _pad_candidates(cand: np.ndarray, cd: np.ndarray, k: int):
+    """Too few training patches in the whole image: repeat the last finite one."""
+    finite = np.isfinite(cd)
+    count = np.maximum(finite.sum(axis=1), 1)
+    cols = np.minimum(np.arange(k)[None, :], count[:, None] - 1)
+    cols = np.minimum(cols, cand.shape[1] - 1)
+    return np.take_along_axis(cand, cols, axis=1), np.take_along_axis(cd, cols, axis=1)
