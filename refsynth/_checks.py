@@ -284,3 +284,75 @@ def check_bool(name: str, value) -> bool:
 
 
 __all__.append("check_bool")
+
+
+def check_in_range(name: str, value, low: float, high: float) -> float:
+    """``value`` as a finite ``float`` in the closed interval ``[low, high]``, or raise.
+
+    The message names the accepted range, e.g. for a parameter whose arithmetic
+    overflows or underflows outside it.
+
+    Examples
+    --------
+    >>> check_in_range("sigma_i", 0.1, 1e-50, 1e50)
+    0.1
+    >>> check_in_range("sigma_i", 1e-300, 1e-50, 1e50)
+    Traceback (most recent call last):
+    ...
+    ValueError: The parameter `sigma_i` must be in [1e-50, 1e+50], got 1e-300
+    """
+    value = check_real(name, value)
+    if not low <= value <= high:
+        raise ValueError(f"The parameter `{name}` must be in [{low:g}, {high:g}], got {value:g}")
+    return value
+
+
+def format_bytes(count: float) -> str:
+    """A byte count for a message: ``80_000_000_000`` → ``"74.5 GiB"``.
+
+    >>> format_bytes(512), format_bytes(3 * 2**30), format_bytes(2**60), format_bytes(10**400)
+    ('512 B', '3.0 GiB', '1.0 EiB', '10^381 EiB')
+    """
+    if count >= 2**60 * 10**6:  # an absurd estimate (an int beyond float64, maybe): its order
+        return f"10^{len(str(int(count) // 2**60)) - 1} EiB"
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if count < 1024:
+            return f"{count:.0f} {unit}" if unit == "B" else f"{count:.1f} {unit}"
+        count /= 1024
+    return f"{count:.1f} EiB"
+
+
+def physical_memory() -> int | None:
+    """This machine's physical memory in bytes, or None where the OS does not say."""
+    import os  # (appended helper: the imports at the top belong to the file's first author)
+
+    try:
+        pages, size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, OSError, ValueError):
+        return None
+    return pages * size if pages > 0 and size > 0 else None
+
+
+def check_memory_need(need: float, what: str, hint: str = "", limit: float | None = None) -> None:
+    """Refuse ``what`` before it starts if it would need more than ``limit`` bytes.
+
+    ``limit`` defaults to :func:`physical_memory` ("more than this machine's
+    …"; 2**50, a pebibyte, where the OS does not say).
+
+    Examples
+    --------
+    >>> check_memory_need(2**40, "a fill", "lower `r`", limit=2**30)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: a fill would need about 1.0 TiB of memory, more than the 1.0 GiB available; ...
+    """
+    have = physical_memory() if limit is None else None
+    limit = limit if limit is not None else (have or 2**50)
+    if need > limit:
+        where = f"this machine's {format_bytes(have)}" if have else \
+            f"the {format_bytes(limit)} available"
+        raise ValueError(f"{what} would need about {format_bytes(need)} of memory, more than "
+                         f"{where}" + (f"; {hint}" if hint else ""))
+
+
+__all__ += ["check_in_range", "format_bytes", "physical_memory", "check_memory_need"]

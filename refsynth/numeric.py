@@ -211,8 +211,9 @@ def portable_exp(x):
     (1.0, True)
     """
     x = np.asarray(x, dtype=np.float64)
-    k = np.rint(x * _LOG2E)
-    r = (x - k * _LN2_HIGH) - k * _LN2_LOW
+    z = np.maximum(x, -746.0)  # the result is 0 below -745; keeps the series finite (NaN stays)
+    k = np.rint(z * _LOG2E)
+    r = (z - k * _LN2_HIGH) - k * _LN2_LOW
     p = np.full_like(x, 1.0 / math.factorial(13))
     for j in range(12, -1, -1):
         p = p * r + 1.0 / math.factorial(j)

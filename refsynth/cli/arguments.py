@@ -23,6 +23,8 @@ import re
 from collections.abc import Iterable
 from pathlib import Path
 
+from refsynth._checks import check_memory_need, format_bytes, physical_memory
+
 __all__ = [
     "integer", "real", "check_output", "make_parent", "check_folder", "check_memory",
     "physical_memory", "format_bytes",
@@ -137,40 +139,15 @@ def check_folder(path: str, option: str) -> Path:
     return folder
 
 
-def format_bytes(count: float) -> str:
-    """``80_000_000_000`` → ``"74.5 GiB"``.
-
-    >>> format_bytes(512), format_bytes(3 * 2**30)
-    ('512 B', '3.0 GiB')
-    """
-    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
-        if count < 1024 or unit == "TiB":
-            return f"{count:.0f} {unit}" if unit == "B" else f"{count:.1f} {unit}"
-        count /= 1024
-    raise AssertionError  # pragma: no cover
-
-
-def physical_memory() -> int | None:
-    """This machine's physical memory in bytes, or None where the OS does not say."""
-    try:
-        pages, size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, OSError, ValueError):
-        return None
-    return pages * size if pages > 0 and size > 0 else None
-
-
 def check_memory(need: int, what: str, hint: str = "") -> None:
     """Refuse ``what`` (one line, with the estimate) if it needs more than the machine has.
+
+    :func:`refsynth._checks.check_memory_need` against this machine's
+    physical memory (2^50, a pebibyte, where the OS does not say).
 
     Raises
     ------
     ValueError
-        If ``need`` bytes exceed :func:`physical_memory` (or 2^50, a pebibyte,
-        where the OS does not say).
+        If ``need`` bytes exceed the machine's memory.
     """
-    have = physical_memory()
-    limit = have if have is not None else 2**50
-    if need > limit:
-        where = f"this machine's {format_bytes(have)}" if have else "any machine's"
-        raise ValueError(f"{what} would need about {format_bytes(need)} of memory, more than "
-                         f"{where}" + (f"; {hint}" if hint else ""))
+    check_memory_need(need, what, hint)

@@ -5,6 +5,9 @@ Read beside §3.2 of the paper, top to bottom:
 - :mod:`refsynth.synthesis.api`: :func:`synthesize`, the front door —
   validation, edges, dispatch to NP or BP, and which options belong to which
   method.
+- :mod:`refsynth.synthesis.limits`: the bounds of its parameters — where
+  the arithmetic of Eqs. 2–9 stays finite, what the image can use (a radius
+  beyond the image is the whole image), the memory a run needs.
 - :mod:`refsynth.synthesis.neighbourhood` (§3.2.1, the MRF model): augmented
   voxels, the n×n neighbourhood ``N_p`` and the Gaussian window ``G`` of Eq. 2.
 - :mod:`refsynth.synthesis.similarity` (§3.2.2, Eq. 2): the distance between
@@ -37,20 +40,10 @@ from refsynth.synthesis.api import (
     BP_OPTIONS,
     NP_OPTIONS,
     SynthesisResult,
-    normalise_intensity,
     synthesize,
-    validate_inputs,
 )
-from refsynth.synthesis.bp import (
-    BPResult,
-    bp_fill,
-    candidates,
-    fixed_neighbour_terms,
-    grid_edges,
-    pair_compatibilities,
-    phi,
-    psi,
-)
+from refsynth.synthesis.bp import *  # noqa: F403 (§3.2.3: the names of bp.__all__)
+from refsynth.synthesis.bp import __all__ as _BP_NAMES
 from refsynth.synthesis.canny import (
     canny,
     hysteresis,
@@ -58,7 +51,8 @@ from refsynth.synthesis.canny import (
     sobel_gradients,
     to_grey,
 )
-from refsynth.synthesis.messages import belief_propagation
+from refsynth.synthesis.limits import *  # noqa: F403 (the limits: the names of limits.__all__)
+from refsynth.synthesis.limits import __all__ as _LIMIT_NAMES
 from refsynth.synthesis.neighbourhood import (
     disc_offsets,
     gaussian_window,
@@ -90,10 +84,10 @@ __all__ = [
     # the front door
     "synthesize",
     "SynthesisResult",
-    "validate_inputs",
-    "normalise_intensity",
     "NP_OPTIONS",
     "BP_OPTIONS",
+    # what it accepts (validate_inputs, normalise_intensity, PARAMETER_BOUNDS, image_reach, ...)
+    *_LIMIT_NAMES,
     # §3.2.1: the MRF neighbourhood
     "gaussian_window",
     "window_offsets",
@@ -108,16 +102,8 @@ __all__ = [
     # §3.2.2, Eqs. 3–5: NP
     "eq5_set",
     "np_fill",
-    # §3.2.3, Eqs. 6–9: BP
-    "bp_fill",
-    "BPResult",
-    "candidates",
-    "phi",
-    "psi",
-    "pair_compatibilities",
-    "fixed_neighbour_terms",
-    "grid_edges",
-    "belief_propagation",
+    # §3.2.3, Eqs. 6–9: BP (bp_fill, BPResult, candidates, phi, psi, ..., belief_propagation)
+    *_BP_NAMES,
     # §3.2.4, Eqs. 10–12: the order
     "priority",
     "confidence_term",

@@ -24,10 +24,13 @@ values as floats in 0–255 or in 0–1 — therefore gives the *same* result, b
 for bit (up to a value landing within an ulp of a rounding boundary of the
 2**-16 grid, which integer images never do).
 
+The limits of every parameter — where the arithmetic stays finite, what the
+image can use, the memory a run needs — are :mod:`refsynth.synthesis.limits`.
+
 References
 ----------
-L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
-Modeling", IJCV 79:137–158 (2008), §3.2, doi:10.1007/s11263-007-0108-2.
+Torres-Méndez & Dudek (2008), §3.2 (the paper's full reference is in
+:mod:`refsynth.synthesis`), doi:10.1007/s11263-007-0108-2.
 """
 
 from __future__ import annotations
@@ -42,15 +45,23 @@ import numpy as np
 from refsynth._checks import (
     check_bool,
     check_choice,
+    check_in_range,
     check_int,
     check_real,
     check_seed,
     is_int,
-    to_float,
 )
 from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
 from refsynth.synthesis.bp import EDGE_RULES, BPResult, bp_fill
 from refsynth.synthesis.canny import canny
+from refsynth.synthesis.limits import (
+    PARAMETER_BOUNDS,
+    check_canny_sigma,
+    check_memory,
+    normalise_intensity,
+    search_radius,
+    validate_inputs,
+)
 from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES, np_fill
 from refsynth.synthesis.similarity import MISSING_RANGE
 
@@ -121,6 +132,17 @@ class SynthesisResult:
         BP: the whole model and its solution — candidates, unary terms, pairs,
         ``log Ψ``, the final messages and beliefs (see
         :class:`refsynth.synthesis.bp.BPResult`); None for NP.
+
+    Examples
+    --------
+    >>> import numpy as np, refsynth
+    >>> image = np.tile(np.linspace(0, 1, 8), (8, 1))
+    >>> partial = np.full((8, 8), np.nan); partial[:, ::3] = 2.0
+    >>> result = refsynth.synthesize(image, partial)
+    >>> result.method, result.range.shape, len(result.order) == int(np.isnan(partial).sum())
+    ('np', (8, 8), True)
+    >>> bool(np.all(result.confidence[~np.isnan(partial)] == 1.0)), result.bp is None
+    (True, True)
     """
 
     range: np.ndarray
@@ -134,19 +156,6 @@ class SynthesisResult:
     bp: BPResult | None = None
 
 
-def normalise_intensity(intensity: np.ndarray) -> np.ndarray:
-    """Return the intensity as float64 of shape (H, W, C).
-
-    Integer images are scaled to [0, 1] by their dtype's maximum; bool maps to
-    0/1; floating images are used as given. A grey image gets a trailing
-    channel axis.
-    """
-    out = to_float(np.asarray(intensity))
-    if out.ndim == 2:
-        out = out[:, :, None]
-    return out
-
-
 def _at_least(name: str, value, minimum: int) -> int:
     """An integer option ``>= minimum`` (the type check of :func:`check_int`)."""
     value = check_int(name, value)
@@ -155,15 +164,21 @@ def _at_least(name: str, value, minimum: int) -> int:
     return value
 
 
+def _bounded(name: str):
+    """The check of a real parameter within its :data:`PARAMETER_BOUNDS`."""
+    return partial(check_in_range, name, low=PARAMETER_BOUNDS[name][0],
+                   high=PARAMETER_BOUNDS[name][1])
+
+
 #: How each method-specific option is checked (when it is given).
 _OPTION_CHECKS = {
-    "epsilon": partial(check_real, "epsilon", minimum=0.0),
+    "epsilon": _bounded("epsilon"),
     "use_isophotes": partial(check_bool, "use_isophotes"),
     "ordering": partial(check_choice, "ordering", choices=ORDERINGS),
     "candidates": partial(_at_least, "candidates", minimum=1),
-    "proximity": partial(check_real, "proximity", minimum=0.0),
-    "sigma_i": partial(check_real, "sigma_i", positive=True),
-    "sigma_s": partial(check_real, "sigma_s", positive=True),
+    "proximity": _bounded("proximity"),
+    "sigma_i": _bounded("sigma_i"),
+    "sigma_s": _bounded("sigma_s"),
     "iterations": partial(_at_least, "iterations", minimum=0),
     "tolerance": partial(check_real, "tolerance", minimum=0.0),
     "product": partial(check_choice, "product", choices=PRODUCTS),
@@ -199,66 +214,6 @@ def _random_source(seed) -> np.random.Generator:
             f"got {type(seed).__name__}"
         )
     return np.random.default_rng(check_seed(seed))  # a Generator is returned unaltered
-
-
-def validate_inputs(intensity, partial_range) -> tuple[np.ndarray, np.ndarray]:
-    """Check ``intensity`` and ``partial_range`` as DESIGN.md specifies.
-
-    Returns the intensity as float64 (H, W, C) and the range as float64 (H, W).
-    Raises ``TypeError``/``ValueError`` naming the argument.
-    """
-    if not isinstance(intensity, np.ndarray):
-        raise TypeError(
-            f"The parameter `intensity` must be a numpy array, got {type(intensity).__name__}"
-        )
-    if not isinstance(partial_range, np.ndarray):
-        raise TypeError(
-            "The parameter `partial_range` must be a numpy array, "
-            f"got {type(partial_range).__name__}"
-        )
-    if not (
-        np.issubdtype(intensity.dtype, np.number) or np.issubdtype(intensity.dtype, np.bool_)
-    ) or np.issubdtype(intensity.dtype, np.complexfloating):
-        raise TypeError(
-            f"The parameter `intensity` must have a real numeric dtype, got {intensity.dtype}"
-        )
-    if not np.issubdtype(partial_range.dtype, np.floating):
-        raise TypeError(
-            "The parameter `partial_range` must have a floating dtype (NaN marks unknown range), "
-            f"got {partial_range.dtype}"
-        )
-    if intensity.ndim not in (2, 3) or (intensity.ndim == 3 and intensity.shape[2] not in (1, 3)):
-        raise ValueError(
-            "The parameter `intensity` must be a 2-D grey image (H, W) or a colour image "
-            f"(H, W, 3), got shape {intensity.shape}"
-        )
-    if partial_range.ndim != 2:
-        raise ValueError(
-            f"The parameter `partial_range` must be a 2-D array, got shape {partial_range.shape}"
-        )
-    if intensity.shape[:2] != partial_range.shape:
-        raise ValueError(
-            "The parameters `intensity` and `partial_range` must have the same height and "
-            f"width, got {intensity.shape[:2]} and {partial_range.shape}"
-        )
-    if min(partial_range.shape) < 2:
-        raise ValueError(
-            f"The parameter `partial_range` must be at least 2x2, got shape {partial_range.shape}"
-        )
-    image = normalise_intensity(intensity)
-    if not np.all(np.isfinite(image)):
-        raise ValueError("The parameter `intensity` must be finite everywhere (no NaN or inf)")
-    rng_values = partial_range.astype(np.float64)
-    if np.any(np.isinf(rng_values)):
-        raise ValueError(
-            "The parameter `partial_range` must be finite or NaN (NaN = unknown), got inf"
-        )
-    known = np.isfinite(rng_values)
-    if not known.any():
-        raise ValueError("The parameter `partial_range` has no known range (all NaN)")
-    if known.all():
-        raise ValueError("The parameter `partial_range` has nothing to fill (no NaN)")
-    return image, rng_values
 
 
 def synthesize(
@@ -302,10 +257,11 @@ def synthesize(
     intensity : ndarray of shape (H, W) or (H, W, 3)
         The registered intensity image, grey or colour, of any real dtype,
         offset and scale: it is brought to its own span before Canny and Eq. 2
-        (see the intensity convention under Notes).
+        (see the intensity convention under Notes). A masked array only with
+        nothing masked.
     partial_range : ndarray of shape (H, W), floating
-        The measured range, NaN where unknown, in any length unit; the
-        result comes back in the same unit.
+        The measured range, NaN where unknown (and, in a masked array, where
+        masked), in any length unit; the result comes back in the same unit.
     method : {"np", "bp"}
         Non-parametric sampling (§3.2.2, Eqs. 2–5) or belief propagation
         (§3.2.3, Eqs. 6–9, Fig. 6).
@@ -316,10 +272,21 @@ def synthesize(
     neighbourhood : int, default 5
         Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1).
     radius : float, default 10
-        Search radius ``r`` of Eq. 3 (NP) and of BP's training set, in pixels.
+        Search radius ``r`` of Eq. 3 (NP) and of BP's training set, in
+        pixels, at least 1. A radius beyond the image's diagonal,
+        ``ceil(hypot(H − 1, W − 1))``, searches the whole image, as the
+        diagonal does: BP runs it as the next power of two at or above the
+        diagonal (bit for bit the given radius's result; its prior keeps the
+        scale ``r``, and with ``proximity=0`` the result is the diagonal's
+        too); NP's tie-break
+        permutation is drawn over the frame padded by ``r`` (as the literal
+        reference draws it), so its result can differ from the diagonal's, and
+        a radius whose padded frame does not fit in memory is refused (see
+        :mod:`refsynth.synthesis.limits`).
     range_weight : float, default 1
         Weight λ of the range term of Eq. 2 against the intensity term,
-        both normalised (see :mod:`refsynth.synthesis.similarity`).
+        both normalised (see :mod:`refsynth.synthesis.similarity`); in
+        ``[0, 1e100]``.
     missing_range : {"mean", "ignore"}
         How Eq. 2's range term treats window offsets where the target has range
         and a candidate has none: ``"mean"`` charges them the mean discrepancy
@@ -331,9 +298,9 @@ def synthesize(
         ``False`` uses the grey level (BT.709 luminance, brought to its span).
         No effect on a grey image.
     canny_sigma : float, default 0.8
-        σ of the Canny edge detector's Gaussian (the paper's setting). Canny
-        runs on the grey level brought to [0, 1] (see Notes), with thresholds
-        0.1 and 0.2 of that span.
+        σ of the Canny edge detector's Gaussian (the paper's setting), in
+        ``[0, max(H, W)]``. Canny runs on the grey level brought to [0, 1]
+        (see Notes), with thresholds 0.1 and 0.2 of that span.
     edges : ndarray of shape (H, W), bool, optional
         A precomputed edge map; overrides the Canny detector.
     use_edges : bool, default True
@@ -344,7 +311,7 @@ def synthesize(
         Called as ``progress(done, total)`` every few hundred pixels (NP) or
         after each of BP's five stages.
     epsilon : float, NP only, default 0.1
-        Tolerance ε of Eq. 5.
+        Tolerance ε of Eq. 5, in ``[0, 1e100]``.
     use_isophotes : bool, NP only, default True
         Use the isophote data term of Eq. 12. ``False`` sets D = 1 (Fig. 16).
     ordering : {"priority", "onion"}, NP only, default "priority"
@@ -361,15 +328,18 @@ def synthesize(
         when no other pixel is left on the front. ``False`` keeps only Eq. 10's
         ``1 / (1 + E)`` term.
     candidates : int, BP only, default 8
-        ``k``, the candidates (labels) per unknown pixel.
+        ``k``, the candidates (labels) per unknown pixel (Ψ holds ``k²``
+        numbers per pair of neighbours: a ``k`` beyond memory is refused).
     proximity : float, BP only, default 1
         μ, the weight of the spatial prior ``μ (|p − q| / r)²`` added to
         Eq. 2 when ranking candidates and in Φ (a departure from the paper,
-        see :mod:`refsynth.synthesis.bp`); 0 ranks by Eq. 2 alone.
+        see :mod:`refsynth.synthesis.bp`); 0 ranks by Eq. 2 alone. In
+        ``[0, 1e100]``.
     sigma_i : float, BP only, default 0.1
-        σ_i of Eq. 7, in units of the Eq. 2 distance's square root.
+        σ_i of Eq. 7, in units of the Eq. 2 distance's square root; in
+        ``[1e-50, 1e50]``.
     sigma_s : float, BP only, default 0.2
-        σ_s of Eq. 6, in units of the known range's span.
+        σ_s of Eq. 6, in units of the known range's span; in ``[1e-50, 1e50]``.
     iterations : int, BP only, default 50
         At most this many message-passing sweeps (the paper's 50).
     tolerance : float, BP only, default 1e-4
@@ -391,7 +361,11 @@ def synthesize(
     Raises
     ------
     TypeError, ValueError
-        On bad input, naming the argument, before any work starts; and
+        On bad input, naming the argument, before any work starts: a real
+        parameter outside the range where the arithmetic stays finite
+        (:data:`refsynth.synthesis.limits.PARAMETER_BOUNDS`, the ranges given
+        above), and a run whose estimated memory exceeds the machine's
+        physical memory (the message says how much it would need); and
         ``ValueError`` for an option the chosen method does not use.
 
     Notes
@@ -479,8 +453,8 @@ def synthesize(
         raise ValueError(f"The parameter `radius` must be finite and > 0, got {radius}")
     if radius < 1:
         raise ValueError(f"The parameter `radius` must be >= 1 pixel, got {radius}")
-    canny_sigma = check_real("canny_sigma", canny_sigma, minimum=0.0)
-    range_weight = check_real("range_weight", range_weight, minimum=0.0)
+    canny_sigma = check_canny_sigma(canny_sigma, range_values.shape)
+    range_weight = _bounded("range_weight")(range_weight)
     missing_range = check_choice("missing_range", missing_range, MISSING_RANGE)
     colour = check_bool("colour", colour)
     use_edges = check_bool("use_edges", use_edges)
@@ -495,6 +469,11 @@ def synthesize(
     if progress is not None and not callable(progress):
         raise TypeError("The parameter `progress` must be callable or None")
     rng = _random_source(seed)
+    # beyond the image's diagonal the radius means the whole image (bit for bit)
+    run_radius, proximity = search_radius(method, radius, options.get("proximity", 0.0),
+                                          range_values.shape)
+    check_memory(method, image, range_values, neighbourhood=neighbourhood, radius=run_radius,
+                 candidates=options.get("candidates", 8), colour=colour)
 
     if edges is None:
         # the intensity convention: Canny on the grey level brought to [0, 1]
@@ -508,11 +487,12 @@ def synthesize(
     params = dict(method=method, neighbourhood=neighbourhood, radius=radius,
                   canny_sigma=canny_sigma, use_edges=use_edges, range_weight=range_weight,
                   missing_range=missing_range, colour=colour, **options)
-    common = dict(neighbourhood=neighbourhood, radius=radius, use_edges=use_edges,
+    common = dict(neighbourhood=neighbourhood, radius=run_radius, use_edges=use_edges,
                   range_weight=range_weight, missing_range=missing_range, colour=colour,
                   progress=progress)
     if method == "bp":
         options["k"] = options.pop("candidates")  # bp_fill's name for it
+        options["proximity"] = proximity
         bp = bp_fill(image, range_values, edge_map, **options, **common)
         return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
                                edges=edge_map, method=method, params=params,

@@ -1,0 +1,227 @@
+"""Speed and memory of every fill at real sizes, in one process (issue #15, items 4 and 6).
+
+The Middlebury 2014 *Motorcycle* (scikit-image's copy) resized to 112×94, 225×188,
+450×375 and 900×750, x-stripes at 78 % unknown (as ``bench_np.py`` and ``bench_bp.py``
+build it). For each size, NP and BP (:func:`refsynth.synthesize`) and the colorization,
+nearest and joint-bilateral fills (:mod:`refsynth.evaluation.baselines`) run on the same
+input **in this process**, one after the other, ``--repeat`` times (the best time is
+kept, the methods interleaved so that a burst of load on this shared machine hits them
+alike). The table gives, per method and size:
+
+- the wall-clock seconds (``time.perf_counter``) and the ratio to the colorization fill
+  of the same run (the issue's targets: NP ≤ 5×, BP ≤ 6× at 450×375 and ≤ 5× at 900×750);
+- µs per unknown pixel (linear cost: the same at every size, within ±25 %, issue item 4);
+- the peak resident memory: each (method, size) runs once more in a **fresh
+  subprocess** (this script with ``--child``), which reports the high-water mark of its
+  own address space, ``VmHWM`` of ``/proc/self/status``, beside the same subprocess's
+  peak with the scene built and no fill run. (``ru_maxrss``, of ``RUSAGE_SELF``,
+  ``RUSAGE_CHILDREN`` or ``os.wait4``, is no good here: Linux carries the parent's
+  peak across fork/vfork and exec into the child's, so every child would report at
+  least this process's own peak. Where there is no ``/proc``, ``ru_maxrss`` is
+  reported, and the output says so.)
+
+A last line per method compares µs per unknown pixel at the smallest and the largest
+size: the linearity check of item 4.
+
+Run::
+
+    python benchmarks/bench_speed.py                   # all sizes and methods (~10 min)
+    python benchmarks/bench_speed.py --quick           # 112×94 and 225×188 only
+    python benchmarks/bench_speed.py --sizes 450x375 --methods np,colorization --repeat 3
+
+Needs scikit-image (the Motorcycle).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+SIZES = ((112, 94), (225, 188), (450, 375), (900, 750))
+QUICK_SIZES = SIZES[:2]
+METHODS = ("np", "bp", "colorization", "nearest", "joint-bilateral")
+UNKNOWN = 0.78  # x-stripes, as bench_np.py / bench_bp.py
+LINEAR_TOLERANCE = 0.25  # issue #15 item 4: µs per unknown pixel within ±25 %
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"a size is WIDTHxHEIGHT, e.g. 450x375, got {text!r}") from None
+    if width < 8 or height < 8:
+        raise argparse.ArgumentTypeError(f"a size must be at least 8x8, got {text!r}")
+    return width, height
+
+
+def _case(size: tuple[int, int]):
+    """The Motorcycle at ``size`` (width, height) with x-stripes at 78 % unknown."""
+    from refsynth.acquisition.sampling import unknown_fraction, x_stripes_for_fraction
+    from refsynth.scenes import motorcycle
+
+    scene = motorcycle(size)
+    known = x_stripes_for_fraction(scene.range.shape, UNKNOWN) & scene.has_truth
+    partial = np.where(known, scene.range, np.nan)
+    return scene.intensity, partial, 100.0 * unknown_fraction(known)
+
+
+def _fill(method: str):
+    """The fill ``method`` as ``fill(intensity, partial) -> dense range``."""
+    import refsynth
+    from refsynth.evaluation import baselines
+
+    return {
+        "np": lambda image, partial: refsynth.synthesize(image, partial, seed=0).range,
+        "bp": lambda image, partial: refsynth.synthesize(image, partial, method="bp").range,
+        "colorization": baselines.colorization_fill,
+        "nearest": baselines.nearest_fill,
+        "joint-bilateral": baselines.joint_bilateral_fill,
+    }[method]
+
+
+def _own_peak_mb() -> tuple[float, str]:
+    """This process's peak RSS in MB, and how it was read (see the module's docstring)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0, "VmHWM"
+    except OSError:
+        pass
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux, bytes on macOS
+    return (rss / 1024.0 if sys.platform != "darwin" else rss / 1024.0**2), "ru_maxrss"
+
+
+def _child(method: str, size: tuple[int, int]) -> None:
+    """Run one fill (or, for ``"scene"``, only build the input); print the peak RSS as JSON."""
+    image, partial, _ = _case(size)
+    if method != "scene":
+        _fill(method)(image, partial)
+    peak, how = _own_peak_mb()
+    print(json.dumps({"peak_mb": peak, "how": how}))
+
+
+def _peak_rss_mb(method: str, size: tuple[int, int]) -> tuple[float, str]:
+    """Peak RSS (MB) of a fresh subprocess running one fill, and how it was read."""
+    command = [sys.executable, os.path.abspath(__file__), "--child", method,
+               f"{size[0]}x{size[1]}"]
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(command)} failed ({done.returncode}): {done.stderr}")
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    return report["peak_mb"], report["how"]
+
+
+def _time(methods, image, partial, repeat: int) -> dict[str, float]:
+    """The best of ``repeat`` wall times of each method, interleaved, in this process."""
+    fills = {method: _fill(method) for method in methods}
+    best = dict.fromkeys(methods, np.inf)
+    for _ in range(repeat):
+        for method, fill in fills.items():
+            start = time.perf_counter()
+            fill(image, partial)
+            best[method] = min(best[method], time.perf_counter() - start)
+    return best
+
+
+def run(sizes, methods, repeat: int = 1, rss: bool = True, out=sys.stdout) -> dict:
+    """Time every method at every size and print the table; return the measurements.
+
+    Returns
+    -------
+    dict
+        ``{(width, height): {"unknown": int, "fraction": float, "seconds": {method: s},
+        "rss": {method: MB, "scene": MB}}}``.
+    """
+    results = {}
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"Motorcycle, x-stripes {100 * UNKNOWN:.0f} % unknown; best of {repeat} wall time(s) "
+          f"in one process; load average {load:.2f} at the start.", file=out)
+    how = _peak_rss_mb("scene", sizes[0])[1] if rss else None
+    if how is not None:
+        print(f"Peak RSS: each (method, size) in a fresh subprocess, its own {how}"
+              + (" (the subprocess's own address space)" if how == "VmHWM" else
+                 " (may include this process's peak, inherited at fork)")
+              + "; 'scene alone' builds the input and runs no fill.\n", file=out)
+    print("| size | unknown pixels | method | seconds | / colorization | µs per unknown pixel "
+          "| peak RSS MB (scene alone) |", file=out)
+    print("|---|---|---|---|---|---|---|", file=out)
+    for size in sizes:
+        image, partial, fraction = _case(size)
+        unknown = int(np.isnan(partial).sum())
+        seconds = _time(methods, image, partial, repeat)
+        peaks = {}
+        if rss:
+            peaks = {m: _peak_rss_mb(m, size)[0] for m in ("scene", *methods)}
+        results[size] = dict(unknown=unknown, fraction=fraction, seconds=seconds, rss=peaks)
+        reference = seconds.get("colorization")
+        for method in methods:
+            ratio = f"{seconds[method] / reference:.2g}×" if reference else "—"
+            memory = (f"{peaks[method]:.0f} ({peaks['scene']:.0f})" if rss else "—")
+            print(f"| {size[0]}×{size[1]} | {unknown} ({fraction:.0f} %) | {method} | "
+                  f"{seconds[method]:.3f} | {ratio} | {1e6 * seconds[method] / unknown:.3g} | "
+                  f"{memory} |", file=out, flush=True)
+    _linearity(results, methods, out)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"\nLoad average {load:.2f} at the end.", file=out)
+    return results
+
+
+def _linearity(results: dict, methods, out) -> None:
+    """µs per unknown pixel from the smallest to the largest size, against ±25 %."""
+    sizes = list(results)
+    if len(sizes) < 2:
+        return
+    first, last = sizes[0], sizes[-1]
+    print(f"\nLinearity (µs per unknown pixel, {first[0]}×{first[1]} → {last[0]}×{last[1]}, "
+          f"target ±{100 * LINEAR_TOLERANCE:.0f} %):", file=out)
+    for method in methods:
+        per_pixel = [1e6 * results[s]["seconds"][method] / results[s]["unknown"] for s in sizes]
+        change = per_pixel[-1] / per_pixel[0] - 1.0
+        spread = max(per_pixel) / min(per_pixel) - 1.0
+        verdict = "within" if abs(change) <= LINEAR_TOLERANCE else "outside"
+        print(f"- {method}: {per_pixel[0]:.3g} → {per_pixel[-1]:.3g} µs ({change:+.0%}, "
+              f"{verdict} ±{100 * LINEAR_TOLERANCE:.0f} %; max/min over all sizes "
+              f"{spread:+.0%})", file=out)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--sizes", type=lambda t: [_size(s) for s in t.split(",")],
+                        help="comma-separated WIDTHxHEIGHT (default: 112x94,225x188,450x375,"
+                        "900x750)")
+    parser.add_argument("--methods", type=lambda t: t.split(","), default=list(METHODS),
+                        help=f"comma-separated, of {', '.join(METHODS)} (default: all)")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="time each method this many times, keep the best (default 1)")
+    parser.add_argument("--quick", action="store_true",
+                        help="112x94 and 225x188 only")
+    parser.add_argument("--no-rss", action="store_true",
+                        help="skip the peak-RSS subprocesses (timings only)")
+    parser.add_argument("--child", nargs=2, metavar=("METHOD", "SIZE"), help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        _child(args.child[0], _size(args.child[1]))
+        return 0
+    unknown = sorted(set(args.methods) - set(METHODS))
+    if unknown:
+        parser.error(f"unknown method(s) {', '.join(unknown)}; choose from {', '.join(METHODS)}")
+    if args.repeat < 1:
+        parser.error(f"--repeat must be >= 1, got {args.repeat}")
+    if args.quick and args.sizes:
+        parser.error("--quick and --sizes are exclusive")
+    sizes = QUICK_SIZES if args.quick else (args.sizes or SIZES)
+    run(sizes, args.methods, repeat=args.repeat, rss=not args.no_rss)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,49 @@
+"""A smoke test of ``benchmarks/bench_speed.py`` (issue #15 item 6) on tiny sizes."""
+
+import importlib.util
+import io
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("skimage")  # the Motorcycle
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_speed.py"
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("bench_speed", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_table_has_every_method_and_size_and_the_linearity_line(bench):
+    out = io.StringIO()
+    results = bench.run([(32, 27), (40, 34)], ["np", "bp", "colorization", "nearest"],
+                        rss=False, out=out)
+    text = out.getvalue()
+    rows = [line for line in text.splitlines() if line.startswith("| 32×27") or
+            line.startswith("| 40×34")]
+    assert len(rows) == 8
+    assert "| 32×27 |" in rows[0] and "| np |" in rows[0]
+    assert "| colorization | " in rows[2] and "| 1× |" in rows[2]
+    assert "Linearity (µs per unknown pixel, 32×27 → 40×34, target ±25 %):" in text
+    assert all(f"- {m}: " in text for m in ("np", "bp", "colorization", "nearest"))
+    assert set(results) == {(32, 27), (40, 34)}
+    assert results[(32, 27)]["unknown"] > 0 and results[(32, 27)]["seconds"]["np"] > 0
+
+
+def test_peak_rss_is_read_in_a_fresh_subprocess(bench):
+    peak, how = bench._peak_rss_mb("nearest", (32, 27))
+    assert peak > 10 and how in ("VmHWM", "ru_maxrss")
+
+
+def test_bad_options_are_refused(bench, capsys):
+    for argv in (["--methods", "np,fast"], ["--repeat", "0"], ["--sizes", "4x4"],
+                 ["--quick", "--sizes", "112x94"]):
+        with pytest.raises(SystemExit) as exit_info:
+            bench.main(argv)
+        assert exit_info.value.code == 2
+    assert "unknown method(s) fast" in capsys.readouterr().err
