@@ -245,6 +245,7 @@ def image_reach(shape: tuple[int, int]) -> int:
     Returns
     -------
     int
+        The reach, in pixels.
 
     Examples
     --------
@@ -306,7 +307,7 @@ def check_canny_sigma(value, shape: tuple[int, int]) -> float:
     value : real
         The ``canny_sigma`` given.
     shape : (int, int)
-        The image's (H, W).
+        The image's (H, W): σ may not exceed the longer side.
 
     Returns
     -------

@@ -132,7 +132,7 @@ def intensity_patches(image: np.ndarray, n: int) -> np.ndarray:
     image : ndarray of shape (H, W, C), float
         The intensity image, ``C = 1`` for grey, 3 for colour.
     n : int
-        Odd window side.
+        The odd side of the patch (``N_p``), in pixels.
 
     Returns
     -------
@@ -160,7 +160,7 @@ def range_patches(range_image: np.ndarray, n: int) -> np.ndarray:
     range_image : ndarray of shape (H, W), float
         NaN marks unknown range.
     n : int
-        Odd window side.
+        The odd side of the range patch; offsets off the image are NaN.
 
     Returns
     -------

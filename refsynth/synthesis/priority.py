@@ -88,11 +88,12 @@ def box_sum(values: np.ndarray, n: int) -> np.ndarray:
     values : ndarray of shape (H, W)
         Any real values (bool is counted as 0/1).
     n : int
-        Odd window side.
+        The odd side of the square window summed.
 
     Returns
     -------
     ndarray of shape (H, W), float64
+        The sum of ``values`` over each pixel's n×n window (zero outside the image).
 
     Examples
     --------
@@ -116,6 +117,7 @@ def fill_front(filled: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray of shape (H, W), bool
+        True on δΩ.
 
     Examples
     --------
@@ -136,7 +138,7 @@ def confidence_term(confidence: np.ndarray, n: int) -> np.ndarray:
     confidence : ndarray of shape (H, W)
         Per-pixel confidence, 0 where the range is unknown.
     n : int
-        Odd window side.
+        The odd side of ``N_p``; Eq. 11 divides by its pixels inside the image.
 
     Returns
     -------
@@ -162,11 +164,12 @@ def edge_count(edges: np.ndarray, n: int) -> np.ndarray:
     edges : ndarray of shape (H, W), bool
         The Canny edge map.
     n : int
-        Odd window side.
+        The odd side of ``N_p``, the window whose edge pixels ``E`` counts.
 
     Returns
     -------
     ndarray of shape (H, W), float64
+        ``E``: the edge pixels in each pixel's window.
 
     Examples
     --------
@@ -226,11 +229,12 @@ def range_gradient(
     filled : ndarray of shape (H, W), bool
         Where range is known or already synthesized.
     n : int
-        Odd window side.
+        The odd side of ``N_p``: both pixels of each pair averaged lie in it.
 
     Returns
     -------
     g_row, g_col : ndarray of shape (H, W)
+        The mean range differences along rows and columns over the window's pairs.
 
     Examples
     --------
@@ -259,6 +263,7 @@ def front_normals(filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Returns
     -------
     n_row, n_col : ndarray of shape (H, W)
+        The unit normal of the front (0, 0 where the mask is flat).
 
     Examples
     --------
@@ -294,7 +299,7 @@ def data_term(
     filled : ndarray of shape (H, W), bool
         Where range is known or already synthesized.
     n : int
-        Odd window side.
+        The odd side of ``N_p`` (the window of the isophote's pairs).
     alpha : float, default 1
         The normalisation ``α``.
 
@@ -341,7 +346,7 @@ def priority(
     edges : ndarray of shape (H, W), bool
         The Canny edge map.
     n : int
-        Odd window side.
+        The odd side of ``N_p`` (Eqs. 10–12).
     use_edges : bool, default True
         Keep Eq. 10's ``1 / (1 + E)`` term (else ``E = 0``).
     use_isophotes : bool, default True
@@ -426,7 +431,7 @@ class FillFront:
         Normalised range (any value where unknown).
     edges : ndarray of shape (H, W), bool
     n : int
-        Odd window side.
+        The odd side of ``N_p``, the window every update touches.
     pad : int
         Padding of the frame, at least ``n // 2 + 1``.
     rng : numpy.random.Generator
