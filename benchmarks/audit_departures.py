@@ -65,10 +65,37 @@ VARIANTS: dict[str, dict] = {
                         "missing_range": "ignore", "colour": False},
     "np-literal+no-edge-tier": {"method": "np", "confidence_update": "best", "range_weight": 1.0,
                                 "missing_range": "ignore", "edges_last": False},
+    # issue #10's remaining readings, each against the defaults ("np" / "bp"): Eq. 2's colour
+    # term averaged over the channels (0.2's reading; the default sums them, as Eq. 2 does);
+    # the edge tier dropped (Eq. 10's 1 / (1 + E) term alone)
+    "np-channel-mean": {"method": "np", "channels": "mean"},
+    "np-no-edge-tier": {"method": "np", "edges_last": False},
+    # is the channel sum's gain colour, or only a lighter range term? λ = 0.1 with the
+    # channel mean, and λ = 1/3 on the grey level (each exactly a lighter range term)
+    "np-lambda0.1": {"method": "np", "channels": "mean", "range_weight": 0.1},
+    "np-grey-lambda1/3": {"method": "np", "colour": False, "range_weight": 1.0 / 3.0},
+    # 0.2's defaults, for the tables' "before" rows
+    "np-0.2": {"method": "np", "channels": "mean"},
+    "bp-0.2": {"method": "bp", "channels": "mean", "proximity": 1.0},
     "bp": {"method": "bp"},
     "bp-lambda1": {"method": "bp", "range_weight": 1.0},
     "bp-lambda16": {"method": "bp", "range_weight": 16.0},
     "bp-paper-edge-rule": {"method": "bp", "edge_rule": "paper"},
+    "bp-grey": {"method": "bp", "colour": False},
+    # BP's candidate ranking: μ = 0 is the paper's (the observation alone) and the default;
+    # μ = 1 was 0.2's; then one step (a factor 2) each side of k = 8, σ_i = 0.1, σ_s = 0.2
+    "bp-no-proximity": {"method": "bp", "proximity": 0.0},
+    "bp-proximity0.5": {"method": "bp", "proximity": 0.5},
+    "bp-proximity1": {"method": "bp", "proximity": 1.0},
+    "bp-proximity2": {"method": "bp", "proximity": 2.0},
+    "bp-k4": {"method": "bp", "candidates": 4},
+    "bp-k16": {"method": "bp", "candidates": 16},
+    "bp-sigma-i0.05": {"method": "bp", "sigma_i": 0.05},
+    "bp-sigma-i0.2": {"method": "bp", "sigma_i": 0.2},
+    "bp-sigma-s0.1": {"method": "bp", "sigma_s": 0.1},
+    "bp-sigma-s0.4": {"method": "bp", "sigma_s": 0.4},
+    # Eq. 2's channel mean for BP (0.2's reading)
+    "bp-channel-mean": {"method": "bp", "channels": "mean"},
 }
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},

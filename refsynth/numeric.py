@@ -175,6 +175,9 @@ def combine_eq2(si, sr, ws, wa, channels: int, range_weight: float, missing_rang
     :func:`quantise_range` and :func:`window_weights`. Python ints or float64 arrays holding
     integers (below ``2**53``) give the same bits.
 
+    ``channels`` divides the intensity sum: 1 for Eq. 2's sum over the colour channels
+    (``channels="sum"`` in :func:`refsynth.synthesize`, the default), ``C`` for their mean.
+
     ``"ignore"``: ``(si·u)/C + λ(sr·u)`` (the literal Eq. 2, ``u`` = :data:`EQ2_UNIT`);
     ``"mean"``: ``(si·u)/C + (λ(sr·u) + λε) · ((wa·w)/(ws·w + ε))`` with ``w`` =
     :data:`WEIGHT_UNIT` and ε = :data:`SUPPORT_PRIOR` (see :mod:`refsynth.synthesis.similarity`).

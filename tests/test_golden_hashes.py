@@ -52,6 +52,16 @@ def _digest(result) -> str:
 
 GOLDEN = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
+    ("steps", "bp"): "da696a7a6b4edcc3d5f381ca",
+    ("texture", "np"): "2cebdade5732edbd0564aa81",
+    ("texture", "bp"): "e2699b75d7f964ac7ec9c282",
+}
+#: 0.2's readings (Eq. 2's channel mean; BP's proximity prior μ = 1), which 0.3's defaults
+#: replaced (the README's audit): their hashes are 0.2's defaults' hashes, unchanged by
+#: 0.3's speed work.
+READINGS_02 = {"np": dict(channels="mean"), "bp": dict(channels="mean", proximity=1.0)}
+GOLDEN_02 = {
+    ("steps", "np"): "1eb29b548dae38f8b4218494",
     ("steps", "bp"): "d8dab12d04faac1c1f7e756e",
     ("texture", "np"): "4260a959c73bb8eba56b0feb",
     ("texture", "bp"): "b631a82b1c6716aedcb65810",
@@ -64,3 +74,12 @@ def test_the_golden_hash_holds(scene, method):
     result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0)
     assert _digest(result) == GOLDEN[scene, method], (
         f"{scene}/{method}: the output changed; new hash {_digest(result)}")
+
+
+@pytest.mark.parametrize(("scene", "method"), list(GOLDEN_02))
+def test_the_golden_hash_of_the_earlier_readings_holds(scene, method):
+    intensity, partial = SCENES[scene]()
+    result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0,
+                                 **READINGS_02[method])
+    assert _digest(result) == GOLDEN_02[scene, method], (
+        f"{scene}/{method} (0.2's readings): the output changed; new hash {_digest(result)}")

@@ -74,15 +74,18 @@ def test_eq2_hand_computed_case():
     )
 
 
-def test_eq2_colour_averages_channels():
+def test_eq2_colour_sums_the_channels_or_averages_them():
     ia = np.zeros((3, 3, 3))
     ib = np.zeros((3, 3, 3))
     ib[1, 1] = 0.5
     grey_a, grey_b = np.zeros((3, 3)), np.zeros((3, 3))
     grey_b[1, 1] = 0.5
     r = np.full((3, 3), np.nan)
-    assert neighbourhood_distance(ia, r, ib, r) == pytest.approx(
-        neighbourhood_distance(grey_a, r, grey_b, r), rel=10 * EPS
+    grey = neighbourhood_distance(grey_a, r, grey_b, r)
+    # Eq. 2 sums the channels: three channels that differ cost three times one
+    assert neighbourhood_distance(ia, r, ib, r) == pytest.approx(3 * grey, rel=10 * EPS)
+    assert neighbourhood_distance(ia, r, ib, r, channels="mean") == pytest.approx(
+        grey, rel=10 * EPS
     )
 
 

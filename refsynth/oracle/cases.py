@@ -11,7 +11,8 @@ The whole runs (``kind`` "np" and "bp") span 8×8 to 64×64, with noise, few-lev
 intensity (exact ties in Eq. 2), grey and colour, edges on and off, and the options a port
 must get right: ε, isophotes off, the onion order, ``missing_range="ignore"``, the widened
 search (``r = 1``: a front pixel whose filled neighbours are diagonal has an empty ``A_p``),
-both confidence updates, Eq. 2 on grey, sum-product, both edge rules, proximity off.
+both confidence updates, Eq. 2 on grey and with the channel mean, sum-product, both edge
+rules, the proximity prior on.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from refsynth.oracle.runs import run_outputs
 __all__ = ["Case", "CASE_SET_VERSION", "build_cases", "expected_outputs", "select_cases"]
 
 #: The version of the case set (inputs and options); the format's is in export.py.
-CASE_SET_VERSION = 1
+CASE_SET_VERSION = 2  # 2: refsynth 0.3's defaults (Eq. 2's channel sum, BP without the prior)
 
 
 @dataclass
@@ -105,7 +106,7 @@ def _run_cases(large: bool) -> list[Case]:
         ("levels", 3, dict(epsilon=0.5, use_isophotes=False),
          dict(edge_rule="paper"), 0.4),
         ("ramp", 1, dict(ordering="onion", missing_range="ignore"),
-         dict(product="sum", proximity=0.0), 0.3),
+         dict(product="sum", proximity=1.0), 0.3),
     ]
     for i, shape in enumerate(shapes):
         for j, (kind, channels, np_extra, bp_extra, fraction) in enumerate(plans):
@@ -125,6 +126,11 @@ def _run_cases(large: bool) -> list[Case]:
         Case("np-10x12-best-grey", "np", colour,
              dict(neighbourhood=3, radius=3.0, use_edges=True, confidence_update="best",
                   colour=False, edges_last=False), 11),
+        Case("np-10x12-channel-mean", "np", colour,
+             dict(neighbourhood=3, radius=3.0, use_edges=True, channels="mean"), 11),
+        Case("bp-10x12-channel-mean", "bp", colour,
+             dict(neighbourhood=3, radius=2.5, use_edges=False, candidates=4, iterations=8,
+                  channels="mean"), 11),
         Case("np-12x12-widened", "np", _scene(12, (12, 12), 1, "noise", 0.2),
              dict(neighbourhood=3, radius=1.0, use_edges=False, epsilon=0.0), 12),
         Case("bp-10x12-grey-k5", "bp", colour,

@@ -221,9 +221,11 @@ def _eq2(inputs, options):
     window = window_weights(qi.shape[2])
     out = dict(window=window)
     for rule in ("mean", "ignore"):
-        out[f"distance_{rule}"] = np.array([
-            ref.eq2_distance(qi[b, 0], qr[b, 0], qi[b, 1], qr[b, 1], window,
-                             options["range_weight"], rule) for b in range(len(qi))])
+        for channels, suffix in (("sum", ""), ("mean", "_channel_mean")):
+            out[f"distance_{rule}{suffix}"] = np.array([
+                ref.eq2_distance(qi[b, 0], qr[b, 0], qi[b, 1], qr[b, 1], window,
+                                 options["range_weight"], rule, channels)
+                for b in range(len(qi))])
     return out
 
 

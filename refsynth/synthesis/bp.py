@@ -225,9 +225,10 @@ def bp_fill(
     use_edges: bool = True,
     range_weight: float = 1.0,
     missing_range: str = "mean",
-    proximity: float = 1.0,
+    proximity: float = 0.0,
     colour: bool = True,
     edge_rule: str = "silent",
+    channels: str = "sum",
     progress: Callable[[int, int], None] | None = None,
     memory_limit: int | None = None,
 ) -> BPResult:
@@ -271,11 +272,14 @@ def bp_fill(
     missing_range : {"mean", "ignore"}, default "mean"
         Eq. 2's treatment of range a candidate lacks
         (:mod:`refsynth.synthesis.similarity`).
-    proximity : float, default 1
+    proximity : float, default 0
         μ of the candidates' spatial prior ``μ (|p − q| / r)²``; 0 ranks by
-        Eq. 2 alone.
+        Eq. 2 alone (the paper's Fig. 6, step 2).
     colour : bool, default True
         Compare all intensity channels in Eq. 2; ``False``: the grey level.
+    channels : {"sum", "mean"}, default "sum"
+        Eq. 2's intensity term: the sum over the colour channels (the
+        paper's) or their mean.
     edge_rule : {"silent", "paper"}, default "silent"
         The reading of the edge-constraint rule (see above).
     progress : callable, optional
@@ -319,8 +323,8 @@ def bp_fill(
     known = np.isfinite(range_values)
     unknown = ~known
     # up front: the memory this call needs, against the limit
-    channels = 1 if not colour or np.ndim(image) == 2 else np.shape(image)[2]
-    check_bp_memory((H, W), int(unknown.sum()), k=k, neighbourhood=n, channels=channels,
+    n_channels = 1 if not colour or np.ndim(image) == 2 else np.shape(image)[2]
+    check_bp_memory((H, W), int(unknown.sum()), k=k, neighbourhood=n, channels=n_channels,
                     n_pairs=_count_pairs(unknown), limit=memory_limit)
     # the contract: intensity and range on the 2**-16 grids of their spans
     rq, _, span = quantise_range(range_values)
@@ -344,7 +348,7 @@ def bp_fill(
     # step 2: candidates, and step 3: log Phi
     labels, dist = search_candidates(levels, rq, rows, cols, n=n, k=k, radius=radius,
                                      proximity=proximity, range_weight=range_weight,
-                                     missing_range=missing_range, pad=pad)
+                                     missing_range=missing_range, pad=pad, channels=channels)
     del levels
     unary = phi(dist, sigma_i)
     del dist

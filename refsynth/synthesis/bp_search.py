@@ -149,6 +149,7 @@ def search_candidates(
     range_weight: float,
     missing_range: str,
     pad: int,
+    channels: str = "sum",
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` closest training patches of each node by Eq. 2 (Fig. 6, step 2).
 
@@ -216,7 +217,7 @@ def search_candidates(
     # no offset longer than the image's diagonal can reach a pixel: the disc stops there
     longest = float(np.hypot(H, W))
     options = dict(k=k, radius=radius, proximity=proximity, range_weight=range_weight,
-                   missing_range=missing_range, frame=max(H, W) + 2 * pad,
+                   missing_range=missing_range, channels=channels, frame=max(H, W) + 2 * pad,
                    total_known=total_known)
     while todo.size:
         dr, dc = disc_offsets(min(r, longest))
@@ -313,7 +314,8 @@ def _distances(features, rows, cols, ur, uc, b_index, u_valid, options):
             sel = (u_valid >= start) & (u_valid < stop)
             uu, bb = u_valid[sel] - start, b_index[sel]
         si = t0[uu, bb] + (si_u[uu + start] + node_self[bb])
-        out[sel] = combine_eq2(si, t1[uu, bb], t2[uu, bb], support[bb], features.channels,
+        divisor = features.channels if options.get("channels", "sum") == "mean" else 1
+        out[sel] = combine_eq2(si, t1[uu, bb], t2[uu, bb], support[bb], divisor,
                                options["range_weight"], options["missing_range"])
     return out
 

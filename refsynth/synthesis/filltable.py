@@ -99,10 +99,12 @@ class FillTable:
         pad: int,
         range_weight: float,
         missing_range: str = "mean",
+        channels: str = "sum",
     ) -> None:
         H, W, C = image.shape
         self.shape = (H + 2 * pad, W + 2 * pad)
         self.channels = C
+        self.divisor = C if channels == "mean" else 1  # Eq. 2's channel sum, or their mean
         nn = n * n
         base = nn * C
         self.nn, self.base = nn, base
@@ -195,7 +197,7 @@ class FillTable:
         si += self.self_term[p]
         sr = rows[:, r0:] @ w[r0:]
         ws = rows[:, v0:h0] @ g_v
-        return _combine(si, sr, ws, g_v.sum(), self.channels, self.lam, self.missing_range)
+        return _combine(si, sr, ws, g_v.sum(), self.divisor, self.lam, self.missing_range)
 
     def set_range(self, p: int, value: float) -> None:
         """Record normalised range ``value`` (a multiple of ``2**-16``) at padded index ``p``.

@@ -140,6 +140,7 @@ def np_fill(
     confidence_update: str = "best",
     colour: bool = True,
     edges_last: bool = True,
+    channels: str = "sum",
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fill the unknown range by NP sampling in the chosen order (§3.2.2, §3.2.4).
@@ -179,6 +180,9 @@ def np_fill(
         Eq. 2 on the colour channels (False: on BT.709 grey).
     edges_last : bool, default True
         Edge voxels form a second tier, filled last.
+    channels : {"sum", "mean"}, default "sum"
+        Eq. 2's intensity term: the sum over the colour channels (the paper's)
+        or their mean.
     progress : callable, optional
         Called as ``progress(done, total)`` every few thousand voxels and at the end.
 
@@ -213,7 +217,7 @@ def np_fill(
 
     pad = max(int(np.ceil(radius)), n // 2 + 1)
     table = FillTable(levels * 2.0**-INTENSITY_BITS, range_norm, n, pad, range_weight,
-                      missing_range)
+                      missing_range, channels)
     front = FillFront(
         known,
         range_norm,

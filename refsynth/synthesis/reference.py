@@ -92,11 +92,14 @@ def disc_offsets(radius: float) -> list[tuple[int, int]]:
 # -- Eq. 2 --------------------------------------------------------------------------------
 
 
-def eq2_distance(qi_a, qr_a, qi_b, qr_b, window, range_weight=1.0, missing_range="mean"):
+def eq2_distance(qi_a, qr_a, qi_b, qr_b, window, range_weight=1.0, missing_range="mean",
+                 channels="sum"):
     r"""Eq. 2 between two quantised neighbourhoods (§3.2.2).
 
-    .. math:: \|N_a - N_b\| = \sum_v G(\sigma, v - v_0) \left[ \tfrac{1}{C}\sum_c
+    .. math:: \|N_a - N_b\| = \sum_v G(\sigma, v - v_0) \left[ \sum_c
               (I^a_{v,c} - I^b_{v,c})^2 + \lambda (R^a_v - R^b_v)^2 \right]
+
+    (``channels="sum"``, the paper's; ``"mean"`` divides the channel sum by ``C``).
 
     ``qi_*`` (n, n, C) and ``qr_*`` (n, n) are quantised intensity and range (:data:`NO_RANGE`
     where unknown), ``window`` is :func:`window_weights`; ``missing_range`` as in
@@ -108,8 +111,9 @@ def eq2_distance(qi_a, qr_a, qi_b, qr_b, window, range_weight=1.0, missing_range
     dr = np.where(shared, qr_a - qr_b, 0)
     si = int(np.sum(window[:, :, None] * di * di))
     sr = int(np.sum(window * dr * dr))
+    divisor = qi_a.shape[2] if channels == "mean" else 1   # Eq. 2 sums the channels
     return combine_eq2(si, sr, int(np.sum(window[shared])), int(np.sum(window[has_a])),
-                       qi_a.shape[2], range_weight, missing_range)
+                       divisor, range_weight, missing_range)
 
 
 class _Frame:
@@ -216,7 +220,7 @@ def _onion_schedule(known, rng):
 def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.0, epsilon=0.1,
                  use_edges=True, use_isophotes=True, ordering="priority", range_weight=1.0,
                  missing_range="mean", confidence_update="best", colour=True,
-                 edges_last=True, trace=False) -> NPReference:
+                 edges_last=True, channels="sum", trace=False) -> NPReference:
     r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
 
     For the front voxel ``p`` of highest priority (Eq. 10; with ``edges_last``, edge voxels
@@ -250,6 +254,8 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
         The confidence a synthesized voxel receives (above).
     colour : bool
         Eq. 2 on the colour channels (True) or on the grey level (:func:`quantise_grey`).
+    channels : {"sum", "mean"}
+        Eq. 2's intensity term: the sum over the colour channels (the paper's) or their mean.
     edges_last : bool
         With ``use_edges``: edge voxels form a second tier (True) or only count in ``E``.
     trace : bool
@@ -304,7 +310,7 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
             candidates = [q for q, d in zip(near, dist) if d <= min(dist) + radius]
         target = frame.patch(r, c)
         distances = [eq2_distance(*target, *frame.patch(a, b), frame.window, range_weight,
-                                  missing_range) for a, b in candidates]
+                                  missing_range, channels) for a, b in candidates]
         best = distances.index(min(distances))                        # Eq. 4, first minimum
         threshold = (1.0 + epsilon) * distances[best]
         members = [i for i, d in enumerate(distances) if d <= threshold]   # Eq. 5
@@ -369,7 +375,8 @@ def overlap_mean_square(first, second, direction):
     return (int(np.sum(d * d)) * 2.0 ** (-2 * RANGE_BITS)) / count
 
 
-def _bp_candidates(frame, known, r, c, k, radius, proximity, range_weight, missing_range, side):
+def _bp_candidates(frame, known, r, c, k, radius, proximity, range_weight, missing_range, side,
+                   channels="sum"):
     """Fig. 6, step 2: the ``k`` training patches (measured centres) closest to node (r, c).
 
     Ranked by Eq. 2 plus ``μ |v|² / r²``, ties by the raster order of the offsets; the radius
@@ -387,7 +394,7 @@ def _bp_candidates(frame, known, r, c, k, radius, proximity, range_weight, missi
                 dist.append(math.inf)
                 continue
             d = eq2_distance(*target, *frame.patch(r + dr, c + dc), frame.window, range_weight,
-                             missing_range)
+                             missing_range, channels)
             if proximity:
                 d = d + (proximity / (radius * radius)) * (dr * dr + dc * dc)
             dist.append(d)
@@ -421,7 +428,8 @@ def _send(t, axis, product):
 def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=8,
                  sigma_i=0.1, sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
-                 proximity=1.0, colour=True, edge_rule="silent", trace=False) -> BPReference:
+                 proximity=0.0, colour=True, edge_rule="silent", channels="sum",
+                 trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
@@ -459,7 +467,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     cands, unary = np.zeros((N, k, 2), np.int64), np.zeros((N, k))
     for i, (r, c) in enumerate(nodes):                                  # steps 2 and 3
         cand, dist = _bp_candidates(frame, known, r, c, k, radius, proximity, range_weight,
-                                    missing_range, side)
+                                    missing_range, side, channels)
         cands[i] = cand
         unary[i] = [-d / (2.0 * sigma_i * sigma_i) for d in dist]
         patches = [frame.patch(a, b)[1] for a, b in cand]
