@@ -1,5 +1,11 @@
-"""What every subcommand's arguments share: strict number types and output-path checks.
+"""What every subcommand's parser shares: its construction, strict number types, path checks.
 
+- :func:`add_subcommand`: a subcommand's parser, built the same way for
+  every one (its ``help``, ``description``, handler, and
+  :class:`DefaultsFormatter`, which ends each option's help with its
+  default).
+- :func:`prefixed`: ``add_argument`` for options that only apply with
+  another one, their help starting with that condition once.
 - :func:`integer` and :func:`real`: argparse ``type=`` functions that accept
   ASCII digits only (Python's ``int`` reads ``"٣"`` as 3 and ``"1_0"`` as 10)
   and, for reals, finite values only.
@@ -20,12 +26,13 @@ from __future__ import annotations
 import argparse
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from refsynth._checks import check_memory_need, format_bytes, physical_memory
 
 __all__ = [
+    "add_subcommand", "DefaultsFormatter", "prefixed",
     "integer", "real", "check_output", "make_parent", "check_folder", "check_memory",
     "physical_memory", "format_bytes",
 ]
@@ -34,6 +41,90 @@ _INTEGER = re.compile(r"[+-]?[0-9]+")
 _REAL = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?")
 #: Digits accepted in an integer argument: more would only name an absurd value.
 _MAX_DIGITS = 18
+
+
+class DefaultsFormatter(argparse.HelpFormatter):
+    """Help that ends each option's text with ``(default: X)`` unless it states its default.
+
+    Options without a default (None) or flags (False) get nothing added.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        if (not action.option_strings or default is None or default is False
+                or default is argparse.SUPPRESS or "default" in text.lower()):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+def add_subcommand(subparsers, name: str, *, help: str, description: str,
+                   func: Callable[[argparse.Namespace], int] | None = None
+                   ) -> argparse.ArgumentParser:
+    """Add the subcommand ``name`` to ``subparsers`` and return its parser.
+
+    Every ``python -m refsynth`` subcommand is built here, so that each one's
+    ``--help`` follows the same conventions whatever parser it is added to
+    (the main one, ``python -m refsynth.cli.scan``, a test's plain
+    ``ArgumentParser``): every option's default is shown
+    (:class:`DefaultsFormatter`).
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``ArgumentParser.add_subparsers`` returned.
+    name : str
+        The subcommand, e.g. ``"synth"``.
+    help : str
+        Its one line in the parent's ``--help`` (lower case, no full stop);
+        keyword-only, as are ``description`` and ``func``, so that the two
+        texts cannot be swapped.
+    description : str
+        The paragraph at the top of its own ``--help``.
+    func : callable, optional
+        The handler, stored as ``args.func``: it takes the parsed arguments
+        and returns the exit status. None for a parser whose own
+        subcommands set it (``oracle export``, ``oracle check``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser(prog="refsynth")
+    >>> sub = parser.add_subparsers(dest="command")
+    >>> hello = add_subcommand(sub, "hello", help="say hello", description="Say hello.",
+    ...                        func=lambda args: 0)
+    >>> _ = hello.add_argument("--times", type=integer, default=1, help="how often")
+    >>> "how often (default: 1)" in hello.format_help()
+    True
+    >>> parser.parse_args(["hello"]).func(None)
+    0
+    """
+    parser = subparsers.add_parser(name, help=help, description=description,
+                                   formatter_class=DefaultsFormatter)
+    if func is not None:
+        parser.set_defaults(func=func)
+    return parser
+
+
+def prefixed(group, prefix: str) -> Callable[..., argparse.Action]:
+    """``group.add_argument``, each option's help starting with ``prefix``.
+
+    For options that apply only with another option or a kind of input
+    (``"with --merge: "``, ``"cylindrical: "``): the condition is written
+    once, and every such option's help states it.
+
+    >>> parser = argparse.ArgumentParser()
+    >>> add = prefixed(parser, "with --merge: ")
+    >>> add("--voxel", type=real, help="fusion voxel size").help
+    'with --merge: fusion voxel size'
+    """
+    def add_argument(*names: str, help: str, **kwargs) -> argparse.Action:
+        return group.add_argument(*names, help=prefix + help, **kwargs)
+
+    return add_argument
 
 
 def integer(text: str) -> int:
@@ -143,11 +234,14 @@ def check_memory(need: int, what: str, hint: str = "") -> None:
     """Refuse ``what`` (one line, with the estimate) if it needs more than the machine has.
 
     :func:`refsynth._checks.check_memory_need` against this machine's
-    physical memory (2^50, a pebibyte, where the OS does not say).
+    physical memory as this module looks it up (:func:`physical_memory`, so
+    that a test can stand in a smaller machine); 2^50, a pebibyte, where the
+    OS does not say.
 
     Raises
     ------
     ValueError
         If ``need`` bytes exceed the machine's memory.
     """
-    check_memory_need(need, what, hint)
+    have = physical_memory()
+    check_memory_need(need, what, hint, limit=have)

@@ -23,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-from refsynth.cli.arguments import check_folder, check_memory, integer
+from refsynth.cli.arguments import add_subcommand, check_folder, check_memory, integer
 from refsynth.cli.synth import pixel_progress
 from refsynth.evaluation.cases import Case, case_memory
 from refsynth.plotting.demo import DEMO_FIGURES, run_demo, run_pipeline_demo
@@ -196,15 +196,18 @@ def _cmd_demo(args) -> int:
 
 def add_demo_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``demo`` subcommand to an argparse subparsers object (sets ``func=``)."""
-    demo = subparsers.add_parser(
-        "demo", help="the paper's story end to end on the simulated rig (--quick: the main "
-        "job's table on the synthetic room)",
+    demo = add_subcommand(
+        subparsers, "demo",
+        help="the paper's story end to end on the simulated rig (--quick: the main job's "
+        "table on the synthetic room)",
         description="The paper's story end to end (about a minute): the simulated rig scans "
         "its room from two positions, the scans are registered to the pictures (Appendix A), "
         "NP and BP fill the range (a table of MAR against the ground truth, with nearest and "
         "colorization), and the positions become one 3-D model (PLY, ICP-refined odometry) "
         "and a rendered view. --quick: NP, its ablations, BP and the baselines on the "
-        "synthetic room, one table (about 10 s).")
+        "synthetic room, one table (about 10 s).",
+        func=_cmd_demo,
+    )
     demo.add_argument("--out", default="refsynth-demo",
                       help="folder for the scans, models and figures (default refsynth-demo)")
     demo.add_argument("--quick", action="store_true",
@@ -216,5 +219,4 @@ def add_demo_parser(subparsers) -> argparse.ArgumentParser:
                       help="room, noise and synthesis seed (default 0)")
     demo.add_argument("--pipeline", action="store_true",
                       help="the default story (kept for old scripts; default off)")
-    demo.set_defaults(func=_cmd_demo)
     return demo

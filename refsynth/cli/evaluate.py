@@ -24,7 +24,13 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from refsynth.cli.arguments import check_memory, check_output, integer, make_parent
+from refsynth.cli.arguments import (
+    add_subcommand,
+    check_memory,
+    check_output,
+    integer,
+    make_parent,
+)
 from refsynth.evaluation import (
     DEFAULT_GRID,
     DEFAULT_SAMPLINGS,
@@ -193,43 +199,46 @@ def add_evaluate_parser(subparsers) -> argparse.ArgumentParser:
     ``TypeError``, ``OSError`` (or ``ImportError`` for ``--scheduler``
     without dask) with a one-line message.
     """
-    parser = subparsers.add_parser(
-        "evaluate",
+    parser = add_subcommand(
+        subparsers, "evaluate",
         help="the paper's experiments and the baselines, side by side",
         description="Run scenes × samplings × methods and print MAR (Eq. 13), RMSE, bad>1, "
         "bad>3 and seconds. Without --scene/--size/--sampling: the default grid (synthetic "
         "room and Motorcycle at 128x128, every sampling and method; rooms 1-3 at g5_25; "
         "Motorcycle 450x375 on x-stripes). The Motorcycle needs scikit-image "
         '(pip install "refsynth[data]").',
+        func=_cmd_evaluate,
     )
-    parser.add_argument("--scene", help="comma-separated: synthetic, synthetic-N, motorcycle "
-                        "(needs scikit-image), IMAGE:DISPARITY (default: synthetic,motorcycle)")
-    parser.add_argument("--size", help="comma-separated: N (square), WxH (e.g. 450x375) or "
-                        "native (default: 128; native for IMAGE:DISPARITY)")
-    parser.add_argument("--sampling", help="comma-separated: gRW_XW, xNN, distance, distanceNN "
-                        f"(default: {','.join(DEFAULT_SAMPLINGS)})")
-    parser.add_argument("--methods",
-                        help=f"comma-separated (default: all): {','.join(method_names())}")
-    parser.add_argument("--seeds", type=integer, default=3,
-                        help="seeds per NP case, reported as mean ± sd (default 3)")
-    parser.add_argument("--grid", choices=["default", "quick"], default="default",
-                        help="the grid when no --scene/--size/--sampling is given "
-                        "(default: default)")
-    parser.add_argument("--jobs", type=integer, default=1,
-                        help="local worker processes (default 1)")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="run on this Dask scheduler (needs dask.distributed; default: "
-                        "local processes)")
+    cases = parser.add_argument_group("cases (scenes × sizes × samplings × methods)")
+    cases.add_argument("--scene", help="comma-separated: synthetic, synthetic-N, motorcycle "
+                       "(needs scikit-image), IMAGE:DISPARITY (default: synthetic,motorcycle)")
+    cases.add_argument("--size", help="comma-separated: N (square), WxH (e.g. 450x375) or "
+                       "native (default: 128; native for IMAGE:DISPARITY)")
+    cases.add_argument("--sampling", help="comma-separated: gRW_XW, xNN, distance, distanceNN "
+                       f"(default: {','.join(DEFAULT_SAMPLINGS)})")
+    cases.add_argument("--methods",
+                       help=f"comma-separated (default: all): {','.join(method_names())}")
+    cases.add_argument("--seeds", type=integer, default=3,
+                       help="seeds per NP case, reported as mean ± sd (default 3)")
+    cases.add_argument("--grid", choices=["default", "quick"], default="default",
+                       help="the grid when no --scene/--size/--sampling is given "
+                       "(default: default)")
+    running = parser.add_argument_group("where the cases run")
+    running.add_argument("--jobs", type=integer, default=1,
+                         help="local worker processes (default 1)")
+    running.add_argument("--scheduler", metavar="ADDRESS",
+                         help="run on this Dask scheduler (needs dask.distributed; default: "
+                         "local processes)")
+    output = parser.add_argument_group("output (the tables go to stdout)")
     for option, form in (("--json", "JSON"), ("--csv", "CSV")):
-        parser.add_argument(option, metavar="FILE",
+        output.add_argument(option, metavar="FILE",
                             help=f"write the rows as {form} (a .{option[2:]} file; default none)")
-    parser.add_argument("--load", metavar="FILE",
+    output.add_argument("--no-timing", action="store_true",
+                        help="leave wall times out of the table and files (for identical output)")
+    output.add_argument("--no-findings", action="store_true",
+                        help="print only the results tables")
+    output.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    output.add_argument("--load", metavar="FILE",
                         help="print the tables of a previous --json file instead of running "
                         "(default: run)")
-    parser.add_argument("--no-timing", action="store_true",
-                        help="leave wall times out of the table and files (for identical output)")
-    parser.add_argument("--no-findings", action="store_true",
-                        help="print only the results tables")
-    parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    parser.set_defaults(func=_cmd_evaluate)
     return parser

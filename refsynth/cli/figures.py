@@ -16,7 +16,7 @@ import argparse
 import sys
 import time
 
-from refsynth.cli.arguments import check_folder, integer
+from refsynth.cli.arguments import add_subcommand, check_folder, integer
 from refsynth.cli.synth import pixel_progress
 from refsynth.plotting.figures import make_figures
 from refsynth.scenes.middlebury import require_scikit_image
@@ -49,12 +49,14 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     The handler (``args.func``) returns 0; user errors raise ``ValueError`` or
     ``OSError`` with a one-line message.
     """
-    parser = subparsers.add_parser(
-        "figures", help="regenerate figures/ (the paper's figure analogues and the demo's)",
+    parser = add_subcommand(
+        subparsers, "figures",
+        help="regenerate figures/ (the paper's figure analogues and the demo's)",
         description="Write every figure of figures/: the demo's three, the analogues of the "
         "paper's Figs. 7, 11, 13, 16 and 17, MAR against the unknown fraction, and BP's "
         "confidence against its error. Deterministic: the same PNG bytes on every run. "
         'Needs scikit-image for the Motorcycle (pip install "refsynth[data]").',
+        func=_cmd_figures,
     )
     parser.add_argument("--out", default="figures", help="output folder (default figures)")
     parser.add_argument("--quick", action="store_true",
@@ -62,5 +64,4 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
                         "default off)")
     parser.add_argument("--jobs", type=integer, default=1,
                         help="local processes for the MAR-against-fraction grid (default 1)")
-    parser.set_defaults(func=_cmd_figures)
     return parser

@@ -15,6 +15,7 @@ import argparse
 import sys
 
 from refsynth import __version__
+from refsynth.cli.arguments import DefaultsFormatter
 from refsynth.cli.demo import add_demo_parser
 from refsynth.cli.evaluate import add_evaluate_parser
 from refsynth.cli.figures import add_figures_parser
@@ -33,21 +34,6 @@ USER_ERRORS = (ValueError, TypeError, OSError, ImportError, MemoryError)
 
 def _one_line(text: str) -> str:
     return "; ".join(line.strip() for line in str(text).splitlines() if line.strip())
-
-
-class DefaultsFormatter(argparse.HelpFormatter):
-    """Help that ends each option's text with ``(default: X)`` unless it states its default.
-
-    Options without a default (None) or flags (False) get nothing added.
-    """
-
-    def _get_help_string(self, action: argparse.Action) -> str:
-        text = action.help or ""
-        default = action.default
-        if (not action.option_strings or default is None or default is False
-                or default is argparse.SUPPRESS or "default" in text.lower()):
-            return text
-        return f"{text} (default: %(default)s)"
 
 
 class OneLineParser(argparse.ArgumentParser):

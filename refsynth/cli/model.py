@@ -54,7 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
-from refsynth.cli.arguments import check_output, make_parent, real
+from refsynth.cli.arguments import add_subcommand, check_output, make_parent, prefixed, real
 from refsynth.io import read_array
 from refsynth.model import (
     DEFAULT_MAX_JUMP,
@@ -79,6 +79,8 @@ CAMERA_FORMAT = "refsynth-camera/1"
 #: A camera file is a few hundred bytes.
 _MAX_CAMERA_BYTES = 65536
 _CAMERA_OPTIONS = ("camera", "focal", "cx", "cy", "phi_step", "h_step")
+#: What --camera-file replaces.
+_CAMERA_FLAGS = tuple(f"--{name.replace('_', '-')}" for name in _CAMERA_OPTIONS)
 
 
 def _max_jump(text: str) -> float | None:
@@ -184,7 +186,7 @@ def read_camera_file(path) -> tuple[CylindricalCamera | PinholeCamera, tuple[int
 
 def _camera(args, shape):
     if args.camera_file is not None:
-        given = [f"--{name.replace('_', '-')}" for name in _CAMERA_OPTIONS
+        given = [flag for flag, name in zip(_CAMERA_FLAGS, _CAMERA_OPTIONS)
                  if getattr(args, name) is not None]
         if given:
             raise ValueError(f"--camera-file gives the camera: drop {', '.join(given)}")
@@ -335,75 +337,97 @@ def _cmd_model(args) -> int:
 
 
 def add_model_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``model`` (stage 3: dense range → PLY; PLYs + poses → one PLY) to a subparser set."""
-    parser = subparsers.add_parser(
-        "model",
+    """Add ``model`` (stage 3: dense range → PLY; PLYs + poses → one PLY) to a subparser set.
+
+    ``--help`` shows the per-pixel inputs, the meshing, the camera, the pinhole
+    disparity and the merging options each in a group of its own.
+    """
+    parser = add_subcommand(
+        subparsers, "model",
         help="stage 3: build a coloured 3-D model (PLY) from a dense range, or merge models",
         description="Stage 3 of the paper: back-project a dense range image (cylindrical "
         "panorama or pinhole camera) to coloured points, mesh them without bridging depth "
         "discontinuities and write a PLY; or merge several PLYs by their poses.",
+        func=_cmd_model,
     )
     parser.add_argument("dense", nargs="?", help="dense range: NPY/PFM (Euclidean distance "
                         "for --camera cylindrical, depth or --disparity for pinhole)")
     parser.add_argument("--out", required=True, metavar="PLY",
                         help="the .ply file to write (required)")
-    parser.add_argument("--intensity", metavar="IMAGE",
-                        help="the registered intensity (PNG/JPG/NPY), grey or RGB (default: "
-                        "mid-grey points)")
-    parser.add_argument("--camera-file", metavar="JSON",
-                        help="the camera.json that 'register' writes beside intensity.npy: "
-                        "the registered panorama's focal, pan-angle-0 column and horizon row "
-                        "(instead of --camera, --focal, --cx, --cy, --phi-step, --h-step)")
-    parser.add_argument("--camera", choices=["cylindrical", "pinhole"], default=None,
-                        help="the range image's camera: a cylindrical panorama (Eqs. 14, 19) "
-                        "or a pinhole (default: cylindrical)")
-    parser.add_argument("--focal", type=real, metavar="PIXELS",
-                        help="focal length f in pixels, the cylinder's radius (required "
-                        "without --camera-file)")
-    for option, what in (("--cx", "column of pan angle 0"), ("--cy", "row of the horizon")):
-        parser.add_argument(option, type=real, help=f"{what} / of the principal point (default: "
-                            "the centre; a registered panorama's is in its camera.json)")
-    parser.add_argument("--phi-step", type=real, metavar="DEGREES",
-                        help="cylindrical: degrees of pan per column (default 180/(pi f), one "
-                        "pixel of arc)")
-    parser.add_argument("--h-step", type=real, metavar="PIXELS",
-                        help="cylindrical: pixels of height per row (default 1)")
-    parser.add_argument("--no-wrap", action="store_true",
-                        help="do not join the last column to the first of a 360° panorama "
-                        "(default: joined when the columns cover 360°)")
-    parser.add_argument("--disparity", action="store_true",
-                        help="pinhole: DENSE is a disparity; depth = f B / (d + doffs) "
-                        "(default: DENSE is the depth)")
-    parser.add_argument("--baseline", type=real, help="with --disparity: the baseline B "
-                        "(the depth's unit, e.g. mm; required with --disparity)")
-    parser.add_argument("--doffs", type=real, default=0.0, help="with --disparity: doffs in "
-                        "pixels (default 0)")
-    parser.add_argument("--confidence", metavar="NPY",
-                        help="per-pixel confidence in [0, 1] (default: 1 everywhere)")
-    parser.add_argument("--partial", metavar="NPY",
-                        help="the partial (measured) range, NaN where unknown: marks each "
-                        "point measured or synthesized (default: confidence 1 = measured)")
-    parser.add_argument("--max-jump", type=_max_jump, default=DEFAULT_MAX_JUMP,
-                        metavar="FRACTION", help="drop triangles whose edge jumps by more than "
-                        "FRACTION x the nearer range per pixel (default 0.05; 'off' keeps all)")
-    parser.add_argument("--min-confidence", type=real, default=0.0,
-                        help="drop points whose confidence is below this (default 0)")
     parser.add_argument("--ascii", action="store_true",
                         help="write an ASCII PLY (default: binary little-endian)")
     parser.add_argument("--float32", action="store_true",
                         help="write x, y, z as float (default: double)")
-    parser.add_argument("--merge", nargs="+", metavar="PLY",
-                        help="merge these models (in their scanners' frames) by --poses "
-                        "(instead of DENSE)")
-    parser.add_argument("--poses", metavar="JSON",
-                        help="with --merge: poses.json, one pose per PLY (required with --merge)")
-    parser.add_argument("--refine", action="store_true",
-                        help="with --merge: refine the poses by point-to-plane ICP (default: "
-                        "the poses as given)")
-    parser.add_argument("--voxel", type=real,
-                        help="with --merge: fusion voxel size (default 3x the point spacing)")
-    parser.add_argument("--poses-out", metavar="JSON",
-                        help="with --merge: write the (refined) poses as JSON (default: not "
-                        "written)")
-    parser.set_defaults(func=_cmd_model)
+    inputs = parser.add_argument_group("per-pixel inputs (on DENSE's grid)")
+    inputs.add_argument("--intensity", metavar="IMAGE",
+                        help="the registered intensity (PNG/JPG/NPY), grey or RGB (default: "
+                        "mid-grey points)")
+    inputs.add_argument("--confidence", metavar="NPY",
+                        help="per-pixel confidence in [0, 1] (default: 1 everywhere)")
+    inputs.add_argument("--partial", metavar="NPY",
+                        help="the partial (measured) range, NaN where unknown: marks each "
+                        "point measured or synthesized (default: confidence 1 = measured)")
+    mesh = parser.add_argument_group("meshing")
+    mesh.add_argument("--max-jump", type=_max_jump, default=DEFAULT_MAX_JUMP,
+                      metavar="FRACTION", help="drop triangles whose edge jumps by more than "
+                      "FRACTION x the nearer range per pixel (default 0.05; 'off' keeps all)")
+    mesh.add_argument("--min-confidence", type=real, default=0.0,
+                      help="drop points whose confidence is below this (default 0)")
+    _add_camera_options(parser.add_argument_group(
+        "camera (of DENSE: --camera-file, or --focal and the rest)"))
+    _add_disparity_options(parser.add_argument_group(
+        "pinhole disparity (DENSE of a rectified pair)"))
+    _add_merge_options(parser.add_argument_group(
+        "merging (--merge PLY ... instead of DENSE)"))
     return parser
+
+
+def _add_camera_options(group) -> None:
+    """The range image's camera (Eqs. 14, 19), or the camera file 'register' wrote."""
+    group.add_argument("--camera-file", metavar="JSON",
+                       help="the camera.json that 'register' writes beside intensity.npy: "
+                       "the registered panorama's focal, pan-angle-0 column and horizon row "
+                       f"(instead of {', '.join(_CAMERA_FLAGS)})")
+    group.add_argument("--camera", choices=["cylindrical", "pinhole"], default=None,
+                       help="the range image's camera: a cylindrical panorama (Eqs. 14, 19) "
+                       "or a pinhole (default: cylindrical)")
+    group.add_argument("--focal", type=real, metavar="PIXELS",
+                       help="focal length f in pixels, the cylinder's radius (required "
+                       "without --camera-file)")
+    for option, what in (("--cx", "column of pan angle 0"), ("--cy", "row of the horizon")):
+        group.add_argument(option, type=real, help=f"{what} / of the principal point (default: "
+                           "the centre; a registered panorama's is in its camera.json)")
+    cylindrical = prefixed(group, "cylindrical: ")
+    cylindrical("--phi-step", type=real, metavar="DEGREES",
+                help="degrees of pan per column (default 180/(pi f), one pixel of arc)")
+    cylindrical("--h-step", type=real, metavar="PIXELS",
+                help="pixels of height per row (default 1)")
+    group.add_argument("--no-wrap", action="store_true",
+                       help="do not join the last column to the first of a 360° panorama "
+                       "(default: joined when the columns cover 360°)")
+
+
+def _add_disparity_options(group) -> None:
+    """A pinhole range given as a disparity: ``depth = f B / (d + doffs)``."""
+    group.add_argument("--disparity", action="store_true",
+                       help="pinhole: DENSE is a disparity; depth = f B / (d + doffs) "
+                       "(default: DENSE is the depth)")
+    with_disparity = prefixed(group, "with --disparity: ")
+    with_disparity("--baseline", type=real,
+                   help="the baseline B (the depth's unit, e.g. mm; required with --disparity)")
+    with_disparity("--doffs", type=real, default=0.0, help="doffs in pixels (default 0)")
+
+
+def _add_merge_options(group) -> None:
+    """Several scans' PLYs in one world frame (``merge_models``, after ``refine_poses``)."""
+    group.add_argument("--merge", nargs="+", metavar="PLY",
+                       help="merge these models (in their scanners' frames) by --poses "
+                       "(instead of DENSE)")
+    with_merge = prefixed(group, "with --merge: ")
+    with_merge("--poses", metavar="JSON",
+               help="poses.json, one pose per PLY (required with --merge)")
+    with_merge("--refine", action="store_true",
+               help="refine the poses by point-to-plane ICP (default: the poses as given)")
+    with_merge("--voxel", type=real, help="fusion voxel size (default 3x the point spacing)")
+    with_merge("--poses-out", metavar="JSON",
+               help="write the (refined) poses as JSON (default: not written)")

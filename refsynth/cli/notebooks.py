@@ -25,11 +25,14 @@ Examples::
 
 from __future__ import annotations
 
+import argparse
 import shutil
 import subprocess
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from refsynth.cli.arguments import add_subcommand
 
 __all__ = [
     "COURSE_PACKAGES",
@@ -240,14 +243,18 @@ def _cmd_notebooks(args) -> int:
     return 0
 
 
-def add_notebooks_parser(subparsers) -> None:
-    """Add the ``notebooks`` subcommand to an ``argparse`` subparsers object (sets ``func=``)."""
-    parser = subparsers.add_parser(
-        "notebooks",
+def add_notebooks_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``notebooks`` (the tutorials, executed into notebooks) to a subparser set.
+
+    Returns the subcommand's parser; its handler needs the course extra.
+    """
+    parser = add_subcommand(
+        subparsers, "notebooks",
         help="build the course's executed Jupyter notebooks from tutorials/",
         description="Convert each tutorial (a Jupytext percent script) to a notebook, "
         "execute it with its figures inline, and write OUT/NAME.ipynb. "
         f"Needs the course extra: {INSTALL_HINT}.",
+        func=_cmd_notebooks,
     )
     parser.add_argument("--out", required=True, help="folder for the notebooks")
     parser.add_argument("--only", action="append", metavar="NAME",
@@ -256,4 +263,4 @@ def add_notebooks_parser(subparsers) -> None:
                         help="where the percent scripts are (default: the checkout's tutorials/)")
     parser.add_argument("--timeout", type=int, default=600,
                         help="seconds any one cell may take (default 600)")
-    parser.set_defaults(func=_cmd_notebooks)
+    return parser

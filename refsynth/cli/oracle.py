@@ -21,7 +21,7 @@ import os
 import sys
 import time
 
-from refsynth.cli.arguments import check_folder
+from refsynth.cli.arguments import add_subcommand, check_folder
 from refsynth.oracle.cases import build_cases, select_cases
 from refsynth.oracle.check import TOLERANCE_NAMES, check_function, resolve_function
 from refsynth.oracle.export import export_cases
@@ -55,17 +55,19 @@ def add_oracle_parser(subparsers) -> argparse.ArgumentParser:
     The handlers (``args.func``) return 0, or 1 for a failed check; user errors raise
     ``ValueError`` or ``OSError`` with a one-line message.
     """
-    parser = subparsers.add_parser(
-        "oracle", help="golden cases for checking a port: export them, check a function",
+    parser = add_subcommand(
+        subparsers, "oracle",
+        help="golden cases for checking a port: export them, check a function",
         description="The correctness oracle (issue #11): golden cases with step traces, from "
         "refsynth's literal reference, for checking a port of NP, BP and the equations.",
     )
     sub = parser.add_subparsers(dest="oracle_command", required=True, metavar="ACTION")
-    export = sub.add_parser(
-        "export", help="write the golden cases (NPZ + JSON) to DIR",
+    export = add_subcommand(
+        sub, "export", help="write the golden cases (NPZ + JSON) to DIR",
         description="Write the versioned golden cases: whole NP and BP runs (8x8 to 64x64) "
         "with their step traces, and per-equation batches (Eqs. 2, 5, 6, 7, 10-12, 13, "
         "Canny, 14-21), as DIR/manifest.json, DIR/schema.json and DIR/cases/*.{json,npz}.",
+        func=_cmd_export,
     )
     export.add_argument("dir", metavar="DIR", help="output folder (created if missing)")
     export.add_argument("--large", action="store_true",
@@ -73,13 +75,13 @@ def add_oracle_parser(subparsers) -> argparse.ArgumentParser:
     export.add_argument("--cases", nargs="+", metavar="PATTERN",
                         help="only the cases whose name matches a shell pattern "
                         "(e.g. 'np-*' 'eq5*'; default: all)")
-    export.set_defaults(func=_cmd_export)
-    check = sub.add_parser(
-        "check", help="run MODULE:FUNCTION on the cases and report the first mismatch",
+    check = add_subcommand(
+        sub, "check", help="run MODULE:FUNCTION on the cases and report the first mismatch",
         description="Call FUNCTION(inputs, options) on every exported case and compare its "
         "arrays with the golden ones. Prints PASS (exit 0) or the first mismatch as "
         "'FAIL case NAME: KEY step S pixel (r, c): expected X, got Y' (exit 1). FUNCTION "
         "returns a dict of arrays, or None for a kind of case it does not handle.",
+        func=_cmd_check,
     )
     check.add_argument("function", metavar="MODULE:FUNCTION",
                        help="the function under test, e.g. my_port:check or "
@@ -90,5 +92,4 @@ def add_oracle_parser(subparsers) -> argparse.ArgumentParser:
                        help="float comparison: exact; float64 (rtol 1e-9, atol 1e-12); "
                        "float32 (rtol 1e-4, atol 1e-6). Integer and index arrays are always "
                        "exact (default: exact)")
-    check.set_defaults(func=_cmd_check)
     return parser

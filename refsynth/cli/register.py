@@ -30,6 +30,7 @@ import numpy as np
 
 from refsynth.acquisition import load_scan
 from refsynth.acquisition.scan_folder import read_npz
+from refsynth.cli.arguments import add_subcommand
 from refsynth.cli.model import write_registered_camera
 from refsynth.registration.pipeline import register
 
@@ -157,13 +158,14 @@ def add_register_parser(subparsers) -> argparse.ArgumentParser:
     The handler raises ``ValueError``/``TypeError``/``OSError`` with one-line
     messages for user errors, and when the registration does not converge.
     """
-    parser = subparsers.add_parser(
-        "register",
+    parser = add_subcommand(
+        subparsers, "register",
         help="build the panorama from camera views and register a partial laser scan to it",
         description="Register a partial laser scan to the panorama of the camera views "
         "(Torres-Mendez & Dudek 2008, Appendix A). With a scan folder written by 'scan', the "
         "views, their pan angles and the focal length come from its manifest.json unless "
         "given. Fails (exit 2) if the registration does not converge.",
+        func=_cmd_register,
     )
     parser.add_argument("images", nargs="*", metavar="IMAGES",
                         help="camera views in pan order (PNG/JPG/NPY) (default: the pictures "
@@ -187,5 +189,4 @@ def add_register_parser(subparsers) -> argparse.ArgumentParser:
                         "(default: %(default)s)")
     parser.add_argument("--no-refine", action="store_true",
                         help="global warp only, Eq. 21 (default: off, the local stretch too)")
-    parser.set_defaults(func=_cmd_register)
     return parser

@@ -52,6 +52,7 @@ from refsynth.acquisition import (
 )
 from refsynth.acquisition.link import MAX_BAUD, MAX_RETRIES, MAX_SECONDS
 from refsynth.acquisition.resume import resumed_manifest, slice_window
+from refsynth.cli.arguments import add_subcommand
 
 __all__ = ["add_scan_parser", "run_scan_command", "main"]
 
@@ -60,6 +61,8 @@ __all__ = ["add_scan_parser", "run_scan_command", "main"]
 #: clock, or nothing sensible is asked for.
 _MAX_TIMEOUT, _MAX_RETRIES, _MAX_BAUD = MAX_SECONDS, MAX_RETRIES, MAX_BAUD
 _MAX_SWEEP = 60.0
+#: The two serial devices: option prefix, what --help calls it, its default baud rate.
+_DEVICES = (("pan", "pan unit", 9600), ("laser", "rangefinder", 115200))
 
 
 def _fraction(text: str) -> float:
@@ -86,30 +89,32 @@ def _positive(kind):
     return parse
 
 
-def add_scan_parser(subparsers) -> None:
-    """Add the ``scan`` subcommand to an ``argparse`` subparsers object (sets ``func=``)."""
-    scan = subparsers.add_parser(
-        "scan",
+def add_scan_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``scan`` (§3.1: acquire a partial range scan, real or simulated) to a subparser set.
+
+    ``--help`` shows the devices, the sampling and the simulator options each
+    in a group of its own. Returns the subcommand's parser.
+    """
+    scan = add_subcommand(
+        subparsers, "scan",
         help="acquire a partial range scan with the pan unit and the rangefinder",
         description="Acquire a partial range scan (Torres-Mendez & Dudek 2008, sections 3.1 "
         "and 4): 500 slices over 180 degrees, of which a sampling strategy chooses some; "
         "pictures every 18 degrees. Every slice is saved as soon as it is validated, so an "
         "interrupted scan resumes with --resume, which checks every file first and never "
         "deletes or overwrites one (what it cannot trust is moved into OUT/rejected/).",
+        func=run_scan_command,
     )
     where = scan.add_argument_group("devices")
     where.add_argument("--simulate", action="store_true",
                        help="use the simulated rig (pseudo-terminals, the synthetic room) "
                        "instead of ports (default: off)")
-    where.add_argument("--pan-port", metavar="PORT",
-                       help="the pan unit's port or pyserial URL (required without --simulate)")
-    where.add_argument("--laser-port", metavar="PORT",
-                       help="the rangefinder's port or pyserial URL (required without "
-                       "--simulate)")
-    where.add_argument("--pan-baud", type=_positive(int), default=9600, metavar="BAUD",
-                       help="pan unit baud rate (default: %(default)s)")
-    where.add_argument("--laser-baud", type=_positive(int), default=115200, metavar="BAUD",
-                       help="rangefinder baud rate (default: %(default)s)")
+    for device, name, _ in _DEVICES:
+        where.add_argument(f"--{device}-port", metavar="PORT",
+                           help=f"the {name}'s port or pyserial URL (required without --simulate)")
+    for device, name, baud in _DEVICES:
+        where.add_argument(f"--{device}-baud", type=_positive(int), default=baud, metavar="BAUD",
+                           help=f"{name} baud rate (default: %(default)s)")
     where.add_argument("--timeout", type=_positive(float), default=None, metavar="SECONDS",
                        help=f"deadline of one request, at most {_MAX_TIMEOUT:g} s (default: "
                        "0.2 simulated, 0.5 real)")
@@ -157,7 +162,7 @@ def add_scan_parser(subparsers) -> None:
                      "(default: none)")
     scan.add_argument("--quiet", action="store_true",
                       help="no progress on stderr (default: off)")
-    scan.set_defaults(func=run_scan_command)
+    return scan
 
 
 def _pose(text: str) -> RigPose:
@@ -248,10 +253,10 @@ def _check_options(args) -> None:
                                             and 0 <= args.sweep_time <= _MAX_SWEEP):
         raise ValueError(f"--sweep-time must be >= 0 and <= {_MAX_SWEEP:g} seconds, got "
                          f"{args.sweep_time:g}")
-    for name in ("pan_baud", "laser_baud"):
-        if getattr(args, name) > _MAX_BAUD:
-            raise ValueError(f"--{name.replace('_', '-')} must be <= {_MAX_BAUD}, got "
-                             f"{getattr(args, name)}")
+    for device, _, _ in _DEVICES:
+        baud = getattr(args, f"{device}_baud")
+        if baud > _MAX_BAUD:
+            raise ValueError(f"--{device}-baud must be <= {_MAX_BAUD}, got {baud}")
 
 
 def run_scan_command(args) -> int:

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.backend_bases import FigureCanvasBase
 
-from refsynth.cli.arguments import check_output, integer, make_parent, real
+from refsynth.cli.arguments import add_subcommand, check_output, integer, make_parent, real
 from refsynth.io import IMAGE_SUFFIXES, WRITE_SUFFIXES, read_array, write_array, write_unit_png16
 from refsynth.plotting.layouts import result_figure
 from refsynth.synthesis.api import synthesize
@@ -292,28 +292,18 @@ def _cmd_synth(args) -> int:
 
 def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``synth`` subcommand to an argparse subparsers object (sets ``func=``)."""
-    synth = subparsers.add_parser(
-        "synth", help="fill the unknown range of your own image",
+    synth = add_subcommand(
+        subparsers, "synth", help="fill the unknown range of your own image",
         description="Fill the unknown range of IMAGE's partial range (Torres-Méndez & Dudek "
         "2008, §3.2) with NP sampling or belief propagation, and write the dense range in "
         "the partial range's unit. Every path and option is checked before the work starts.",
+        func=_cmd_synth,
     )
     synth.add_argument("image", help="intensity image: PNG/JPG/TIFF/NPY/PFM, grey or colour")
     synth.add_argument("range", help="partial range: NPY/PFM (NaN or inf = unknown, values as "
                        "stored) or a 16/8-bit PNG/TIFF/PGM (0 = unknown, the stored integers)")
-    synth.add_argument("--out", required=True, metavar="FILE",
-                       help="dense range: .npy, .pfm (float32) or .png (16-bit, "
-                       "round(range x --png-scale), 0 = unknown)")
-    synth.add_argument("--confidence", metavar="FILE",
-                       help="also write the confidence map (1 = measured): .npy, .pfm or .png "
-                       "(16-bit, confidence x 65535)")
-    synth.add_argument("--png-scale", type=real, metavar="S",
-                       help="stored integer per unit of range: divides a PNG range on input, "
-                       "multiplies a .png --out (default: 1, the stored integers)")
     synth.add_argument("--mask", metavar="FILE",
                        help="known-range mask applied to RANGE (nonzero = known; default none)")
-    synth.add_argument("--figure", metavar="FILE",
-                       help="also write a figure (.png, .pdf, .svg ...; default none)")
     synth.add_argument("--method", default="np", choices=["np", "bp"],
                        help="np: non-parametric sampling (§3.2.2); bp: belief propagation "
                        "(§3.2.3) (default np)")
@@ -328,6 +318,18 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     synth.add_argument("--no-edges", action="store_true",
                        help="ignore intensity edges (the paper's no-edge ablation; default: "
                        "use Canny edges)")
+    outputs = synth.add_argument_group("outputs (each checked before the work starts)")
+    outputs.add_argument("--out", required=True, metavar="FILE",
+                         help="dense range: .npy, .pfm (float32) or .png (16-bit, "
+                         "round(range x --png-scale), 0 = unknown)")
+    outputs.add_argument("--confidence", metavar="FILE",
+                         help="also write the confidence map (1 = measured): .npy, .pfm or "
+                         ".png (16-bit, confidence x 65535)")
+    outputs.add_argument("--figure", metavar="FILE",
+                         help="also write a figure (.png, .pdf, .svg ...; default none)")
+    outputs.add_argument("--png-scale", type=real, metavar="S",
+                         help="stored integer per unit of range: divides a PNG range on input, "
+                         "multiplies a .png --out (default: 1, the stored integers)")
     np_group = synth.add_argument_group("NP only (--method np)")
     np_group.add_argument("--epsilon", type=real, metavar="E",
                           help="tolerance of Eq. 5 (default 0.1)")
@@ -349,5 +351,4 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           "(default 0.2)")
     bp_group.add_argument("--iterations", type=integer, metavar="N",
                           help="at most this many message-passing sweeps (default 50)")
-    synth.set_defaults(func=_cmd_synth)
     return synth

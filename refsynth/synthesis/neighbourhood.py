@@ -158,9 +158,12 @@ def range_patches(range_image: np.ndarray, n: int) -> np.ndarray:
     Parameters
     ----------
     range_image : ndarray of shape (H, W), float
-        NaN marks unknown range.
+        The partial range, NaN where it is unknown (neither measured nor yet
+        synthesized).
     n : int
-        The odd side of the range patch; offsets off the image are NaN.
+        The odd side of the range patch, in pixels. Unlike
+        :func:`intensity_patches`, the image is not mirrored: the offsets off
+        the image are NaN, unknown like any missing range.
 
     Returns
     -------

@@ -136,14 +136,18 @@ def confidence_term(confidence: np.ndarray, n: int) -> np.ndarray:
     Parameters
     ----------
     confidence : ndarray of shape (H, W)
-        Per-pixel confidence, 0 where the range is unknown.
+        Per-pixel confidence ``C(V_i)`` in [0, 1]: 1 where the range was
+        measured, a synthesized voxel's own (``C(N_best)``, see the module
+        docstring), 0 where the range is still unknown.
     n : int
-        The odd side of ``N_p``; Eq. 11 divides by its pixels inside the image.
+        The odd side of ``N_p``. ``|N_p|``, the divisor of Eq. 11, counts only
+        the window's pixels inside the image, so a fully known window at the
+        border has ``C = 1``.
 
     Returns
     -------
-    ndarray of shape (H, W)
-        ``C(V_p)`` in [0, 1].
+    ndarray of shape (H, W), float64
+        ``C(V_p)`` in [0, 1] at every pixel, not only on the front.
 
     Examples
     --------
@@ -162,9 +166,11 @@ def edge_count(edges: np.ndarray, n: int) -> np.ndarray:
     Parameters
     ----------
     edges : ndarray of shape (H, W), bool
-        The Canny edge map.
+        The Canny edge map (:func:`refsynth.synthesis.canny.canny`), True on
+        an edge pixel.
     n : int
-        The odd side of ``N_p``, the window whose edge pixels ``E`` counts.
+        The odd side of ``N_p``, the window whose edge pixels ``E`` counts;
+        its part off the image counts no edge (the zeros of :func:`box_sum`).
 
     Returns
     -------
@@ -306,7 +312,8 @@ def data_term(
     Returns
     -------
     ndarray of shape (H, W)
-        ``D(V_p)`` in [0, 1].
+        ``D(V_p)`` in [0, 1]; 1 where the mask is flat (``n_p = 0``:
+        :func:`front_normals`), off the front.
 
     Examples
     --------
