@@ -23,16 +23,21 @@ def exercise_1() -> None:
     Without the edge term ``E`` of Eq. 10 (and without filling edge pixels
     last), the order follows ``C · D`` alone: the fill runs straight across
     depth edges from whichever side is more confident, so one surface's
-    disparity leaks onto the next. On the Motorcycle MAR rises well beyond
-    the seed-to-seed spread, near the intensity edges and away from them
-    alike (with refsynth 0.2's defaults; under the old product rule for
-    Eq. 11's confidence the extra error sat mostly near the edges). The bike
-    is a clutter of edges that are also depth edges. In the
-    synthetic room many intensity edges are *not* depth edges (the floor
-    tiles, the painting, the door), and the boxes' outlines are few, long
-    straight lines, so there the edge term's effect is within NP's own spread
-    between seeds: measured in units of that spread, it is several times
-    larger on the Motorcycle.
+    disparity leaks onto the next. On the Motorcycle MAR rises, and the
+    extra error sits near the intensity edges (away from them the fill
+    without ``E`` is even a little better). Under refsynth 0.3's defaults
+    (Eq. 2 sums the colour channels) the rise is within the seed-to-seed
+    spread, 0.510 ± 0.032 against 0.530 ± 0.038; with 0.2's channel average
+    it was beyond it (0.463 ± 0.015 against 0.529 ± 0.028): the sum weighs
+    the colour more against the range, which costs NP with ``E`` on this
+    small case and leaves NP without it where it was. The bike is a clutter
+    of edges that are also depth edges. In the synthetic room (grey, so the
+    channel sum does not enter) many intensity edges are *not* depth edges
+    (the floor tiles, the painting, the door), and the boxes' outlines are
+    few, long straight lines, so there the edge term's effect is within NP's
+    own spread between seeds, and of the other sign. Measured in units of
+    that spread, the effect is larger on the Motorcycle, but on neither case
+    beyond it.
     """
     bike = motorcycle(128)
     known = stripes(bike.shape, 5, 25, axes="xy") & bike.has_truth
@@ -50,8 +55,8 @@ def exercise_1() -> None:
         print(f"1. {bike.name}, {label}: MAR {means[label][0]:.3f} ± {means[label][1]:.3f} px"
               f" (near edges {means[label][2]:.3f}, away {means[label][3]:.3f})")
     with_e, without_e = means["NP"], means["no edges"]
-    assert without_e[0] - with_e[0] > with_e[1] + without_e[1]  # worse beyond the spread
-    assert without_e[2] > with_e[2] and without_e[3] > with_e[3]  # ... near edges and away
+    assert 0 < without_e[0] - with_e[0] <= with_e[1] + without_e[1]  # worse, within the spread
+    assert without_e[2] > with_e[2] and without_e[3] < with_e[3]  # near edges; not away
 
     room = synthetic_room((128, 128), seed=3)
     known = stripes(room.shape, 5, 25, axes="xy")
@@ -66,7 +71,7 @@ def exercise_1() -> None:
     room_effect = (np.mean(off) - np.mean(on)) / (np.std(on, ddof=1) + np.std(off, ddof=1))
     print(f"1. the effect in units of the spread: Motorcycle {bike_effect:.1f}, "
           f"{room.name} {room_effect:.1f}")
-    assert bike_effect > 1 > room_effect
+    assert 1 > bike_effect > 0 > room_effect > -1
 
 
 def eq12_by_hand(range_norm: np.ndarray, filled: np.ndarray, n: int = 5) -> np.ndarray:

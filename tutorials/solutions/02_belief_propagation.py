@@ -54,9 +54,12 @@ def exercise_2() -> None:
 
     The candidate ceiling falls steadily with k — more candidates, more
     chances that one is right — but BP's MAR hardly moves: the inference
-    keeps (nearly) the same labels, and for more than 90 % of the pixels
+    keeps (nearly) the same labels, and for more than 80 % of the pixels
     that is the best-ranked candidate (Φ with σ_i = 0.1 is sharp, and Ψ
-    between partly measured patches says little). The gap between ceiling and MAR is the inference's
+    between partly measured patches says little; under refsynth 0.2, whose
+    proximity penalty μ = 1 ranked the nearest patches first, it was more
+    than 90 %; with 0.3's ranking by Eq. 2 alone it is about 83 %). The gap
+    between ceiling and MAR is the inference's
     share of the error, and it grows with k: the extra candidates are there,
     and BP does not find them.
     """
@@ -72,7 +75,7 @@ def exercise_2() -> None:
         rows.append((k, mar(bp.range, bike.range, known), ceiling))
         print(f"2. k = {k:2d}: BP MAR {rows[-1][1]:.3f} px, candidate ceiling {ceiling:.3f} px, "
               f"{100 * top_ranked:.1f} % of the pixels keep their best-ranked candidate")
-        assert top_ranked > 0.9
+        assert top_ranked > 0.8
     mars = [m for _, m, _ in rows]
     ceilings = [c for _, _, c in rows]
     assert ceilings[0] > ceilings[1] > ceilings[2]
@@ -83,9 +86,11 @@ def exercise_2() -> None:
 def exercise_3() -> None:
     """Turn off the edge-constraint rule.
 
-    For BP the rule changes MAR by about a hundredth at most (on the
-    Motorcycle it helps a little, on the room not at all), far less than the
-    edge term does for NP on the Motorcycle (compare tutorial 1, exercise 1);
+    For BP the rule changes MAR by about a hundredth at most; under
+    refsynth 0.3's defaults it even costs a little on both cases (without it
+    MAR is lower by 0.008 on the Motorcycle, 0.009 on the room). That is
+    less than the edge term does for NP on the Motorcycle (about 0.02 on
+    average, within NP's spread under 0.3: compare tutorial 1, exercise 1);
     on the room's grid the edge term hardly changes NP either (the NP runs
     below). In BP the edges only cut messages, and the messages matter little
     here (exercise 2); in NP the edges decide the fill order, which decides
@@ -109,6 +114,7 @@ def exercise_3() -> None:
                      for flag in (True, False))
     print(f"3. {room.name}: NP MAR {np_on:.4f} with edges, {np_off:.4f} without (3 seeds)")
     assert all(abs(change) < 0.015 for change in changes.values())
+    assert all(change < 0 for change in changes.values())  # 0.3: the rule costs a little
     assert abs(np_off - np_on) < 0.015  # on the room NP's edge term matters little too
 
 
