@@ -95,6 +95,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import (
+    RANGE_BITS,
     left_to_right_sum,
     portable_exp,
     quantise_grey,
@@ -327,7 +328,7 @@ def bp_fill(
     check_bp_memory((H, W), int(unknown.sum()), k=k, neighbourhood=n, channels=n_channels,
                     n_pairs=_count_pairs(unknown), limit=memory_limit)
     # the contract: intensity and range on the 2**-16 grids of their spans
-    rq, _, span = quantise_range(range_values)
+    rq, _, _ = quantise_range(range_values)
     levels = quantise_intensity(image)
     if not colour:
         levels = quantise_grey(levels)[:, :, None]
@@ -355,6 +356,7 @@ def bp_fill(
     tick()
     # every pixel's range patch on the contract's grid (−1 where unknown), a view
     qpad = np.pad(np.where(known, rq, -1).astype(np.float64), h, constant_values=-1.0)
+    centre_q = np.where(known, rq, 0)  # step 6 pools labels on the range's integer grid
     del rq
     patches = sliding_window_view(qpad, (n, n))  # (H, W, n, n)
 
@@ -414,8 +416,8 @@ def bp_fill(
         sl = slice(start, start + _NODE_BLOCK)
         cand_rows, cand_cols = np.divmod(labels[sl], W)
         cand_values[sl] = centre[cand_rows, cand_cols]
-        best[sl], chosen_all[sl], pooled_all[sl] = _map_and_belief(belief[sl], cand_values[sl],
-                                                                   span)
+        best[sl], chosen_all[sl], pooled_all[sl] = _map_and_belief(
+            belief[sl], cand_values[sl], centre_q[cand_rows, cand_cols])
     out[unknown] = chosen_all
     confidence[unknown] = np.minimum(pooled_all, 1.0)
     del chosen_all, pooled_all
@@ -431,15 +433,20 @@ def bp_fill(
                     compatibilities=compatibilities.all)
 
 
-def _map_and_belief(belief: np.ndarray, cand_values: np.ndarray, span: float):
-    """Eq. 8 for a block of nodes: the MAP label, its centre range, its pooled belief."""
+def _map_and_belief(belief: np.ndarray, cand_values: np.ndarray, cand_q: np.ndarray):
+    """Eq. 8 for a block of nodes: the MAP label, its centre range, its pooled belief.
+
+    Labels are pooled on the quantised range (integers on the 2**-16 grid of the known
+    span), so that the pooling is exact and a positive scale of the range changes nothing.
+    """
     best = np.argmax(belief, axis=1)
     prob = portable_exp(belief - belief.max(axis=1, keepdims=True))
     prob = prob / left_to_right_sum(prob, axis=1)[:, None]
     # the belief that the range is the chosen value: candidates whose centres lie
     # within VALUE_TOLERANCE of the known span of it are the same range hypothesis
-    chosen = cand_values[np.arange(cand_values.shape[0]), best]
-    same = np.abs(cand_values - chosen[:, None]) <= VALUE_TOLERANCE * span
+    index = np.arange(cand_values.shape[0])
+    chosen = cand_values[index, best]
+    same = np.abs(cand_q - cand_q[index, best][:, None]) <= VALUE_TOLERANCE * 2.0**RANGE_BITS
     return best, chosen, left_to_right_sum(np.where(same, prob, 0.0), axis=1)
 
 

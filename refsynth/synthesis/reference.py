@@ -533,6 +533,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
             break
     belief = beliefs(messages)                                          # step 6
     values = np.where(known, range_values, 0.0)[cands[..., 0], cands[..., 1]]
+    qvalues = frame.qr[cands[..., 0] + frame.h, cands[..., 1] + frame.h]   # integers
     labels = np.zeros(N, np.int64)
     out, confidence = range_values.copy(), known.astype(np.float64)
     for i, (r, c) in enumerate(nodes):
@@ -544,7 +545,9 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
             z += w
         pooled = 0.0
         for label in range(k):
-            if abs(values[i, label] - out[r, c]) <= VALUE_TOLERANCE * frame.span:
+            # on the range's integer grid: exact, and unchanged by a scale of the range
+            if abs(int(qvalues[i, label]) - int(qvalues[i, labels[i]])) <= (
+                    VALUE_TOLERANCE * 2.0**RANGE_BITS):
                 pooled += weights[label] / z
         confidence[r, c] = min(pooled, 1.0)
     order = np.array(nodes, dtype=np.int64).reshape(-1, 2)
