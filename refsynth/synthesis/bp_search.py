@@ -3,7 +3,8 @@ r"""BP's candidate search (§3.2.3, Fig. 6, step 2), evaluated tile by tile.
 Step 2 of Fig. 6 ranks, for every unknown pixel ``p``, the measured pixels ``q``
 within ``r`` of it by the distance of Eq. 2 between their neighbourhoods (with
 the mean-filled range term of :mod:`refsynth.synthesis.similarity`), plus the
-proximity prior ``μ (|p − q| / r)²``. :func:`refsynth.synthesis.bp.candidates`
+proximity prior ``μ (|p − q| / r)²`` when μ > 0 (the default μ = 0 ranks by
+Eq. 2 alone, as Fig. 6 does). :func:`refsynth.synthesis.bp.candidates`
 does it one node at a time over every offset of the disc, measured or not,
 from the rows of a :class:`~refsynth.synthesis.similarity.PatchTable` — a
 table of 150 float64 per pixel (850 MB at 900×750). Most disc offsets are
@@ -183,6 +184,9 @@ def search_candidates(
         Padding of the literal search's frame (:func:`candidates`): as there,
         the search of a node that has not found ``k`` candidates stops once
         ``ceil(r)`` reaches the frame's larger side, ``max(H, W) + 2 pad``.
+    channels : {"sum", "mean"}, default "sum"
+        Eq. 2's intensity term over the colour channels: their sum (the
+        paper's) or their mean.
 
     Returns
     -------
@@ -217,7 +221,8 @@ def search_candidates(
     # no offset longer than the image's diagonal can reach a pixel: the disc stops there
     longest = float(np.hypot(H, W))
     options = dict(k=k, radius=radius, proximity=proximity, range_weight=range_weight,
-                   missing_range=missing_range, channels=channels, frame=max(H, W) + 2 * pad,
+                   missing_range=missing_range, frame=max(H, W) + 2 * pad,
+                   divisor=levels.shape[2] if channels == "mean" else 1,
                    total_known=total_known)
     while todo.size:
         dr, dc = disc_offsets(min(r, longest))
@@ -314,8 +319,7 @@ def _distances(features, rows, cols, ur, uc, b_index, u_valid, options):
             sel = (u_valid >= start) & (u_valid < stop)
             uu, bb = u_valid[sel] - start, b_index[sel]
         si = t0[uu, bb] + (si_u[uu + start] + node_self[bb])
-        divisor = features.channels if options.get("channels", "sum") == "mean" else 1
-        out[sel] = combine_eq2(si, t1[uu, bb], t2[uu, bb], support[bb], divisor,
+        out[sel] = combine_eq2(si, t1[uu, bb], t2[uu, bb], support[bb], options["divisor"],
                                options["range_weight"], options["missing_range"])
     return out
 

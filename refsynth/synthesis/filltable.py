@@ -79,6 +79,8 @@ class FillTable:
         λ of Eq. 2.
     missing_range : {"mean", "ignore"}
         As in :class:`refsynth.synthesis.similarity.PatchTable`.
+    channels : {"sum", "mean"}, default "sum"
+        As in :class:`refsynth.synthesis.similarity.PatchTable`.
 
     Examples
     --------

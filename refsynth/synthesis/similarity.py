@@ -272,6 +272,9 @@ class PatchTable:
     dtype : numpy dtype, default float64
         float64 holds the integers exactly (the contract). float32 halves the
         memory traffic but rounds ``R²`` and the sums: for experiments only.
+    channels : {"sum", "mean"}, default "sum"
+        Eq. 2's intensity term summed over the colour channels (the paper's)
+        or averaged over them (refsynth 0.2).
 
     Examples
     --------
