@@ -12,6 +12,10 @@ Two splits keep choosing apart from reporting:
   defaults are decided here;
 - ``report``: stripe phase 0 (what ``python -m refsynth evaluate`` uses),
   450×375 and the pair's full 741×500; the README's figures come from here.
+- ``crop``: issue #10's own protocol, never chosen on: the pair's columns
+  70:670 (600×500, :data:`refsynth.scenes.MOTORCYCLE_CROP`) at 450×375 and as
+  stored, stripe phase 0, MAR in the pair's own disparity pixels (sizes are
+  printed as ``crop450x375``).
 
 Usage::
 
@@ -43,6 +47,8 @@ VARIANTS: dict[str, dict] = {
     "np-best": {"method": "np", "confidence_update": "best"},
     "np-literal-eq2": {"method": "np", "missing_range": "ignore"},
     "np-mean-eq2": {"method": "np", "missing_range": "mean"},
+    "np-lambda0.25": {"method": "np", "range_weight": 0.25},
+    "np-lambda0.5": {"method": "np", "range_weight": 0.5},
     "np-lambda1": {"method": "np", "range_weight": 1.0},
     "np-lambda4": {"method": "np", "range_weight": 4.0},
     "np-lambda16": {"method": "np", "range_weight": 16.0},
@@ -78,6 +84,8 @@ VARIANTS: dict[str, dict] = {
     "np-0.2": {"method": "np", "channels": "mean"},
     "bp-0.2": {"method": "bp", "channels": "mean", "proximity": 1.0},
     "bp": {"method": "bp"},
+    "bp-lambda0.25": {"method": "bp", "range_weight": 0.25},
+    "bp-lambda0.5": {"method": "bp", "range_weight": 0.5},
     "bp-lambda1": {"method": "bp", "range_weight": 1.0},
     "bp-lambda16": {"method": "bp", "range_weight": 16.0},
     "bp-paper-edge-rule": {"method": "bp", "edge_rule": "paper"},
@@ -99,24 +107,27 @@ VARIANTS: dict[str, dict] = {
 }
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},
-          "report": {"phase": 0, "sizes": ("450x375", "741x500")}}
+          "report": {"phase": 0, "sizes": ("450x375", "741x500")},
+          "crop": {"phase": 0, "sizes": ("450x375", "600x500"), "crop": True}}
 
 
-def _scene(size: str):
-    from refsynth.scenes import motorcycle
+def _scene(size: str, crop: bool = False):
+    from refsynth.scenes import MOTORCYCLE_CROP, motorcycle
 
     width, height = (int(v) for v in size.split("x"))
+    if crop:  # issue #10's protocol: columns 70:670, the disparity in the pair's pixels
+        return motorcycle((width, height), crop=MOTORCYCLE_CROP, units="native")
     return motorcycle((width, height))
 
 
-def run_one(job: tuple[str, str, int, int, int]) -> dict:
-    """One fill: (variant or baseline, size, fraction %, phase, seed) -> its scores."""
+def run_one(job: tuple) -> dict:
+    """One fill: (variant or baseline, size, fraction %, phase, seed[, crop]) -> its scores."""
     import refsynth
     from refsynth.acquisition import x_stripes_for_fraction
     from refsynth.evaluation import BASELINES, evaluate
 
-    name, size, fraction, phase, seed = job
-    scene = _scene(size)
+    name, size, fraction, phase, seed = job[:5]
+    scene = _scene(size, crop=len(job) > 5 and job[5])
     known = x_stripes_for_fraction(scene.range.shape, fraction / 100.0, phase=phase)
     known &= scene.has_truth
     partial = np.where(known, scene.range, np.nan)
@@ -127,7 +138,8 @@ def run_one(job: tuple[str, str, int, int, int]) -> dict:
         estimate = refsynth.synthesize(scene.intensity, partial, seed=seed, **VARIANTS[name]).range
     seconds = time.perf_counter() - start
     scores = evaluate(estimate, scene.range, known)
-    return dict(name=name, size=size, fraction=fraction, phase=phase, seed=seed,
+    return dict(name=name, size=f"crop{size}" if len(job) > 5 and job[5] else size,
+                fraction=fraction, phase=phase, seed=seed,
                 mar=float(scores["mar"]), seconds=seconds)
 
 
@@ -161,7 +173,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--split", choices=sorted(SPLITS), default="choose",
                         help="choose: stripe phase 1 at 450x375; report: phase 0 at 450x375 "
-                             "and 741x500 (default: choose)")
+                             "and 741x500; crop: issue #10's crop (cols 70:670) at 450x375 and "
+                             "600x500, phase 0 (default: choose)")
     parser.add_argument("--variants", default="np,np-product",
                         help=f"comma-separated, from: {','.join(VARIANTS)}")
     parser.add_argument("--sizes", default=None, help="override the split's sizes, e.g. 450x375")
@@ -178,9 +191,11 @@ def main(argv: list[str] | None = None) -> int:
     sizes = args.sizes.split(",") if args.sizes else split["sizes"]
     fractions = [int(f) for f in args.fractions.split(",")]
     seeds = [int(s) for s in args.seeds.split(",")]
-    jobs = [(b, s, f, split["phase"], 0) for s in sizes for f in fractions for b in CLASSICAL]
-    jobs += [(v, s, f, split["phase"], seed) for s in sizes for f in fractions for v in variants
-             for seed in seeds]
+    crop = split.get("crop", False)
+    jobs = [(b, s, f, split["phase"], 0, crop) for s in sizes for f in fractions
+            for b in CLASSICAL]
+    jobs += [(v, s, f, split["phase"], seed, crop) for s in sizes for f in fractions
+             for v in variants for seed in seeds]
     print(f"split {args.split} (stripe phase {split['phase']}), {len(jobs)} fills",
           file=sys.stderr)
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:

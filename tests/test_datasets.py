@@ -293,6 +293,53 @@ def test_motorcycle_square_and_errors():
         motorcycle((450, 0))
 
 
+def test_motorcycle_crop_is_the_pair_cut_then_resized():
+    """Issue #10's protocol: columns 70:670 of the pair, resized by 0.75 along both axes."""
+    skimage = pytest.importorskip("skimage")
+    from skimage import data
+
+    from refsynth.scenes import MOTORCYCLE_CROP
+    from refsynth.scenes.resize import resize_area
+
+    left, _, disparity = data.stereo_motorcycle()
+    native = motorcycle((600, 500), crop=MOTORCYCLE_CROP, units="native")
+    # at the crop's own size nothing is resized: the pair's pixels, values as stored
+    np.testing.assert_array_equal(native.intensity, left[:, 70:670] / 255.0)
+    stored = disparity[:, 70:670].astype(np.float64)
+    np.testing.assert_array_equal(native.range, np.where(np.isfinite(stored), stored, np.nan))
+    assert native.units == "disparity (pair px)"
+    assert native.name == "motorcycle-600x500-crop0-500,70-670-native"
+    small = motorcycle((450, 375), crop=MOTORCYCLE_CROP)
+    np.testing.assert_array_equal(
+        small.intensity, np.clip(resize_area(left[:, 70:670] / 255.0, (450, 375)), 0, 1))
+    small_native = motorcycle((450, 375), crop=MOTORCYCLE_CROP, units="native")
+    # the resized unit is 0.75 of the pair's pixel; the same cells are known
+    np.testing.assert_array_equal(np.isnan(small.range), np.isnan(small_native.range))
+    np.testing.assert_allclose(small.range, small_native.range * 0.75, rtol=1e-15)
+    # the whole pair (crop None) is the default scene bit for bit
+    whole = motorcycle((90, 60), crop=((0, 500), (0, 741)))
+    np.testing.assert_array_equal(whole.range, motorcycle((90, 60)).range)
+    assert skimage is not None
+
+
+@pytest.mark.parametrize("crop", [((0, 0), (0, 10)), ((0, 501), (0, 10)), ((0, 10), (-1, 10)),
+                                  ((0, 10),), "0:500", ((0, 10.5), (0, 10)), ((5, 2), (0, 10))])
+def test_motorcycle_crop_refused_before_loading(crop, monkeypatch):
+    import refsynth.scenes.middlebury as middlebury
+
+    def no_load(*args, **kwargs):
+        raise AssertionError("loaded before the check")
+
+    monkeypatch.setattr(middlebury, "require_scikit_image", no_load)
+    with pytest.raises(ValueError, match=r"`crop` must be \(\(row_start, row_stop\)"):
+        motorcycle(32, crop=crop)
+
+
+def test_motorcycle_units_refused():
+    with pytest.raises(ValueError, match="`units` must be one of 'resized', 'native'"):
+        motorcycle(32, units="metres")
+
+
 def test_motorcycle_without_scikit_image(monkeypatch):
     import builtins
 

@@ -57,6 +57,7 @@ def _evaluate(argv):
 
 @pytest.mark.parametrize(("text", "expected"), [
     ("synthetic", "synthetic-0"), ("synthetic-7", "synthetic-7"), (" motorcycle ", "motorcycle"),
+    ("motorcycle-crop", "motorcycle-crop"),
 ])
 def test_parse_scene_names(text, expected):
     assert parse_scene(text) == expected
@@ -539,7 +540,8 @@ def test_scene_labels_match_the_loaded_scenes_names(tmp_path):
     image.parent.mkdir()
     Image.fromarray(np.zeros((16, 20, 3), np.uint8)).save(image)
     np.save(image.parent / "disp.npy", np.ones((16, 20)))
-    specs = [("synthetic-2", "16x16"), ("motorcycle", "32x32"),
+    specs = [("synthetic-2", "16x16"), ("motorcycle", "32x32"), ("motorcycle-crop", "32x32"),
+             ("motorcycle-crop", "native"),
              (parse_scene(f"{image}:{image.parent / 'disp.npy'}"), "native")]
     for scene, size in specs:
         assert scene_label(scene, size) == load_scene(scene, size).name

@@ -117,7 +117,7 @@ def _check_before_work(args, cases: Sequence[Case]) -> None:
                 if at_once > 1 else f"the case {largest.label}")
         check_memory(need * at_once, what, "choose a smaller --size"
                      + (" or fewer --jobs" if at_once > 1 else ""))
-    if any(case.scene == "motorcycle" for case in cases):
+    if any(case.scene.startswith("motorcycle") for case in cases):
         require_scikit_image("the Motorcycle scene (in --scene or the default grid)")
 
 

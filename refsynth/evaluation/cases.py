@@ -5,8 +5,9 @@ line (``python -m refsynth evaluate``), and every spec here has a parser that
 validates it and returns its canonical form:
 
 - scenes: ``synthetic`` (the synthetic room of seed 0; ``synthetic-N`` for
-  seed N), ``motorcycle`` (the Middlebury 2014 pair of scikit-image), or a
-  path pair ``IMAGE:DISPARITY`` (PNG/PFM/NPY, see
+  seed N), ``motorcycle`` (the Middlebury 2014 pair of scikit-image),
+  ``motorcycle-crop`` (issue #10's protocol: its columns 70:670, 600 × 500,
+  the disparity in the pair's own pixels), or a path pair ``IMAGE:DISPARITY`` (PNG/PFM/NPY, see
   :func:`refsynth.scenes.load_middlebury`);
 - sizes: ``128`` (square), ``450x375`` (width × height, as the paper
   writes it), or ``native`` (a path pair or the Motorcycle as stored);
@@ -51,6 +52,7 @@ from refsynth._checks import check_int
 from refsynth.acquisition.sampling import distance_driven, stripes, x_stripes_for_fraction
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.scenes import load_middlebury, motorcycle, synthetic_room
+from refsynth.scenes.middlebury import MOTORCYCLE_CROP
 
 __all__ = [
     "Case",
@@ -206,6 +208,12 @@ def scene_label(scene: str, size: str | None = None) -> str:
         if size is None:
             return scene
         return f"motorcycle-{'741x500' if size == 'native' else size}"
+    if scene == "motorcycle-crop":
+        if size is None:
+            return scene
+        (r0, r1), (c0, c1) = MOTORCYCLE_CROP
+        return (f"motorcycle-{'600x500' if size == 'native' else size}"
+                f"-crop{r0}-{r1},{c0}-{c1}-native")
     if ":" in scene:
         image = Path(_split_pair(scene)[0])
         folder = image.parent.name
@@ -231,13 +239,13 @@ def parse_scene(text: str) -> str:
     Parameters
     ----------
     text : str
-        ``synthetic`` (room of seed 0), ``synthetic-N``, ``motorcycle``, or
-        ``IMAGE:DISPARITY`` (two existing files).
+        ``synthetic`` (room of seed 0), ``synthetic-N``, ``motorcycle``,
+        ``motorcycle-crop``, or ``IMAGE:DISPARITY`` (two existing files).
 
     Returns
     -------
     str
-        ``synthetic-N``, ``motorcycle`` or ``IMAGE:DISPARITY`` with absolute
+        ``synthetic-N``, ``motorcycle``, ``motorcycle-crop`` or ``IMAGE:DISPARITY`` with absolute
         paths (so that workers elsewhere on the machine find them).
 
     Raises
@@ -260,7 +268,7 @@ def parse_scene(text: str) -> str:
     match = re.fullmatch(rf"synthetic-([0-9]{{1,{_MAX_DIGITS}}})", text)
     if match:
         return f"synthetic-{int(match.group(1))}"
-    if text == "motorcycle":
+    if text in ("motorcycle", "motorcycle-crop"):
         return text
     if ":" in text:
         image, disparity = _split_pair(text)
@@ -271,7 +279,8 @@ def parse_scene(text: str) -> str:
                 raise FileNotFoundError(f"scene {text!r}: {what} file not found: {path}")
         return f"{Path(image).resolve()}:{Path(disparity).resolve()}"
     raise ValueError(
-        f"unknown scene {text!r}: expected synthetic, synthetic-N, motorcycle or IMAGE:DISPARITY"
+        f"unknown scene {text!r}: expected synthetic, synthetic-N, motorcycle, motorcycle-crop "
+        "or IMAGE:DISPARITY"
     )
 
 
@@ -367,7 +376,7 @@ def case_memory(case: Case) -> int | None:
     """
     dims = size_tuple(case.size)
     if dims is None:
-        if case.scene != "motorcycle":
+        if case.scene not in ("motorcycle", "motorcycle-crop"):
             return None
         dims = _MOTORCYCLE_NATIVE
     family = case.method.split("-")[0] if case.method in SYNTHESIS_METHODS else "baseline"
@@ -598,6 +607,9 @@ def load_scene(scene: str, size: str):
         return synthetic_room((dims[1], dims[0]), seed=int(scene.split("-")[1]))
     if scene == "motorcycle":
         return motorcycle(dims if dims is not None else (741, 500))
+    if scene == "motorcycle-crop":
+        return motorcycle(dims if dims is not None else (600, 500), crop=MOTORCYCLE_CROP,
+                          units="native")
     image, disparity = _split_pair(scene)
     return load_middlebury(image, disparity, size=dims)
 

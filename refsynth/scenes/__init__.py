@@ -55,7 +55,7 @@ Modeling", IJCV 79:137–158 (2008), §3.3, §4, §4.1, Appendix A,
 doi:10.1007/s11263-007-0108-2.
 """
 
-from refsynth.scenes.middlebury import load_middlebury, motorcycle
+from refsynth.scenes.middlebury import MOTORCYCLE_CROP, load_middlebury, motorcycle
 from refsynth.scenes.resize import MIN_DISPARITY_COVERAGE, resize_area, resize_disparity
 from refsynth.scenes.rig import (
     CAMERA_STEP,
@@ -91,6 +91,7 @@ __all__ = [
     "room_geometry",
     "SyntheticTexture",
     "motorcycle",
+    "MOTORCYCLE_CROP",
     "load_middlebury",
     "resize_area",
     "resize_disparity",

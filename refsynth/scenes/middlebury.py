@@ -25,12 +25,19 @@ from pathlib import Path
 
 import numpy as np
 
-from refsynth._checks import check_size, is_real
+from refsynth._checks import check_choice, check_size, is_int, is_real
 from refsynth.io import IMAGE_SUFFIXES, read_image, read_npy, read_pfm
 from refsynth.scenes.resize import resize_area, resize_disparity
 from refsynth.scenes.scene import Scene
 
-__all__ = ["motorcycle", "load_middlebury", "require_scikit_image", "DATA_EXTRA_HINT"]
+__all__ = [
+    "motorcycle",
+    "MOTORCYCLE_CROP",
+    "MOTORCYCLE_SIZE",
+    "load_middlebury",
+    "require_scikit_image",
+    "DATA_EXTRA_HINT",
+]
 
 #: How to install what :func:`motorcycle` needs.
 DATA_EXTRA_HINT = (
@@ -55,7 +62,20 @@ def require_scikit_image(what: str = "motorcycle()") -> None:
         ) from error
 
 
-def motorcycle(size: int | tuple[int, int] = (450, 375)) -> Scene:
+#: The pair's size, (width, height).
+MOTORCYCLE_SIZE = (741, 500)
+
+#: Issue #10's crop of the pair, ``(rows, cols)``: 600 × 500, which
+#: area-resizes to the paper's 450 × 375 without stretching the scene.
+MOTORCYCLE_CROP = ((0, 500), (70, 670))
+
+
+def motorcycle(
+    size: int | tuple[int, int] = (450, 375),
+    *,
+    crop: tuple[tuple[int, int], tuple[int, int]] | None = None,
+    units: str = "resized",
+) -> Scene:
     """The Middlebury 2014 *Motorcycle* left view and disparity, resized (§3.3, Table 4).
 
     Loads scikit-image's copy (``skimage.data.stereo_motorcycle()``: left
@@ -71,13 +91,33 @@ def motorcycle(size: int | tuple[int, int] = (450, 375)) -> Scene:
         square. A size whose aspect differs from 741:500 stretches the scene
         (e.g. 128 gives a 128 × 128 image squeezed horizontally); the
         disparity values follow the horizontal scale.
+    crop : pair of (start, stop) pairs, optional
+        ``((row_start, row_stop), (col_start, col_stop))`` of the 741 × 500
+        pair to keep before resizing; default the whole pair.
+        :data:`MOTORCYCLE_CROP` is issue #10's protocol, ``((0, 500), (70,
+        670))``: 600 × 500, which resizes to 450 × 375 with the same scale
+        (0.75) along both axes.
+    units : {"resized", "native"}, default "resized"
+        The disparity's unit: pixels of the resized image (the values scaled
+        by ``width / crop width``), or the pair's own pixels (the values as
+        stored). MAR (Eq. 13) is in that unit; a fill that is equivariant to
+        a scale of the range (NP, BP and the classical fills are) gives the
+        same ratios in both.
 
     Returns
     -------
     Scene
         ``intensity`` (height, width, 3) float64 in [0, 1], ``range`` the
-        disparity in pixels of the resized image (NaN where unknown),
-        ``units="disparity (px)"``, ``name="motorcycle-<width>x<height>"``.
+        disparity in pixels of the resized image (NaN where unknown; in the
+        pair's pixels with ``units="native"``), ``units="disparity (px)"``
+        (``"disparity (pair px)"`` when native), ``name="motorcycle-<width>x<height>"``
+        (with ``-crop<r0>-<r1>,<c0>-<c1>`` and ``-native`` appended when used).
+
+    Raises
+    ------
+    ValueError
+        If ``size`` is not a positive size, ``crop`` is not two non-empty
+        ``(start, stop)`` ranges inside the pair, or ``units`` is unknown.
 
     Raises
     ------
@@ -94,20 +134,57 @@ def motorcycle(size: int | tuple[int, int] = (450, 375)) -> Scene:
     >>> scene = motorcycle((90, 60))
     >>> scene.intensity.shape, scene.units, scene.name
     ((60, 90, 3), 'disparity (px)', 'motorcycle-90x60')
+
+    Issue #10's protocol: the 600 × 500 crop, resized by 0.75, the disparity
+    kept in the pair's pixels (4/3 of the resized unit):
+
+    >>> crop = motorcycle((450, 375), crop=MOTORCYCLE_CROP, units="native")
+    >>> crop.name, crop.units
+    ('motorcycle-450x375-crop0-500,70-670-native', 'disparity (pair px)')
+    >>> resized = motorcycle((450, 375), crop=MOTORCYCLE_CROP)
+    >>> bool(np.allclose(crop.range * 3 / 4, resized.range, equal_nan=True))
+    True
     """
     width, height = check_size(size)
+    rows, cols = _check_crop(crop)
+    check_choice("units", units, ("resized", "native"))
     require_scikit_image()
     from skimage import data as skimage_data
 
     left, _, disparity = skimage_data.stereo_motorcycle()
+    left = left[rows[0] : rows[1], cols[0] : cols[1]]
+    disparity = disparity[rows[0] : rows[1], cols[0] : cols[1]].astype(np.float64)
     intensity = np.clip(resize_area(left / 255.0, (width, height)), 0.0, 1.0)
-    disparity = resize_disparity(disparity.astype(np.float64), (width, height))
+    disparity = resize_disparity(disparity, (width, height), rescale=units == "resized")
+    name = f"motorcycle-{width}x{height}"
+    if crop is not None:
+        name += f"-crop{rows[0]}-{rows[1]},{cols[0]}-{cols[1]}"
+    if units == "native":
+        name += "-native"
     return Scene(
         intensity=intensity,
         range=disparity,
-        units="disparity (px)",
-        name=f"motorcycle-{width}x{height}",
+        units="disparity (pair px)" if units == "native" else "disparity (px)",
+        name=name,
     )
+
+
+def _check_crop(crop) -> tuple[tuple[int, int], tuple[int, int]]:
+    """``crop`` as ``((r0, r1), (c0, c1))`` inside the pair, or the whole pair if None."""
+    width, height = MOTORCYCLE_SIZE
+    if crop is None:
+        return (0, height), (0, width)
+    try:
+        (r0, r1), (c0, c1) = crop
+        ok = all(is_int(v) for v in (r0, r1, c0, c1))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok or not (0 <= r0 < r1 <= height and 0 <= c0 < c1 <= width):
+        raise ValueError(
+            "The parameter `crop` must be ((row_start, row_stop), (col_start, col_stop)) "
+            f"with 0 <= start < stop <= {height} rows and {width} columns, got {crop!r}"
+        )
+    return (int(r0), int(r1)), (int(c0), int(c1))
 
 
 def _read_disparity(path: Path, disparity_scale: float) -> np.ndarray:

@@ -122,6 +122,7 @@ def resize_disparity(
     size: int | tuple[int, int],
     *,
     min_coverage: float = MIN_DISPARITY_COVERAGE,
+    rescale: bool = True,
 ) -> np.ndarray:
     """Resize a disparity map by masked area averaging, rescaling its values.
 
@@ -139,6 +140,9 @@ def resize_disparity(
         ``(width, height)`` of the result, or an int for a square.
     min_coverage : float, default 0.5
         Fraction of a cell's area that must have known disparity, in (0, 1].
+    rescale : bool, default True
+        Multiply the values by ``new_width / old_width`` (disparity in pixels
+        of the result); ``False`` keeps the source's pixel unit.
 
     Returns
     -------
@@ -161,5 +165,7 @@ def resize_disparity(
     coverage = _resize(known.astype(np.float64), width, height)
     enough = coverage >= min_coverage - 1e-12
     out = np.full((height, width), np.nan)
-    out[enough] = total[enough] / coverage[enough] * (width / disparity.shape[1])
+    out[enough] = total[enough] / coverage[enough]
+    if rescale:
+        out[enough] *= width / disparity.shape[1]
     return out
