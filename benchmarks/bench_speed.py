@@ -10,7 +10,12 @@ alike). The table gives, per method and size:
 
 - the wall-clock seconds (``time.perf_counter``) and the ratio to the colorization fill
   of the same run (the issue's targets: NP ≤ 5×, BP ≤ 6× at 450×375 and ≤ 5× at 900×750);
-- µs per unknown pixel (linear cost: the same at every size, within ±25 %, issue item 4);
+- the CPU seconds of this process (``time.process_time``, all its threads) and their
+  ratio: on a machine that other work shares, wall time counts the waits for a core and
+  CPU time does not, so the two ratios bracket what a quiet machine would show;
+- µs per unknown pixel, in wall and in CPU time (linear cost: the same at every size,
+  within ±25 %, issue item 4);
+- for BP, the sweeps of Eq. 9 it ran (``BPResult.iterations``);
 - the peak resident memory: each (method, size) runs once more in a **fresh
   subprocess** (this script with ``--child``), which reports the high-water mark of its
   own address space, ``VmHWM`` of ``/proc/self/status``, beside the same subprocess's
@@ -79,8 +84,8 @@ def _fill(method: str):
     from refsynth.evaluation import baselines
 
     return {
-        "np": lambda image, partial: refsynth.synthesize(image, partial, seed=0).range,
-        "bp": lambda image, partial: refsynth.synthesize(image, partial, method="bp").range,
+        "np": lambda image, partial: refsynth.synthesize(image, partial, seed=0),
+        "bp": lambda image, partial: refsynth.synthesize(image, partial, method="bp"),
         "colorization": baselines.colorization_fill,
         "nearest": baselines.nearest_fill,
         "joint-bilateral": baselines.joint_bilateral_fill,
@@ -120,16 +125,22 @@ def _peak_rss_mb(method: str, size: tuple[int, int]) -> tuple[float, str]:
     return report["peak_mb"], report["how"]
 
 
-def _time(methods, image, partial, repeat: int) -> dict[str, float]:
-    """The best of ``repeat`` wall times of each method, interleaved, in this process."""
+def _time(methods, image, partial, repeat: int):
+    """The best of ``repeat`` wall and CPU times of each method, interleaved, in this
+    process, and BP's sweep count."""
     fills = {method: _fill(method) for method in methods}
     best = dict.fromkeys(methods, np.inf)
+    cpu = dict.fromkeys(methods, np.inf)
+    sweeps = {}
     for _ in range(repeat):
         for method, fill in fills.items():
-            start = time.perf_counter()
-            fill(image, partial)
+            start, start_cpu = time.perf_counter(), time.process_time()
+            result = fill(image, partial)
             best[method] = min(best[method], time.perf_counter() - start)
-    return best
+            cpu[method] = min(cpu[method], time.process_time() - start_cpu)
+            if hasattr(result, "iterations") and method == "bp":
+                sweeps[method] = int(result.iterations)
+    return best, cpu, sweeps
 
 
 def run(sizes, methods, repeat: int = 1, rss: bool = True, out=sys.stdout) -> dict:
@@ -139,7 +150,7 @@ def run(sizes, methods, repeat: int = 1, rss: bool = True, out=sys.stdout) -> di
     -------
     dict
         ``{(width, height): {"unknown": int, "fraction": float, "seconds": {method: s},
-        "rss": {method: MB, "scene": MB}}}``.
+        "cpu": {method: s}, "sweeps": {"bp": int}, "rss": {method: MB, "scene": MB}}}``.
     """
     results = {}
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
@@ -151,40 +162,46 @@ def run(sizes, methods, repeat: int = 1, rss: bool = True, out=sys.stdout) -> di
               + (" (the subprocess's own address space)" if how == "VmHWM" else
                  " (may include this process's peak, inherited at fork)")
               + "; 'scene alone' builds the input and runs no fill.\n", file=out)
-    print("| size | unknown pixels | method | seconds | / colorization | µs per unknown pixel "
-          "| peak RSS MB (scene alone) |", file=out)
-    print("|---|---|---|---|---|---|---|", file=out)
+    print("| size | unknown pixels | method | wall s | / colorization | CPU s | / colorization "
+          "| µs per unknown pixel (wall, CPU) | peak RSS MB (scene alone) |", file=out)
+    print("|---|---|---|---|---|---|---|---|---|", file=out)
     for size in sizes:
         image, partial, fraction = _case(size)
         unknown = int(np.isnan(partial).sum())
-        seconds = _time(methods, image, partial, repeat)
+        seconds, cpu, sweeps = _time(methods, image, partial, repeat)
         peaks = {}
         if rss:
             peaks = {m: _peak_rss_mb(m, size)[0] for m in ("scene", *methods)}
-        results[size] = dict(unknown=unknown, fraction=fraction, seconds=seconds, rss=peaks)
-        reference = seconds.get("colorization")
+        results[size] = dict(unknown=unknown, fraction=fraction, seconds=seconds, cpu=cpu,
+                             sweeps=sweeps, rss=peaks)
+        reference, reference_cpu = seconds.get("colorization"), cpu.get("colorization")
         for method in methods:
             ratio = f"{seconds[method] / reference:.2g}×" if reference else "—"
+            ratio_cpu = f"{cpu[method] / reference_cpu:.2g}×" if reference_cpu else "—"
             memory = (f"{peaks[method]:.0f} ({peaks['scene']:.0f})" if rss else "—")
-            print(f"| {size[0]}×{size[1]} | {unknown} ({fraction:.0f} %) | {method} | "
-                  f"{seconds[method]:.3f} | {ratio} | {1e6 * seconds[method] / unknown:.3g} | "
+            label = f"{method} ({sweeps[method]} sweeps)" if method in sweeps else method
+            print(f"| {size[0]}×{size[1]} | {unknown} ({fraction:.0f} %) | {label} | "
+                  f"{seconds[method]:.3f} | {ratio} | {cpu[method]:.3f} | {ratio_cpu} | "
+                  f"{1e6 * seconds[method] / unknown:.3g}, {1e6 * cpu[method] / unknown:.3g} | "
                   f"{memory} |", file=out, flush=True)
-    _linearity(results, methods, out)
+    _linearity(results, methods, out, "seconds", "wall")
+    _linearity(results, methods, out, "cpu", "CPU")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"\nLoad average {load:.2f} at the end.", file=out)
     return results
 
 
-def _linearity(results: dict, methods, out) -> None:
-    """µs per unknown pixel from the smallest to the largest size, against ±25 %."""
+def _linearity(results: dict, methods, out, key: str = "seconds", what: str = "wall") -> None:
+    """µs per unknown pixel (``key``: wall or CPU seconds) from the smallest to the largest
+    size, against ±25 %."""
     sizes = list(results)
     if len(sizes) < 2:
         return
     first, last = sizes[0], sizes[-1]
-    print(f"\nLinearity (µs per unknown pixel, {first[0]}×{first[1]} → {last[0]}×{last[1]}, "
-          f"target ±{100 * LINEAR_TOLERANCE:.0f} %):", file=out)
+    print(f"\nLinearity in {what} time (µs per unknown pixel, {first[0]}×{first[1]} → "
+          f"{last[0]}×{last[1]}, target ±{100 * LINEAR_TOLERANCE:.0f} %):", file=out)
     for method in methods:
-        per_pixel = [1e6 * results[s]["seconds"][method] / results[s]["unknown"] for s in sizes]
+        per_pixel = [1e6 * results[s][key][method] / results[s]["unknown"] for s in sizes]
         change = per_pixel[-1] / per_pixel[0] - 1.0
         spread = max(per_pixel) / min(per_pixel) - 1.0
         verdict = "within" if abs(change) <= LINEAR_TOLERANCE else "outside"
