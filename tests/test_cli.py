@@ -264,6 +264,36 @@ def test_synth_exposes_bp_and_its_options(files, capsys, monkeypatch):
     assert np.all(np.isfinite(np.load(files / "bp.npy")))
 
 
+@pytest.mark.parametrize("method", ["np", "bp"])
+def test_synth_passes_eq2s_readings_on_only_when_given(files, capsys, monkeypatch, method):
+    seen = []
+    real = __import__("refsynth.cli.synth", fromlist=["synthesize"]).synthesize
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr("refsynth.cli.synth.synthesize", spy)
+    base = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--method", method]
+    assert _run([*base, "--out", str(files / "a.npy")], capsys)[0] == 0
+    assert not {"channels", "range_weight", "missing_range", "colour"} & set(seen[0])
+    assert _run([*base, "--out", str(files / "b.npy"), "--channels", "mean", "--range-weight",
+                 "0.5", "--missing-range", "ignore", "--grey"], capsys)[0] == 0
+    assert (seen[1]["channels"], seen[1]["range_weight"], seen[1]["missing_range"],
+            seen[1]["colour"]) == ("mean", 0.5, "ignore", False)
+    # the same call through the library gives the same bits
+    image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
+    direct = real(image, partial, method=method, seed=0, channels="mean", range_weight=0.5,
+                  missing_range="ignore", colour=False).range
+    np.testing.assert_array_equal(np.load(files / "b.npy"), direct)
+
+
+def test_synth_refuses_a_bad_reading_in_one_line(files, capsys, no_work):
+    _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
+                 "--out", str(files / "o.npy"), "--channels", "max"], capsys,
+                "argument --channels: invalid choice: 'max'")
+
+
 @pytest.mark.parametrize(("extra", "needle"), [
     (["--method", "bp", "--epsilon", "0.2"], "--epsilon applies to --method np only"),
     (["--method", "bp", "--ordering", "onion"], "--ordering applies to --method np only"),

@@ -178,6 +178,8 @@ _METHOD_OPTIONS = {
     "--proximity": ("proximity", "bp"), "--sigma-i": ("sigma_i", "bp"),
     "--sigma-s": ("sigma_s", "bp"), "--iterations": ("iterations", "bp"),
 }
+#: Eq. 2's readings, for both methods: passed on only when given.
+_EQ2_OPTIONS = ("channels", "range_weight", "missing_range", "colour")
 _DEFAULT_RADIUS = 10.0
 _DEFAULT_NEIGHBOURHOOD = 5
 
@@ -262,6 +264,8 @@ def _cmd_synth(args) -> int:
     if out.suffix.lower() == ".png":
         _check_png_out(out, partial, args.png_scale)
     options = {name: getattr(args, name) for name, _ in _METHOD_OPTIONS.values()}
+    options.update({name: getattr(args, name) for name in _EQ2_OPTIONS
+                    if getattr(args, name) is not None})
     result = synthesize(
         intensity, partial, method=args.method, seed=args.seed,
         neighbourhood=args.neighbourhood, radius=args.radius, use_edges=not args.no_edges,
@@ -330,6 +334,19 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     outputs.add_argument("--png-scale", type=real, metavar="S",
                          help="stored integer per unit of range: divides a PNG range on input, "
                          "multiplies a .png --out (default: 1, the stored integers)")
+    eq2 = synth.add_argument_group("Eq. 2's readings (both methods; the README's 'Real data' "
+                                   "section audits each)")
+    eq2.add_argument("--channels", choices=["sum", "mean"],
+                     help="the intensity term over colour channels: their sum, as Eq. 2 "
+                     "(default), or their mean (refsynth 0.2)")
+    eq2.add_argument("--range-weight", type=real, metavar="LAMBDA",
+                     help="lambda, the weight of the range term against the intensity "
+                     "term (default 1: the paper's equal weights)")
+    eq2.add_argument("--missing-range", choices=["mean", "ignore"],
+                     help="offsets a candidate has no range at: the support-weighted mean "
+                     "(default) or left out")
+    eq2.add_argument("--grey", dest="colour", action="store_const", const=False,
+                     help="compare the BT.709 grey level instead of the colour channels")
     np_group = synth.add_argument_group("NP only (--method np)")
     np_group.add_argument("--epsilon", type=real, metavar="E",
                           help="tolerance of Eq. 5 (default 0.1)")
@@ -343,7 +360,7 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           help="candidate labels per unknown pixel (default 8)")
     bp_group.add_argument("--proximity", type=real, metavar="MU",
                           help="weight of the spatial prior when ranking candidates "
-                          "(default 1)")
+                          "(default 0: Eq. 2 alone, the paper's)")
     bp_group.add_argument("--sigma-i", type=real, metavar="S",
                           help="sigma_i of Eq. 7 (default 0.1)")
     bp_group.add_argument("--sigma-s", type=real, metavar="S",
