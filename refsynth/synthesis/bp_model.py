@@ -29,14 +29,13 @@ vision", IJCV 40:25–47 (2000) (overlap compatibilities).
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import RANGE_BITS
 
 __all__ = ["phi", "psi", "pair_compatibilities", "fixed_neighbour_terms", "grid_edges",
            "Compatibilities"]
 
-_PSI_BLOCK = 4096  # pairs (or nodes) per block of Eq. 6: about 8 MB per temporary
+_PSI_BLOCK = 512  # pairs per block of Eq. 6: about 0.3 MB per temporary, in the cache
 
 
 # -- steps 3 and 4: compatibilities ----------------------------------------------------
@@ -296,23 +295,34 @@ class Compatibilities:
 
     def __init__(self, plane, n, labels, width, pairs, n_h, sigma_s):
         self.plane, self.n = plane, n
-        self._patches = sliding_window_view(plane, (n, n))  # (H, W, n, n), a view
         self.labels, self.width, self.pairs = labels, width, pairs
         self.n_h, self.sigma_s = n_h, sigma_s
         self.k = labels.shape[1]
+        self._views()
+
+    def _views(self):
+        # the plane, flat, and the flat offsets from a patch's corner of the pixels it
+        # shares with its right ("h") or lower ("v") neighbour's patch, and back
+        self._flat = np.ascontiguousarray(self.plane).ravel()
+        n, wp = self.n, self.plane.shape[1]
+        grid = np.arange(n)[:, None] * wp + np.arange(n)[None, :]
+        self._shared = {"h": (grid[:, 1:].ravel(), grid[:, :-1].ravel()),
+                        "v": (grid[1:, :].ravel(), grid[:-1, :].ravel())}
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state["_patches"] = None  # a view would pickle whole: rebuilt from the plane
+        state["_flat"] = None  # a view would pickle whole: rebuilt from the plane
         return state
 
     def __setstate__(self, state):
         self.__dict__.update(state)
-        self._patches = sliding_window_view(self.plane, (self.n, self.n))
+        self._views()
 
-    def _of(self, nodes):
+    def _of(self, nodes, offsets):
+        """The shared pixels of the candidates' patches of ``nodes``: (m, k, n(n − 1))."""
         rows, cols = np.divmod(self.labels[nodes], self.width)
-        return self._patches[rows, cols]  # (m, k, n, n)
+        corner = rows * self.plane.shape[1] + cols
+        return self._flat[corner[:, :, None] + offsets]
 
     def __call__(self, edges: np.ndarray) -> np.ndarray:
         """``log Ψ`` of the pairs ``edges`` (indices into ``pairs``), (m, k, k)."""
@@ -323,12 +333,15 @@ class Compatibilities:
         return out
 
     def _block(self, block: np.ndarray, out: np.ndarray) -> None:
+        # Eq. 6 as pair_compatibilities computes it, on the shared pixels read straight
+        # from the plane (the first node's patch, left side; the second's, right side)
         sigma_s = self.sigma_s
         for direction, s in (("h", block < self.n_h), ("v", block >= self.n_h)):
             if s.any():
-                pj = self._of(self.pairs[block[s], 0])
-                pk = self._of(self.pairs[block[s], 1])
-                out[s] = psi(pair_compatibilities(pj, pk, direction, quantised=True), sigma_s)
+                left, right = self._shared[direction]
+                pj = self._of(self.pairs[block[s], 0], left)
+                pk = self._of(self.pairs[block[s], 1], right)
+                out[s] = psi(_overlap_mean_square(pj, pk, quantised=True), sigma_s)
 
     def all(self) -> np.ndarray:
         """The whole table, (E, k, k)."""

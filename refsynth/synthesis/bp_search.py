@@ -238,7 +238,9 @@ def search_candidates(
                 found.append(_rank_block(features, known, node_rows[part], node_cols[part],
                                          part, (dr, dc), r, labels, dist, options))
         done = np.concatenate(found) if found else np.zeros(0, dtype=np.int64)
-        todo = np.setdiff1d(todo, done)
+        left = np.ones(n_nodes, dtype=bool)
+        left[done] = False
+        todo = todo[left[todo]]  # still in raster order
         r *= 2.0
     return labels, dist
 
