@@ -118,9 +118,6 @@ def motorcycle(
     ValueError
         If ``size`` is not a positive size, ``crop`` is not two non-empty
         ``(start, stop)`` ranges inside the pair, or ``units`` is unknown.
-
-    Raises
-    ------
     ImportError
         If scikit-image is not installed (the optional ``data`` extra:
         ``pip install "refsynth[data]"``).
