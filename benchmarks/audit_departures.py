@@ -104,6 +104,12 @@ VARIANTS: dict[str, dict] = {
     "bp-sigma-s0.4": {"method": "bp", "sigma_s": 0.4},
     # Eq. 2's channel mean for BP (0.2's reading)
     "bp-channel-mean": {"method": "bp", "channels": "mean"},
+    # issue #10 item 4 (a departure, refsynth.synthesis.bp_proposals): NP's fill proposes a
+    # label per pixel beside the k training patches; "-completed": the training patches'
+    # unknown range from NP too; "x3": three NP fills propose
+    "bp-proposals-np": {"method": "bp", "proposals": "np"},
+    "bp-proposals-np-completed": {"method": "bp", "proposals": "np-completed"},
+    "bp-proposals-np-x3": {"method": "bp", "proposals": "np", "proposal_runs": 3},
 }
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},

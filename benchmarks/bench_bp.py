@@ -23,6 +23,14 @@ Prints, as Markdown tables:
    candidate) and the MAR of the 50 % most confident synthesized pixels
    against the other 50 %.
 
+3. ``--proposals``: BP's proposals (issue #10 item 4, a departure,
+   :mod:`refsynth.synthesis.bp_proposals`) on the Motorcycle's x-stripes
+   63/78/85 % at a stripe phase (1: the choosing split of
+   ``audit_departures.py``; 0: its report split), over seeds: each variant's
+   MAR (mean ± sd), its candidate ceiling, its seconds, beside NP and the
+   classical fills (the same calls as ``audit_departures.py``, so the same
+   numbers); ``--room`` does the same on the room's grids 10/20 and 5/25.
+
 Every case runs in a fresh process, so that its peak resident memory
 (``ru_maxrss``) is its own. Needs scikit-image for the Motorcycle pair.
 
@@ -31,6 +39,8 @@ Run::
     python benchmarks/bench_bp.py            # about 15 minutes on 2 cores
     python benchmarks/bench_bp.py --quick    # sections 0 and 1 only
     python benchmarks/bench_bp.py --ratios   # section 0 only (about 3 minutes)
+    python benchmarks/bench_bp.py --proposals --phase 1 --sizes 450x375   # section 3
+    python benchmarks/bench_bp.py --proposals --room                      # section 3, room
 """
 
 from __future__ import annotations
@@ -55,13 +65,13 @@ def _scene(name, size):
     return synthetic_room((size, size), seed=0) if name == "room" else motorcycle(size)
 
 
-def _sampling(shape, spec):
+def _sampling(shape, spec, phase=0):
     from refsynth.acquisition.sampling import stripes, x_stripes_for_fraction
 
     if spec.startswith("g"):
         rw, xw = (int(v) for v in spec[1:].split("_"))
         return stripes(shape, rw, xw, axes="xy")
-    return x_stripes_for_fraction(shape, int(spec[1:]) / 100.0)
+    return x_stripes_for_fraction(shape, int(spec[1:]) / 100.0, phase=phase)
 
 
 METHODS = {
@@ -107,6 +117,78 @@ def _case(args):
                rss_before=before, rss_peak=_rss_mb(), k=extra.get("candidates", 8),
                **evaluate(estimate, scene.range, known))
     return row
+
+
+#: Section 3's variants: keyword arguments of refsynth.synthesize.
+PROPOSAL_VARIANTS = {
+    "np": {"method": "np"},
+    "bp": {"method": "bp"},
+    "bp-proposals-np": {"method": "bp", "proposals": "np"},
+    "bp-proposals-np-completed": {"method": "bp", "proposals": "np-completed"},
+    "bp-proposals-np-x3": {"method": "bp", "proposals": "np", "proposal_runs": 3},
+}
+CLASSICAL = ("nearest", "colorization", "joint-bilateral")
+
+
+def _proposal_case(args):
+    """One fill of section 3: MAR, candidate ceiling (BP) and seconds."""
+    import refsynth
+    from refsynth.evaluation.baselines import BASELINES
+    from refsynth.evaluation.metrics import evaluate
+
+    name, scene_name, size, spec, phase, seed = args
+    scene = _scene(scene_name, size)
+    known = _sampling(scene.range.shape, spec, phase) & scene.has_truth
+    partial = np.where(known, scene.range, np.nan)
+    start = time.perf_counter()
+    ceiling = float("nan")
+    if name in CLASSICAL:
+        estimate = BASELINES[name](scene.intensity, partial)
+    else:
+        result = refsynth.synthesize(scene.intensity, partial, seed=seed,
+                                     **PROPOSAL_VARIANTS[name])
+        estimate = result.range
+        if result.method == "bp":  # the candidate ceiling: each node's best candidate
+            truth = scene.range[result.order[:, 0], result.order[:, 1]]
+            ok = np.isfinite(truth)
+            ceiling = float(np.abs(result.candidate_values[ok] - truth[ok, None])
+                            .min(axis=1).mean())
+    seconds = time.perf_counter() - start
+    return dict(name=name, case=f"{scene.name} {spec}", seed=seed, ceiling=ceiling,
+                mar=float(evaluate(estimate, scene.range, known)["mar"]), seconds=seconds)
+
+
+def _proposal_table(pool, args):
+    if args.room:
+        cases = [("room", 128, spec) for spec in ("g10_20", "g5_25")]
+    else:
+        cases = [("motorcycle", tuple(int(v) for v in size.split("x")), f"x{f}")
+                 for size in args.sizes.split(",") for f in (63, 78, 85)]
+    names = [v for v in args.variants.split(",") if v]
+    jobs = [(b, *case, args.phase, 0) for case in cases for b in CLASSICAL]
+    # plain BP makes no random choice: one seed
+    jobs += [(v, *case, args.phase, seed) for case in cases for v in names
+             for seed in range(1 if v == "bp" else args.seeds)]
+    rows = []
+    for row in pool.imap(_proposal_case, jobs):
+        rows.append(row)
+        print(f"  {row['case']} {row['name']} seed {row['seed']}: MAR {row['mar']:.3f} "
+              f"ceiling {row['ceiling']:.3f} ({row['seconds']:.1f} s)", file=sys.stderr,
+              flush=True)
+    where = "the room's grids" if args.room else f"stripe phase {args.phase}"
+    print(f"\n## 3. BP's proposals ({where})\n")
+    print("| case | variant | MAR mean ± sd | / best classical | candidate ceiling | s |")
+    print("|---|---|---|---|---|---|")
+    for case in dict.fromkeys(r["case"] for r in rows):
+        here = [r for r in rows if r["case"] == case]
+        best = min(r["mar"] for r in here if r["name"] in CLASSICAL)
+        for name in dict.fromkeys(r["name"] for r in here):
+            mine = [r for r in here if r["name"] == name]
+            mar = np.array([r["mar"] for r in mine])
+            sd = f" ± {mar.std(ddof=1):.3f}" if mar.size > 1 else ""
+            print(f"| {case} | {name} | {mar.mean():.3f}{sd} | {mar.mean() / best:.2f} | "
+                  f"{_fmt(float(np.mean([r['ceiling'] for r in mine])))} | "
+                  f"{np.mean([r['seconds'] for r in mine]):.1f} |", flush=True)
 
 
 def _ratio_case(size):
@@ -209,9 +291,21 @@ def main(argv=None) -> int:
     parser.add_argument("--big", action="store_true",
                         help="with section 0, BP on a 2048×2048 Motorcycle too")
     parser.add_argument("--seeds", type=int, default=3, help="NP seeds (default 3)")
+    parser.add_argument("--proposals", action="store_true",
+                        help="section 3 only: BP's proposals against BP, NP and the classical")
+    parser.add_argument("--phase", type=int, default=1,
+                        help="section 3: the stripe phase (1: choosing split; 0: report)")
+    parser.add_argument("--sizes", default="450x375", help="section 3: sizes, e.g. 450x375")
+    parser.add_argument("--room", action="store_true",
+                        help="section 3 on the room's grids 10/20 and 5/25 instead")
+    parser.add_argument("--variants", default="np,bp,bp-proposals-np",
+                        help=f"section 3's variants, from {','.join(PROPOSAL_VARIANTS)}")
     args = parser.parse_args(argv)
     ctx = mp.get_context("spawn")
     with ctx.Pool(1, maxtasksperchild=1) as pool:
+        if args.proposals:
+            _proposal_table(pool, args)
+            return 0
         print("## 0. BP against the colorization fill (Motorcycle, x-stripes 78 %)\n")
         _ratio_table(pool)
         if args.big:

@@ -53,6 +53,7 @@ from refsynth._checks import (
 )
 from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
 from refsynth.synthesis.bp import EDGE_RULES, BPResult, bp_fill
+from refsynth.synthesis.bp_proposals import PROPOSALS, np_proposals
 from refsynth.synthesis.canny import canny
 from refsynth.synthesis.limits import (
     PARAMETER_BOUNDS,
@@ -206,6 +207,26 @@ def _method_options(method: str, given: dict) -> dict:
     return {name: checked.get(name, default) for name, default in _OPTIONS[method].items()}
 
 
+def _proposal_options(method: str, proposals, proposal_runs) -> dict:
+    """BP's proposals (a departure, :mod:`refsynth.synthesis.bp_proposals`), checked.
+
+    Empty when ``proposals`` is None (the paper's Fig. 6); otherwise ``proposals`` and
+    ``proposal_runs``. Both are BP's: ``method="np"`` refuses them.
+    """
+    if proposals is None:
+        if proposal_runs is not None:
+            _at_least("proposal_runs", proposal_runs, 1)
+            raise ValueError("The parameter `proposal_runs` needs `proposals` (e.g. 'np'); "
+                             "without it BP has no proposals to run")
+        return {}
+    proposals = check_choice("proposals", proposals, PROPOSALS)
+    runs = 1 if proposal_runs is None else _at_least("proposal_runs", proposal_runs, 1)
+    if method != "bp":
+        raise ValueError(f"The parameter `proposals` applies to method='bp' only; "
+                         f"method={method!r} does not use it")
+    return {"proposals": proposals, "proposal_runs": runs}
+
+
 def _random_source(seed) -> np.random.Generator:
     """The generator behind every random choice: from an int, a Generator or None."""
     if not (seed is None or is_int(seed) or isinstance(seed, np.random.Generator)):
@@ -245,6 +266,8 @@ def synthesize(
     confidence_update: str | None = None,
     edges_last: bool | None = None,
     edge_rule: str | None = None,
+    proposals: str | None = None,
+    proposal_runs: int | None = None,
 ) -> SynthesisResult:
     """Infer the missing range from intensity and partial range (§3.2).
 
@@ -361,6 +384,24 @@ def synthesize(
         ``"paper"``: no message crosses an edge — a node on an edge neither
         sends nor receives (no message, no measured neighbour's term), so its
         belief is its own evidence Φ.
+    proposals : {None, "np", "np-completed"}, BP only, default None
+        **A departure from Fig. 6** (issue #10;
+        :mod:`refsynth.synthesis.bp_proposals`). None: the paper's candidates,
+        bit for bit. ``"np"``: NP (§3.2.2, its default options, seeded from
+        ``seed``) first fills the range; each unknown pixel gets, after its
+        ``candidates`` training patches, one more label per fill — the patch
+        of NP's result centred on it, so Ψ (Eq. 6) and the measured
+        neighbours' terms see synthesized range — whose Φ (Eq. 7) is that of
+        the best training candidate proposing the same range (within 1 % of
+        the known span), or of the worst candidate when none does.
+        ``"np-completed"``: the same, and the training patches' unknown range
+        is NP's too. BP then depends on ``seed``; NP's own options
+        (``epsilon`` …) stay refused, NP runs at its defaults. The
+        candidates' ceiling drops at every fraction; the measured gain in MAR
+        (and where it loses) is in :mod:`refsynth.synthesis.bp_proposals`.
+    proposal_runs : int, BP with ``proposals`` only, default 1
+        How many NP fills propose (each a label per pixel; the seeds follow one
+        another from ``seed``'s generator).
 
     Returns
     -------
@@ -408,6 +449,8 @@ def synthesize(
     ``tolerance``            —            Eq. 9        1e-4
     ``product``              —            Eq. 9        ``"max"``
     ``edge_rule``            —            §3.2.3       ``"silent"``
+    ``proposals``            —            departure    None
+    ``proposal_runs``        —            departure    1
     =======================  ===========  ===========  ================================
 
     An option marked "—" raises ``ValueError`` for that method unless it is
@@ -454,6 +497,7 @@ def synthesize(
         iterations=iterations, tolerance=tolerance, product=product,
         confidence_update=confidence_update, edges_last=edges_last, edge_rule=edge_rule,
     ))
+    proposal_options = _proposal_options(method, proposals, proposal_runs)
     neighbourhood = _at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
         raise ValueError(f"The parameter `neighbourhood` must be odd, got {neighbourhood}")
@@ -482,8 +526,13 @@ def synthesize(
     # beyond the image's diagonal the radius means the whole image (bit for bit)
     run_radius, proximity = search_radius(method, radius, options.get("proximity", 0.0),
                                           range_values.shape)
+    extra_labels = proposal_options.get("proposal_runs", 0)
+    if proposal_options:  # NP runs first, at its own radius
+        np_radius = search_radius("np", radius, 0.0, range_values.shape)[0]
+        check_memory("np", image, range_values, neighbourhood=neighbourhood, radius=np_radius,
+                     colour=colour)
     check_memory(method, image, range_values, neighbourhood=neighbourhood, radius=run_radius,
-                 candidates=options.get("candidates", 8), colour=colour)
+                 candidates=options.get("candidates", 8) + extra_labels, colour=colour)
 
     if edges is None:
         # the intensity convention: Canny on the grey level brought to [0, 1]
@@ -496,13 +545,20 @@ def synthesize(
 
     params = dict(method=method, neighbourhood=neighbourhood, radius=radius,
                   canny_sigma=canny_sigma, use_edges=use_edges, range_weight=range_weight,
-                  missing_range=missing_range, colour=colour, channels=channels, **options)
+                  missing_range=missing_range, colour=colour, channels=channels, **options,
+                  **proposal_options)
     common = dict(neighbourhood=neighbourhood, radius=run_radius, use_edges=use_edges,
                   range_weight=range_weight, missing_range=missing_range, colour=colour,
                   channels=channels, progress=progress)
     if method == "bp":
         options["k"] = options.pop("candidates")  # bp_fill's name for it
         options["proximity"] = proximity
+        if proposal_options:  # the departure: NP's fills as more labels (bp_proposals)
+            options["proposals"] = np_proposals(
+                image, range_values, edge_map, rng, runs=proposal_options["proposal_runs"],
+                **{**common, "radius": np_radius, "progress": None})
+            options["proposal_phi"] = "match"
+            options["proposal_completed"] = proposal_options["proposals"] == "np-completed"
         bp = bp_fill(image, range_values, edge_map, **options, **common)
         return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
                                edges=edge_map, method=method, params=params,

@@ -63,6 +63,14 @@ limit is refused then (:mod:`refsynth.synthesis.bp_memory`).
 
 Φ, Ψ and the grid of pairs (steps 3–4) are :mod:`refsynth.synthesis.bp_model`.
 
+**A departure, off by default** (issue #10 item 4): with ``proposals``, dense
+fills of the range (NP's, from :func:`refsynth.synthesize` with
+``proposals="np"``) give every node more labels after its ``k`` training
+candidates — their patches centred on it, from frames stacked below the
+measured range's — so Ψ sees synthesized range
+(:mod:`refsynth.synthesis.bp_proposals`, where the measured gain is). Without
+it, Fig. 6 as printed, bit for bit.
+
 The numeric contract (:mod:`refsynth.numeric`): the candidates are ranked by
 the exact Eq. 2 of :class:`~refsynth.synthesis.similarity.PatchTable` (its
 integer sums, evaluated tile by tile; stable sort: ties by the raster order of
@@ -111,6 +119,7 @@ from refsynth.synthesis.bp_model import (
     phi,
     psi,
 )
+from refsynth.synthesis.bp_proposals import proposal_frame
 from refsynth.synthesis.bp_search import candidates, search_candidates
 from refsynth.synthesis.messages import belief_propagation
 
@@ -232,6 +241,10 @@ def bp_fill(
     channels: str = "sum",
     progress: Callable[[int, int], None] | None = None,
     memory_limit: int | None = None,
+    proposals: np.ndarray | None = None,
+    proposal_phi: str = "match",
+    proposal_centred: bool = True,
+    proposal_completed: bool = False,
 ) -> BPResult:
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
 
@@ -289,6 +302,20 @@ def bp_fill(
         Bytes; refuse (``ValueError``), before any work, a call whose
         :func:`bp_memory_estimate` exceeds it. Default
         :data:`BP_MEMORY_LIMIT` (4 GiB).
+    proposals : ndarray of shape (S, H, W) or (H, W), optional
+        **A departure from Fig. 6** (:mod:`refsynth.synthesis.bp_proposals`):
+        dense ranges (e.g. NP's fills), finite at every unknown pixel. Each
+        node gets ``S`` more labels after its ``k`` training candidates, the
+        patches of the proposals centred on it; Ψ and the measured
+        neighbours' terms see their synthesized range. None (the default):
+        Fig. 6 as printed, bit for bit.
+    proposal_phi : {"match", "twin", "best", "worst", "zero"}, default "match"
+        A proposal's Eq. 2 distance in Φ (Eq. 7)
+        (:data:`~refsynth.synthesis.bp_proposals.PROPOSAL_PHI`).
+    proposal_centred : bool, default True
+        Give each node the proposals' patches centred on it as labels.
+    proposal_completed : bool, default False
+        Complete the training patches' unknown range from the first proposal.
 
     Returns
     -------
@@ -325,10 +352,19 @@ def bp_fill(
     unknown = ~known
     # up front: the memory this call needs, against the limit
     n_channels = 1 if not colour or np.ndim(image) == 2 else np.shape(image)[2]
-    check_bp_memory((H, W), int(unknown.sum()), k=k, neighbourhood=n, channels=n_channels,
-                    n_pairs=_count_pairs(unknown), limit=memory_limit)
+    if proposals is not None:
+        proposals = np.asarray(proposals, dtype=np.float64)
+        if proposals.shape[-2:] != (H, W) or proposals.ndim not in (2, 3):
+            raise ValueError(f"The parameter `proposals` must have shape (S, {H}, {W}) or "
+                             f"({H}, {W}), got {proposals.shape}")
+        proposals = proposals.reshape(-1, H, W)
+        if not np.all(np.isfinite(proposals[:, unknown])):
+            raise ValueError("The parameter `proposals` must be finite at every unknown pixel")
+    n_labels = k if proposals is None else k + proposals.shape[0]
+    check_bp_memory((H, W), int(unknown.sum()), k=n_labels, neighbourhood=n,
+                    channels=n_channels, n_pairs=_count_pairs(unknown), limit=memory_limit)
     # the contract: intensity and range on the 2**-16 grids of their spans
-    rq, _, _ = quantise_range(range_values)
+    rq, low, span = quantise_range(range_values)
     levels = quantise_intensity(image)
     if not colour:
         levels = quantise_grey(levels)[:, :, None]
@@ -351,12 +387,23 @@ def bp_fill(
                                      proximity=proximity, range_weight=range_weight,
                                      missing_range=missing_range, pad=pad, channels=channels)
     del levels
+    frame = None
+    if proposals is not None:  # the departure: proposals' labels after the k candidates
+        frame = proposal_frame(range_values, rq, low, span, proposals, labels, dist, flat, n,
+                               phi=proposal_phi, centred=proposal_centred,
+                               completed=proposal_completed)
+        labels, dist, k = frame.labels, frame.distance, frame.labels.shape[1]
     unary = phi(dist, sigma_i)
     del dist
     tick()
-    # every pixel's range patch on the contract's grid (−1 where unknown), a view
-    qpad = np.pad(np.where(known, rq, -1).astype(np.float64), h, constant_values=-1.0)
-    centre_q = np.where(known, rq, 0)  # step 6 pools labels on the range's integer grid
+    # every pixel's range patch on the contract's grid (−1 where unknown), a view; with
+    # proposals, their frames stacked below the measured one
+    if frame is None:
+        qpad = np.pad(np.where(known, rq, -1).astype(np.float64), h, constant_values=-1.0)
+        centre_q = np.where(known, rq, 0)  # step 6 pools labels on the range's integer grid
+        centre = np.where(known, range_values, 0.0)
+    else:
+        qpad, centre_q, centre = frame.plane, frame.centre_q, frame.centre
     del rq
     patches = sliding_window_view(qpad, (n, n))  # (H, W, n, n)
 
@@ -405,7 +452,6 @@ def bp_fill(
     )
     tick()
     # step 6: MAP label, its centre range, and its normalised belief (by blocks of nodes)
-    centre = np.where(known, range_values, 0.0)
     out = range_values.copy()
     confidence = known.astype(np.float64)
     best = np.empty(flat.size, dtype=np.int64)
@@ -425,6 +471,8 @@ def bp_fill(
     for start in range(0, flat.size, _NODE_BLOCK):
         sl = slice(start, start + _NODE_BLOCK)
         cand[sl, :, 0], cand[sl, :, 1] = np.divmod(labels[sl], W)
+    if frame is not None:  # a proposal's centre is its node: the row within its frame
+        cand[:, :, 0] %= H + 2 * h
     tick()
     order = np.stack([rows, cols], axis=1).astype(np.int64)
     return BPResult(range=out, confidence=confidence, order=order, iterations=done,
