@@ -288,6 +288,17 @@ def test_synth_passes_eq2s_readings_on_only_when_given(files, capsys, monkeypatc
     np.testing.assert_array_equal(np.load(files / "b.npy"), direct)
 
 
+def test_synth_bp_with_proposals_is_the_librarys(files, capsys):
+    argv = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--method", "bp",
+            "--proposals", "np", "--proposal-runs", "2", "--seed", "3",
+            "--out", str(files / "p.npy")]
+    assert _run(argv, capsys)[0] == 0
+    image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
+    direct = __import__("refsynth").synthesize(image, partial, method="bp", seed=3,
+                                               proposals="np", proposal_runs=2).range
+    np.testing.assert_array_equal(np.load(files / "p.npy"), direct)
+
+
 def test_synth_refuses_a_bad_reading_in_one_line(files, capsys, no_work):
     _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
                  "--out", str(files / "o.npy"), "--channels", "max"], capsys,
@@ -299,6 +310,10 @@ def test_synth_refuses_a_bad_reading_in_one_line(files, capsys, no_work):
     (["--method", "bp", "--ordering", "onion"], "--ordering applies to --method np only"),
     (["--method", "bp", "--no-isophotes"], "--no-isophotes applies to --method np only"),
     (["--candidates", "4"], "--candidates applies to --method bp only"),
+    (["--proposals", "np"], "--proposals applies to --method bp only"),
+    (["--method", "bp", "--proposal-runs", "2"], "--proposal-runs needs --proposals"),
+    (["--method", "bp", "--proposals", "np", "--proposal-runs", "0"],
+     "--proposal-runs must be >= 1, got 0"),
     (["--iterations", "3"], "--iterations applies to --method bp only"),
 ])
 def test_synth_refuses_an_option_of_the_other_method(files, capsys, no_work, extra, needle):

@@ -177,6 +177,7 @@ _METHOD_OPTIONS = {
     "--no-isophotes": ("use_isophotes", "np"), "--candidates": ("candidates", "bp"),
     "--proximity": ("proximity", "bp"), "--sigma-i": ("sigma_i", "bp"),
     "--sigma-s": ("sigma_s", "bp"), "--iterations": ("iterations", "bp"),
+    "--proposals": ("proposals", "bp"), "--proposal-runs": ("proposal_runs", "bp"),
 }
 #: Eq. 2's readings, for both methods: passed on only when given.
 _EQ2_OPTIONS = ("channels", "range_weight", "missing_range", "colour")
@@ -207,6 +208,11 @@ def _check_options(args) -> tuple[Path, Path | None, Path | None]:
             raise ValueError("--png-scale applies to an image RANGE or a .png --out only")
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    if args.proposal_runs is not None:
+        if args.proposals is None:
+            raise ValueError("--proposal-runs needs --proposals (np or np-completed)")
+        if args.proposal_runs < 1:
+            raise ValueError(f"--proposal-runs must be >= 1, got {args.proposal_runs}")
     return out, confidence, figure
 
 
@@ -368,4 +374,10 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           "(default 0.2)")
     bp_group.add_argument("--iterations", type=integer, metavar="N",
                           help="at most this many message-passing sweeps (default 50)")
+    bp_group.add_argument("--proposals", choices=["np", "np-completed"],
+                          help="a departure from Fig. 6: NP's fill proposes one more label "
+                          "per pixel (np-completed: the training patches' unknown range "
+                          "from NP too); default none, the paper's candidates")
+    bp_group.add_argument("--proposal-runs", type=integer, metavar="S",
+                          help="with --proposals: this many NP fills propose (default 1)")
     return synth
