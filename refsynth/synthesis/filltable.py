@@ -27,11 +27,16 @@ The gathered rows are widened to float64 and the four sums of Eq. 2
 
 come from three matrix–vector products with weights built from ``p``'s row
 (``s_i`` over ``[I | s_q]``, ``s_r`` over ``[R | V | R²]``, ``w_s`` over
-``V``). Every product and partial sum is an integer below ``2**53``, so each
-sum is exact whatever the order (BLAS, threads, SIMD): the same integers as
-``PatchTable.distances`` and the literal reference, combined by the IEEE
-operations of :func:`refsynth.numeric.combine_eq2`, give the same distances
-bit for bit (``tests/test_np_speed_table.py``).
+``V``; ``w_a`` is the sum of ``w_s``'s weights). The weights carry the sums'
+units, :data:`~refsynth.numeric.EQ2_UNIT` for ``s_i`` and ``s_r`` and
+:data:`~refsynth.numeric.WEIGHT_UNIT` for ``w_s`` and ``w_a`` (powers of two,
+so scaling is exact). Every product and partial sum is an integer below
+``2**53`` times its unit, so each sum is exact whatever the order (BLAS,
+threads, SIMD): the same integers as ``PatchTable.distances`` and the literal
+reference, times the units ``combine_eq2`` multiplies them by first, then
+combined by the rest of the IEEE operations of
+:func:`refsynth.numeric.combine_eq2`, give the same distances bit for bit
+(``tests/test_np_speed_table.py``).
 
 References
 ----------
@@ -144,12 +149,18 @@ class FillTable:
             out[:, :, h0:] = np.concatenate(np.moveaxis(_split(r * r, 2), -1, 0), axis=-1)
         self.table = table
         # p's weights w = row_p[perm] * coef (then the V block times R_p again), over
-        # the columns [I | S | R | V | R²_hi | R²_lo]
-        perm = np.concatenate([np.arange(base), np.zeros(3, np.int64), np.arange(r0, v0),
-                               np.arange(r0, v0), np.arange(v0, h0), np.arange(v0, h0)])
+        # the columns [I | S | R | V | R²_hi | R²_lo], then Eq. 2's support weights
+        # G V_p; the units of the sums (powers of two) are folded into coef, which
+        # keeps every product and partial sum exact. perm's index `width` reads the
+        # 1 kept after p's row (the weight of the candidate's self term).
+        perm = np.concatenate([np.arange(base), np.full(3, width), np.arange(r0, v0),
+                               np.arange(r0, v0), np.arange(v0, h0), np.arange(v0, h0),
+                               np.arange(v0, h0)])
         self.perm = perm
-        self.coef = np.concatenate([-2.0 * g_int, np.zeros(3), -2.0 * g, g, g, g])
-        self.weights = np.zeros(width)
+        self.coef = np.concatenate([-2.0 * g_int, np.ones(3), -2.0 * g, g, g, g]) * EQ2_UNIT
+        self.coef = np.concatenate([self.coef, g * WEIGHT_UNIT])
+        self.row = np.ones(width + 1)  # p's row in float64, then the constant 1
+        self.weights = np.zeros(width + nn)
         self.channels = C
         self.lam = float(range_weight)
         self.missing_range = missing_range
@@ -187,18 +198,21 @@ class FillTable:
         >>> bool(np.array_equal(fast.distances(33, q), wide.distances(33, q)))
         True
         """
-        r0, v0, h0, l0 = self.r0, self.v0, self.h0, self.l0
-        row = self.table[p].astype(np.float64)
-        w = np.multiply(row[self.perm], self.coef, out=self.weights)
-        w[self.base : r0] = 1.0  # the candidate's self term, in three parts
-        w[v0:h0] *= row[r0:v0]  # G R_p R_p, exact
-        g_v = w[h0:l0]
+        r0, v0, h0, width = self.r0, self.v0, self.h0, self.width
+        row = self.row
+        np.copyto(row[:width], self.table[p])
+        w = np.multiply(row.take(self.perm), self.coef, out=self.weights)
+        w[v0:h0] *= row[r0:v0]  # G R_p R_p u, exact
         rows = self.table.take(candidates, axis=0).astype(np.float64)
-        # exact: every product and partial sum is an integer below 2**53
-        si = rows[:, :r0] @ w[:r0]
-        si += self.self_term[p]
-        sr = rows[:, r0:] @ w[r0:]
-        ws = rows[:, v0:h0] @ g_v
+        # exact: every product and partial sum is an integer below 2**53 times the
+        # power of two its weights carry, so these are the integer sums times their units
+        si = rows[:, :r0] @ w[:r0]  # (s_q - 2 Σ G Σ_c I_p I_q) u
+        si += self.self_term[p] * EQ2_UNIT
+        sr = rows[:, r0:] @ w[r0:width]  # s_r u
+        if self.missing_range != "mean":
+            return _combine(si, sr, None, None, self.divisor, self.lam, self.missing_range)
+        g_v = w[width:]  # G V_p w_unit
+        ws = rows[:, v0:h0] @ g_v  # w_s w_unit
         return _combine(si, sr, ws, g_v.sum(), self.divisor, self.lam, self.missing_range)
 
     def set_range(self, p: int, value: float) -> None:
@@ -221,7 +235,7 @@ class FillTable:
         """
         values = self.update_values
         nn = self.nn
-        q = np.rint(value * 2.0**RANGE_BITS)
+        q = float(round(value * 2.0**RANGE_BITS))  # np.rint's value: both round half to even
         values[:nn] = q
         hi = float(np.float32(q * q))  # R² as in the table: float32 high and low parts
         values[2 * nn : 3 * nn] = hi
@@ -251,20 +265,20 @@ def _split(x: np.ndarray, parts: int) -> np.ndarray:
 def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: str):
     """:func:`refsynth.numeric.combine_eq2` in place on ``si``, ``sr`` and ``ws``.
 
-    The same IEEE operations in the same order (so the same bits), without
-    allocating, and without the multiplications and divisions by 1 (exact
-    identities): ``si`` returns the distances.
+    ``si`` and ``sr`` arrive already multiplied by :data:`~refsynth.numeric.EQ2_UNIT`,
+    ``ws`` and the scalar ``wa`` by :data:`~refsynth.numeric.WEIGHT_UNIT` (powers of
+    two: exact, the same values ``combine_eq2`` forms first). The rest are the same
+    IEEE operations in the same order (so the same bits), without allocating, and
+    without the multiplications and divisions by 1 (exact identities): ``si``
+    returns the distances.
     """
-    np.multiply(si, EQ2_UNIT, out=si)
     if channels != 1:  # x / 1 and x * 1 are x exactly: skipped
         np.divide(si, channels, out=si)
-    np.multiply(sr, EQ2_UNIT, out=sr)
     if range_weight != 1.0:
         np.multiply(sr, range_weight, out=sr)
     if missing_range == "mean":
         np.add(sr, range_weight * SUPPORT_PRIOR, out=sr)
-        np.multiply(ws, WEIGHT_UNIT, out=ws)
         np.add(ws, SUPPORT_PRIOR, out=ws)
-        np.divide(wa * WEIGHT_UNIT, ws, out=ws)
+        np.divide(wa, ws, out=ws)
         np.multiply(sr, ws, out=sr)
     return np.add(si, sr, out=si)

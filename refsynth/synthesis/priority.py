@@ -287,12 +287,6 @@ def front_normals(filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return m_row / safe, m_col / safe
 
 
-def _data_term(g_row, g_col, n_row, n_col, alpha: float = 1.0):
-    # isophote = gradient rotated by 90 degrees: (g_row, g_col) -> (-g_col, g_row)
-    flow = np.abs(-g_col * n_row + g_row * n_col)
-    return np.clip(1.0 - flow / alpha, 0.0, 1.0)
-
-
 def data_term(
     range_norm: np.ndarray, filled: np.ndarray, n: int, alpha: float = 1.0
 ) -> np.ndarray:
@@ -324,7 +318,9 @@ def data_term(
     """
     g_row, g_col = range_gradient(range_norm, filled, n)
     n_row, n_col = front_normals(filled)
-    return _data_term(g_row, g_col, n_row, n_col, alpha)
+    # isophote = gradient rotated by 90 degrees: (g_row, g_col) -> (-g_col, g_row)
+    flow = np.abs(-g_col * n_row + g_row * n_col)
+    return np.clip(1.0 - flow / alpha, 0.0, 1.0)
 
 
 def priority(
@@ -380,10 +376,10 @@ def priority(
     return np.where(fill_front(filled), p, np.nan)
 
 
-# fields of FillFront's per-pixel state (last axis)
-# (ordered so that Eq. 10 reads contiguous slices: numerators, then their denominators)
-_CONF, _DROW, _DCOL, _COUNT, _VROW, _VCOL, _MCOL, _MROW, _NEIGH, _EDGE = range(10)
-_FIELDS = 10
+# fields of FillFront's per-pixel state (last axis), ordered so that Eq. 10 reads contiguous
+# slices: [C, Δ_row, Δ_col, m_col, m_row, m_col, −m_row] over [|N_p|, pairs_row, pairs_col]
+_CONF, _DROW, _DCOL, _MCOL, _MROW, _MCOL2, _NMROW, _COUNT, _VROW, _VCOL, _NEIGH, _EDGE = range(12)
+_FIELDS = 12
 
 
 def _update_templates(n: int) -> np.ndarray:
@@ -410,7 +406,8 @@ def _update_templates(n: int) -> np.ndarray:
     h = n // 2
     near = (slice(h, h + 3), slice(h, h + 3))
     t[9][near + (_MROW,)] = _SOBEL_ROW[::-1, ::-1]
-    t[9][near + (_MCOL,)] = _SOBEL_COL[::-1, ::-1]
+    t[9][near + (_MCOL,)] = t[9][near + (_MCOL2,)] = _SOBEL_COL[::-1, ::-1]
+    t[9][near + (_NMROW,)] = -_SOBEL_ROW[::-1, ::-1]
     t[9][near + (_NEIGH,)] = 1.0
     return t.reshape(10, -1)
 
@@ -495,6 +492,7 @@ class FillFront:
         mask = self.filled.astype(np.float64)
         state[..., _MROW] = ndimage.correlate(mask, _SOBEL_ROW, mode="constant")
         state[..., _MCOL] = ndimage.correlate(mask, _SOBEL_COL, mode="constant")
+        state[..., _MCOL2], state[..., _NMROW] = state[..., _MCOL], -state[..., _MROW]
         state[..., _NEIGH] = box_sum(mask, 3)
         state[..., _COUNT] = np.maximum(box_sum(self.inside, n), 1.0)
         edge_pad = np.pad(np.asarray(edges, dtype=bool), pad)
@@ -507,8 +505,8 @@ class FillFront:
         assert np.count_nonzero(templates) == np.count_nonzero(centre)
         self.templates = centre.reshape(10, -1).copy()
         side = 2 * k + 1
-        self.scratch = [np.empty((side, side, 3)), np.empty((side, side, 3)),
-                        np.empty((side, side)), np.empty((side, side))]
+        self.scratch = [np.empty((_FIELDS, side, side)), np.empty((7, side, side)), np.ones(
+            (7, side, side)), np.empty((4, side, side)), np.empty((2, side, side))]  # field-major
         tiered = use_edges and edges_last
         self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
         self.tie = rng.permutation(self.inside.size).reshape(self.shape)
@@ -602,23 +600,25 @@ class FillFront:
                                  np.where(self.front[rows, cols], keys, ABSENT))
 
     def _block_priority(self, block: np.ndarray) -> np.ndarray:
-        """:meth:`_priority` on the block a fill changed: the same operations, in buffers."""
+        """:meth:`_priority` on the block a fill changed: the same operations, in buffers.
+
+        Field-major copies; one product forms ``g · m`` and ``m²`` (``m_c² − (−m_r²)``, exact).
+        """
         if not self.use_isophotes:
             return self._priority(block)
-        quotient, products, norm, flow = self.scratch
-        # [C, Δ_row, Δ_col] / [|N_p|, pairs_row, pairs_col]: c and the gradient (|N_p| >= 1)
-        np.maximum(block[..., _COUNT : _VCOL + 1], 1.0, out=products[..., :3])
-        np.divide(block[..., _CONF : _DCOL + 1], products[..., :3], out=quotient)
-        m = block[..., _MCOL : _MROW + 1]
-        np.multiply(quotient[..., 1:], m, out=products[..., :2])  # g_row m_col, g_col m_row
-        np.subtract(products[..., 0], products[..., 1], out=flow)
-        np.multiply(m, m, out=products[..., :2])
-        np.add(products[..., 1], products[..., 0], out=norm)  # m_row² + m_col²
+        fields, quotient, divisors, products, pair = self.scratch
+        np.copyto(fields, block.transpose(2, 0, 1))
+        # [C, Δ_row, Δ_col, m] / [|N_p|, pairs_row, pairs_col, 1, ...]: c, the gradient, m
+        np.maximum(fields[_COUNT : _VCOL + 1], 1.0, out=divisors[:3])
+        np.divide(fields[_CONF : _NMROW + 1], divisors, out=quotient)
+        np.multiply(quotient[1:5], quotient[3:7], out=products)  # g_r m_c, g_c m_r, m_c², −m_r²
+        np.subtract(products[0::2], products[1::2], out=pair)  # the flow, the squared norm
+        flow, norm = pair
         np.maximum(norm, 1.0, out=norm)
         np.sqrt(norm, out=norm)
         np.abs(flow, out=flow)
         np.divide(flow, norm, out=flow)
         np.subtract(1.0, flow, out=flow)
         np.maximum(flow, 0.0, out=flow)
-        np.multiply(quotient[..., 0], flow, out=flow)
-        return np.add(flow, block[..., _EDGE], out=flow)
+        np.multiply(quotient[0], flow, out=flow)
+        return np.add(flow, fields[_EDGE], out=flow)
