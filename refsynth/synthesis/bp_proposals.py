@@ -185,9 +185,17 @@ def proposal_frame(
         The nodes' flat pixel indices, in raster order.
     n : int
         The patch side.
-    phi : {"best", "zero"}, default "best"
-        A proposal's distance: that of the node's best training candidate, or
-        0 (see the module's notes).
+    phi : {"match", "twin", "best", "worst", "zero"}, default "best"
+        A proposal's distance (:data:`PROPOSAL_PHI`): that of the best
+        training candidate proposing the same range (within 1 % of the span),
+        else the worst (``"match"``, what :func:`refsynth.synthesize` uses) or
+        the best (``"twin"``) candidate's; the best's or the worst's outright;
+        or 0 (see the module's notes).
+    centred : bool, default True
+        Give the nodes their proposals; ``False`` keeps only the training
+        candidates (on the stacked frame).
+    completed : bool, default False
+        Fill the training patches' unknown range from the first proposal.
 
     Returns
     -------
