@@ -215,8 +215,9 @@ MUTATIONS = [
     Mutation("bp-map-argmin", "bp", BP, "best = np.argmax(belief, axis=1)",
              "best = np.argmin(belief, axis=1)", "Eq. 8's argmax replaced by argmin"),
     Mutation("bp-pool-span", "bp", BP,
-             "same = np.abs(cand_values - chosen[:, None]) <= VALUE_TOLERANCE * span",
-             "same = np.abs(cand_values - chosen[:, None]) <= VALUE_TOLERANCE",
+             "same = np.abs(cand_q - cand_q[index, best][:, None]) <= VALUE_TOLERANCE * 2.0"
+             "**RANGE_BITS",
+             "same = np.abs(cand_q - cand_q[index, best][:, None]) <= VALUE_TOLERANCE",
              "the confidence's pooling tolerance without the span"),
     Mutation("bp-silent-receivers", "bp", MESSAGES, "sends &= ~np.asarray(silent, dtype=bool)[src]",
              "sends &= ~np.asarray(silent, dtype=bool)[dst]",
