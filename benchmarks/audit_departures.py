@@ -110,6 +110,22 @@ VARIANTS: dict[str, dict] = {
     "bp-proposals-np": {"method": "bp", "proposals": "np"},
     "bp-proposals-np-completed": {"method": "bp", "proposals": "np-completed"},
     "bp-proposals-np-x3": {"method": "bp", "proposals": "np", "proposal_runs": 3},
+    # issue #10's BP targets (departures, refsynth.synthesis.bp_observation / bp_centres): the
+    # observations' range completed by the colorization fill for Eq. 2's ranking ("-completed":
+    # the training patches' too); Eq. 6 with the centres as one more shared pixel; and both
+    "bp-obs-colorization": {"method": "bp", "observation": "colorization"},
+    "bp-obs-colorization-completed": {"method": "bp", "observation": "colorization-completed"},
+    "bp-centres": {"method": "bp", "compatibility": "overlap-centres"},
+    "bp-centres-sigma-s0.1": {"method": "bp", "compatibility": "overlap-centres",
+                              "sigma_s": 0.1},
+    "bp-obs-colorization-centres": {"method": "bp", "observation": "colorization",
+                                    "compatibility": "overlap-centres"},
+    "bp-obs-colorization-centres-sigma-s0.1": {
+        "method": "bp", "observation": "colorization", "compatibility": "overlap-centres",
+        "sigma_s": 0.1},
+    "bp-obs-colorization-completed-centres-sigma-s0.1": {
+        "method": "bp", "observation": "colorization-completed",
+        "compatibility": "overlap-centres", "sigma_s": 0.1},
 }
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},

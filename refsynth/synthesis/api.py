@@ -53,6 +53,8 @@ from refsynth._checks import (
 )
 from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
 from refsynth.synthesis.bp import EDGE_RULES, BPResult, bp_fill
+from refsynth.synthesis.bp_centres import COMPATIBILITIES
+from refsynth.synthesis.bp_observation import OBSERVATIONS, observation_fill
 from refsynth.synthesis.bp_proposals import PROPOSALS, np_proposals
 from refsynth.synthesis.canny import canny
 from refsynth.synthesis.limits import (
@@ -227,6 +229,27 @@ def _proposal_options(method: str, proposals, proposal_runs) -> dict:
     return {"proposals": proposals, "proposal_runs": runs}
 
 
+def _bp_departures(method: str, observation, compatibility) -> dict:
+    """BP's observation and Eq. 6 readings (departures, off by default), checked.
+
+    Empty when both are None (Fig. 6 as printed); otherwise the ones given. Both
+    are BP's: ``method="np"`` refuses them unless they are the default.
+    """
+    out = {}
+    if observation is not None:
+        out["observation"] = check_choice("observation", observation, OBSERVATIONS)
+    if compatibility is not None:
+        out["compatibility"] = check_choice("compatibility", compatibility, COMPATIBILITIES)
+    defaults = {"observation": OBSERVATIONS[0], "compatibility": COMPATIBILITIES[0]}
+    if method != "bp":
+        for name, value in out.items():
+            if value != defaults[name]:
+                raise ValueError(f"The parameter `{name}` applies to method='bp' only; "
+                                 f"method={method!r} does not use it")
+        return {}
+    return out
+
+
 def _random_source(seed) -> np.random.Generator:
     """The generator behind every random choice: from an int, a Generator or None."""
     if not (seed is None or is_int(seed) or isinstance(seed, np.random.Generator)):
@@ -268,6 +291,8 @@ def synthesize(
     edge_rule: str | None = None,
     proposals: str | None = None,
     proposal_runs: int | None = None,
+    observation: str | None = None,
+    compatibility: str | None = None,
 ) -> SynthesisResult:
     """Infer the missing range from intensity and partial range (§3.2).
 
@@ -402,6 +427,20 @@ def synthesize(
     proposal_runs : int, BP with ``proposals`` only, default 1
         How many NP fills propose (each a label per pixel; the seeds follow one
         another from ``seed``'s generator).
+    observation : {None, "measured", "colorization", "colorization-completed"}, BP only
+        **A departure from Fig. 6, step 2** (issue #10;
+        :mod:`refsynth.synthesis.bp_observation`). None or ``"measured"``: the
+        observations hold the measured range only, as printed.
+        ``"colorization"``: the colorization fill of the measured range
+        completes every observation, so Eq. 2 ranks the candidates with a
+        range term deep in a gap too; ``"colorization-completed"``: the
+        training patches' range in Eq. 2 as well. BP stays deterministic
+        (reproducible on one machine; the fill is a floating-point solve).
+    compatibility : {None, "overlap", "overlap-centres"}, BP only
+        **A departure in Eq. 6** (:mod:`refsynth.synthesis.bp_centres`). None
+        or ``"overlap"``: the mean square over the shared measured pixels, Ψ = 1
+        with none. ``"overlap-centres"``: the two labels' centre ranges count as
+        one more shared pixel.
 
     Returns
     -------
@@ -451,6 +490,8 @@ def synthesize(
     ``edge_rule``            —            §3.2.3       ``"silent"``
     ``proposals``            —            departure    None
     ``proposal_runs``        —            departure    1
+    ``observation``          —            departure    ``"measured"``
+    ``compatibility``        —            departure    ``"overlap"``
     =======================  ===========  ===========  ================================
 
     An option marked "—" raises ``ValueError`` for that method unless it is
@@ -498,6 +539,7 @@ def synthesize(
         confidence_update=confidence_update, edges_last=edges_last, edge_rule=edge_rule,
     ))
     proposal_options = _proposal_options(method, proposals, proposal_runs)
+    departures = _bp_departures(method, observation, compatibility)
     neighbourhood = _at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
         raise ValueError(f"The parameter `neighbourhood` must be odd, got {neighbourhood}")
@@ -546,7 +588,7 @@ def synthesize(
     params = dict(method=method, neighbourhood=neighbourhood, radius=radius,
                   canny_sigma=canny_sigma, use_edges=use_edges, range_weight=range_weight,
                   missing_range=missing_range, colour=colour, channels=channels, **options,
-                  **proposal_options)
+                  **proposal_options, **departures)
     common = dict(neighbourhood=neighbourhood, radius=run_radius, use_edges=use_edges,
                   range_weight=range_weight, missing_range=missing_range, colour=colour,
                   channels=channels, progress=progress)
@@ -559,6 +601,12 @@ def synthesize(
                 **{**common, "radius": np_radius, "progress": None})
             options["proposal_phi"] = "match"
             options["proposal_completed"] = proposal_options["proposals"] == "np-completed"
+        if departures.get("observation", "measured") != "measured":  # the departure
+            options["observation"] = observation_fill(image, range_values,
+                                                      departures["observation"])
+            options["observation_completed"] = departures["observation"].endswith("-completed")
+        if "compatibility" in departures:
+            options["compatibility"] = departures["compatibility"]
         bp = bp_fill(image, range_values, edge_map, **options, **common)
         return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
                                edges=edge_map, method=method, params=params,

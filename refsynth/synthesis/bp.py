@@ -112,6 +112,7 @@ from refsynth.numeric import (
 )
 from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate, check_bp_memory
 from refsynth.synthesis.bp_model import (
+    COMPATIBILITIES,
     Compatibilities,
     fixed_neighbour_terms,
     grid_edges,
@@ -119,6 +120,7 @@ from refsynth.synthesis.bp_model import (
     phi,
     psi,
 )
+from refsynth.synthesis.bp_observation import observed_ranges
 from refsynth.synthesis.bp_proposals import proposal_frame
 from refsynth.synthesis.bp_search import candidates, search_candidates
 from refsynth.synthesis.messages import belief_propagation
@@ -245,6 +247,9 @@ def bp_fill(
     proposal_phi: str = "match",
     proposal_centred: bool = True,
     proposal_completed: bool = False,
+    observation: np.ndarray | None = None,
+    observation_completed: bool = False,
+    compatibility: str = "overlap",
 ) -> BPResult:
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
 
@@ -316,6 +321,19 @@ def bp_fill(
         Give each node the proposals' patches centred on it as labels.
     proposal_completed : bool, default False
         Complete the training patches' unknown range from the first proposal.
+    observation : ndarray of shape (H, W), optional
+        **A departure from Fig. 6, step 2**
+        (:mod:`refsynth.synthesis.bp_observation`): a dense range (e.g. the
+        colorization fill), finite at every unknown pixel, that completes the
+        observations ``y_i`` for Eq. 2's ranking of the candidates. None (the
+        default): the observations hold the measured range only, as printed.
+    observation_completed : bool, default False
+        With ``observation``, complete the training patches' range for Eq. 2
+        from it too.
+    compatibility : {"overlap", "overlap-centres"}, default "overlap"
+        Eq. 6's mean square over the overlap's shared measured pixels (the
+        default), or with the two candidates' centre ranges as one more shared
+        pixel (**a departure**, :mod:`refsynth.synthesis.bp_centres`).
 
     Returns
     -------
@@ -348,6 +366,10 @@ def bp_fill(
     H, W = range_values.shape
     n = neighbourhood
     h = n // 2
+    if compatibility not in COMPATIBILITIES:
+        raise ValueError(f"The parameter `compatibility` must be one of {COMPATIBILITIES}, "
+                         f"got {compatibility!r}")
+    centres = compatibility == "overlap-centres"
     known = np.isfinite(range_values)
     unknown = ~known
     # up front: the memory this call needs, against the limit
@@ -383,9 +405,15 @@ def bp_fill(
             progress(step, total)
 
     # step 2: candidates, and step 3: log Phi
+    observed = training = None
+    if observation is not None:  # the departure: the observations' range from a fill
+        observed, training = observed_ranges(rq, low, span, observation,
+                                             completed=observation_completed)
     labels, dist = search_candidates(levels, rq, rows, cols, n=n, k=k, radius=radius,
                                      proximity=proximity, range_weight=range_weight,
-                                     missing_range=missing_range, pad=pad, channels=channels)
+                                     missing_range=missing_range, pad=pad, channels=channels,
+                                     observed=observed, training=training)
+    del observed, training
     del levels
     frame = None
     if proposals is not None:  # the departure: proposals' labels after the k candidates
@@ -433,7 +461,8 @@ def bp_fill(
                 cr, cc = np.divmod(labels[node[s]], W)
                 cp = patches[cr, cc]
                 fp = patches[fr[s], fc[s]][:, None]
-                ms = fixed_neighbour_terms(cp, fp, direction, side, quantised=True)
+                ms = fixed_neighbour_terms(cp, fp, direction, side, quantised=True,
+                                           centres=centres)
                 # each node has one such neighbour per direction and side
                 unary[node[s]] += psi(ms, sigma_s)
     tick()
@@ -441,7 +470,8 @@ def bp_fill(
     pair_h, pair_v = node_of[pairs_all.pop("h")], node_of[pairs_all.pop("v")]
     del node_of, pairs_all
     pairs = np.concatenate([pair_h, pair_v]).reshape(-1, 2).astype(np.int64)
-    compatibilities = Compatibilities(qpad, n, labels, W, pairs, pair_h.shape[0], sigma_s)
+    compatibilities = Compatibilities(qpad, n, labels, W, pairs, pair_h.shape[0], sigma_s,
+                                      centres=centres)
     del pair_h, pair_v
     tick()
     # step 5: messages; the edge-constraint rule silences (and deafens) edge nodes

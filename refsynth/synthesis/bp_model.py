@@ -33,7 +33,12 @@ import numpy as np
 from refsynth.numeric import RANGE_BITS
 
 __all__ = ["phi", "psi", "pair_compatibilities", "fixed_neighbour_terms", "grid_edges",
-           "Compatibilities"]
+           "Compatibilities", "COMPATIBILITIES"]
+
+#: The readings of Eq. 6's mean square: over the overlap alone (the default), or with the
+#: two patches' centres as one more shared pixel (a departure,
+#: :mod:`refsynth.synthesis.bp_centres`).
+COMPATIBILITIES = ("overlap", "overlap-centres")
 
 _PSI_BLOCK = 512  # pairs per block of Eq. 6: about 0.3 MB per temporary, in the cache
 
@@ -91,7 +96,8 @@ def psi(mean_square: np.ndarray, sigma_s: float) -> np.ndarray:
     return -np.asarray(mean_square, dtype=np.float64) / (2.0 * sigma_s * sigma_s)
 
 
-def _overlap_mean_square(a: np.ndarray, b: np.ndarray, quantised: bool = False) -> np.ndarray:
+def _overlap_mean_square(a: np.ndarray, b: np.ndarray, quantised: bool = False,
+                         centres: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Mean squared difference, over the entries both have, of every row pair.
 
     ``a``: (E, K, F), ``b``: (E, L, F), normalised range, NaN = missing (or, with
@@ -99,6 +105,11 @@ def _overlap_mean_square(a: np.ndarray, b: np.ndarray, quantised: bool = False) 
     0 where two rows share no entry. The range is put on the contract's grid,
     ``rint(2**16 x)``: the expanded squares are then integer sums, exact in any
     order, and one scaling and one division make the mean.
+
+    ``centres`` (quantised only; the departure ``"overlap-centres"``,
+    :mod:`refsynth.synthesis.bp_centres`): ``(ca, cb)``, (E, K) and (E, L), the
+    two patches' centre ranges on the grid (−1 = missing); each pair where both
+    are present counts their squared difference as one more shared entry.
     """
     if quantised:
         va, vb = a >= 0, b >= 0
@@ -116,6 +127,11 @@ def _overlap_mean_square(a: np.ndarray, b: np.ndarray, quantised: bool = False) 
     s -= 2.0 * np.matmul(a0, bt)
     s += np.matmul(va, bt * bt)
     count = np.matmul(va, np.swapaxes(vb, 1, 2))
+    if centres is not None:  # integers below 2**33: exact
+        ca, cb = (np.asarray(c, dtype=np.float64) for c in centres)
+        both = (ca[:, :, None] >= 0) & (cb[:, None, :] >= 0)
+        s += np.where(both, (ca[:, :, None] - cb[:, None, :]) ** 2, 0.0)
+        count += both
     s *= 2.0 ** (-2 * RANGE_BITS)
     return np.divide(s, count, out=np.zeros_like(s), where=count > 0)
 
@@ -170,7 +186,7 @@ def pair_compatibilities(
 
 def fixed_neighbour_terms(
     candidate_patches: np.ndarray, fixed_patch: np.ndarray, direction: str, fixed_side: str,
-    *, quantised: bool = False,
+    *, quantised: bool = False, centres: bool = False,
 ) -> np.ndarray:
     """Eq. 6's mean square between each candidate and a measured neighbour's patch.
 
@@ -191,6 +207,11 @@ def fixed_neighbour_terms(
         pixel) or its second node.
     quantised : bool, default False
         As in :func:`pair_compatibilities`.
+    centres : bool, default False
+        **A departure** (``compatibility="overlap-centres"``,
+        :mod:`refsynth.synthesis.bp_centres`; needs ``quantised``): the
+        candidate's centre range and the measured neighbour's own count as one
+        more shared pixel.
 
     Returns
     -------
@@ -205,13 +226,18 @@ def fixed_neighbour_terms(
     [[0.0, 0.0625]]
     """
     e, kk = candidate_patches.shape[:2]
+    pair = None
+    if centres:
+        h = candidate_patches.shape[-1] // 2
+        pair = (candidate_patches[:, :, h, h], fixed_patch[:, :, h, h])
     if fixed_side == "left":
         a = _overlap(fixed_patch, direction, "left").reshape(e, 1, -1)
         b = _overlap(candidate_patches, direction, "right").reshape(e, kk, -1)
-        return _overlap_mean_square(a, b, quantised)[:, 0, :]
+        return _overlap_mean_square(a, b, quantised,
+                                    None if pair is None else pair[::-1])[:, 0, :]
     a = _overlap(candidate_patches, direction, "left").reshape(e, kk, -1)
     b = _overlap(fixed_patch, direction, "right").reshape(e, 1, -1)
-    return _overlap_mean_square(a, b, quantised)[:, :, 0]
+    return _overlap_mean_square(a, b, quantised, pair)[:, :, 0]
 
 
 # -- the grid ------------------------------------------------------------------------------
@@ -282,6 +308,10 @@ class Compatibilities:
         The number of horizontal pairs.
     sigma_s : float
         σ_s of Eq. 6.
+    centres : bool, default False
+        **A departure** (``compatibility="overlap-centres"``,
+        :mod:`refsynth.synthesis.bp_centres`): the two candidates' centre
+        ranges count as one more shared pixel of Eq. 6's mean square.
 
     Examples
     --------
@@ -293,10 +323,10 @@ class Compatibilities:
     ([[[-0.0]]], (1, 1, 1))
     """
 
-    def __init__(self, plane, n, labels, width, pairs, n_h, sigma_s):
+    def __init__(self, plane, n, labels, width, pairs, n_h, sigma_s, centres=False):
         self.plane, self.n = plane, n
         self.labels, self.width, self.pairs = labels, width, pairs
-        self.n_h, self.sigma_s = n_h, sigma_s
+        self.n_h, self.sigma_s, self.centres = n_h, sigma_s, centres
         self.k = labels.shape[1]
         self._views()
 
@@ -341,7 +371,13 @@ class Compatibilities:
                 left, right = self._shared[direction]
                 pj = self._of(self.pairs[block[s], 0], left)
                 pk = self._of(self.pairs[block[s], 1], right)
-                out[s] = psi(_overlap_mean_square(pj, pk, quantised=True), sigma_s)
+                pair = None
+                if self.centres:  # the departure: the centres as one more shared pixel
+                    middle = np.array([(self.n // 2) * (self.plane.shape[1] + 1)])
+                    pair = (self._of(self.pairs[block[s], 0], middle)[:, :, 0],
+                            self._of(self.pairs[block[s], 1], middle)[:, :, 0])
+                out[s] = psi(_overlap_mean_square(pj, pk, quantised=True, centres=pair),
+                             sigma_s)
 
     def all(self) -> np.ndarray:
         """The whole table, (E, k, k)."""

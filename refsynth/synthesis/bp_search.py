@@ -151,6 +151,8 @@ def search_candidates(
     missing_range: str,
     pad: int,
     channels: str = "sum",
+    observed: np.ndarray | None = None,
+    training: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` closest training patches of each node by Eq. 2 (Fig. 6, step 2).
 
@@ -187,6 +189,14 @@ def search_candidates(
     channels : {"sum", "mean"}, default "sum"
         Eq. 2's intensity term over the colour channels: their sum (the
         paper's) or their mean.
+    observed : ndarray of int, shape (H, W), optional
+        **A departure** (:mod:`refsynth.synthesis.bp_observation`): the range
+        of the nodes' observations ``y_i`` on ``rq``'s grid (``NO_RANGE``
+        where none), e.g. ``rq`` completed by a classical fill. None: ``rq``
+        (Fig. 6, bit for bit).
+    training : ndarray of int, shape (H, W), optional
+        **A departure**, likewise: the range of the training patches in Eq. 2.
+        The training set stays the measured pixels of ``rq``.
 
     Returns
     -------
@@ -210,7 +220,8 @@ def search_candidates(
     [(0, 1), (1, 1)]
     """
     H, W = rq.shape
-    features = _Features(levels, rq, n)
+    features = _Features(levels, rq if training is None else training, n)
+    node_features = features if observed is None else _Features(levels, observed, n)
     known = rq != NO_RANGE
     total_known = int(known.sum())
     n_nodes = node_rows.size
@@ -223,7 +234,7 @@ def search_candidates(
     options = dict(k=k, radius=radius, proximity=proximity, range_weight=range_weight,
                    missing_range=missing_range, frame=max(H, W) + 2 * pad,
                    divisor=levels.shape[2] if channels == "mean" else 1,
-                   total_known=total_known)
+                   total_known=total_known, node_features=node_features)
     while todo.size:
         dr, dc = disc_offsets(min(r, longest))
         tile = max(_TILE, int(min(r, longest)))
@@ -291,13 +302,14 @@ def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, opt
 def _distances(features, rows, cols, ur, uc, b_index, u_valid, options):
     """Eq. 2 of every (node, candidate) pair: three exact matrix products per block of ``U``."""
     si_u = features.self_term[ur, uc]
-    bi, bv, brr = features.rows(rows, cols)
+    nodes = options.get("node_features", features)  # the observations' rows
+    bi, bv, brr = nodes.rows(rows, cols)
     w0 = bi * (-2.0 * features.gi)
     w1 = np.concatenate([brr * brr * features.g, brr * (-2.0 * features.g),
                          bv * features.g], axis=1)
     w2 = bv * features.g
     node_self = features.self_term[rows, cols]
-    support = features.support[rows, cols]
+    support = nodes.support[rows, cols]
     out = np.empty(u_valid.size)
     step = max(1, _BLOCK // max(rows.size, w0.shape[1] + 3 * bv.shape[1]))
     for start in range(0, ur.size, step):

@@ -1,0 +1,138 @@
+r"""BP's observations completed by a classical fill (§3.2.3, Fig. 6, step 2): a departure.
+
+Fig. 6, step 1 makes each unknown pixel's observation ``y_i`` "the patch of
+intensity and of whatever range is already known"; step 2 ranks the training
+patches against it by Eq. 2. Deep in a gap wider than the patch (the
+Motorcycle's x-stripes leave 5 to 17 unknown columns between 3 known ones)
+``y_i`` holds no range, so Eq. 2 ranks by intensity alone, Φ (Eq. 7) then
+favours the intensity's best match (BP kept Eq. 2's first candidate at 91 %
+of the nodes at 85 % unknown) and Ψ (Eq. 6), compared on the few measured
+pixels two partial training patches share, rarely overrules it.
+NP (§3.2.2) avoids this by comparing each pixel with the range it has
+already synthesized.
+
+**This module is not the paper.** With ``observation="colorization"``
+(:func:`refsynth.synthesize`, BP only), a classical fill of the measured range
+(Levin et al.'s colorization, :func:`observation_fill`: one sparse solve, no
+random choice, so BP stays deterministic) gives every observation a range:
+Eq. 2 between ``y_i`` and a training patch then has a range term at every
+offset where the training patch has range, and ranks the candidates by how
+well their measured range fits that estimate as well as by intensity. The
+training set, the labels (the training patches' measured range), Φ's
+formula, Ψ and the messages are Fig. 6's. ``"colorization-completed"`` also
+completes the training patches' unknown range from the same fill for the
+ranking (Eq. 2 only: Ψ still compares measured range).
+
+:func:`observed_ranges` puts the fill on the measured range's ``2**-16`` grid
+(:mod:`refsynth.numeric`); everything after it is exact integer arithmetic as
+in Fig. 6's search. The fill itself is a floating-point sparse solve, so its
+last bits (and, rarely, a rounding to the grid) may differ between machines:
+unlike the default BP, this option is reproducible on one machine, not
+portably bit for bit.
+
+Measured (``benchmarks/bench_bp.py`` / ``audit_departures.py``; the figures
+are in the README's "Real data" section).
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.2.2–§3.2.3, Eqs. 2, 6–9, Fig. 6,
+doi:10.1007/s11263-007-0108-2.
+A. Levin, D. Lischinski and Y. Weiss, "Colorization using optimization",
+SIGGRAPH 2004 (the fill).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from refsynth.numeric import NO_RANGE, RANGE_BITS
+
+__all__ = ["OBSERVATIONS", "observation_fill", "observed_ranges"]
+
+#: The observations :func:`refsynth.synthesize` accepts for BP: ``"measured"`` is Fig. 6's
+#: (the default); the others complete them by a classical fill (see above).
+OBSERVATIONS = ("measured", "colorization", "colorization-completed")
+
+
+def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: str) -> np.ndarray:
+    """The dense range that completes the observations, for ``observation``.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W) or (H, W, C)
+        The intensity.
+    range_values : ndarray of shape (H, W)
+        The measured range, NaN where unknown.
+    observation : {"colorization", "colorization-completed"}
+        Both use :func:`refsynth.evaluation.baselines.colorization_fill`.
+
+    Returns
+    -------
+    ndarray of shape (H, W)
+        Finite wherever the range is unknown; the measured range unchanged.
+
+    Examples
+    --------
+    >>> image = np.tile(np.linspace(0, 1, 6), (4, 1))
+    >>> partial = np.full((4, 6), np.nan); partial[:, 0] = 1.0; partial[:, 5] = 3.0
+    >>> fill = observation_fill(image, partial, "colorization")
+    >>> bool(np.all(np.isfinite(fill))), float(fill[0, 0]), float(fill[0, 5])
+    (True, 1.0, 3.0)
+    """
+    if observation not in OBSERVATIONS[1:]:
+        raise ValueError(f"The parameter `observation` must be one of {OBSERVATIONS[1:]} "
+                         f"here, got {observation!r}")
+    from refsynth.evaluation.baselines import colorization_fill  # (baselines import the API)
+
+    return colorization_fill(image, range_values)
+
+
+def observed_ranges(
+    rq: np.ndarray, low: float, span: float, fill: np.ndarray, *, completed: bool = False
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The observations' range (and, ``completed``, the training patches') on the grid.
+
+    Parameters
+    ----------
+    rq : ndarray of int, shape (H, W)
+        The measured range quantised (:func:`refsynth.numeric.quantise_range`),
+        ``NO_RANGE`` where unknown.
+    low, span : float
+        That quantisation's offset and span: the fill goes on the same grid,
+        ``rint(2**16 (D − low) / span)``, clipped below at 0 (so that a value
+        below the measured minimum still reads as range).
+    fill : ndarray of shape (H, W)
+        A dense range, finite wherever ``rq`` is ``NO_RANGE``.
+    completed : bool, default False
+        Also return the same array for the training patches.
+
+    Returns
+    -------
+    observed : ndarray of int64, shape (H, W)
+        ``rq`` where measured, the quantised fill elsewhere.
+    training : ndarray of int64 or None
+        ``observed`` with ``completed``, else None (the measured range).
+
+    Raises
+    ------
+    ValueError
+        If the fill is not finite at an unknown pixel, or its shape is not ``rq``'s.
+
+    Examples
+    --------
+    >>> rq = np.array([[0, -1, 65536]])
+    >>> observed_ranges(rq, 1.0, 2.0, np.array([[9.0, 2.5, 9.0]]))[0].tolist()
+    [[0, 49152, 65536]]
+    >>> observed_ranges(rq, 1.0, 2.0, np.array([[0.0, 0.5, 0.0]]), completed=True)[1].tolist()
+    [[0, 0, 65536]]
+    """
+    rq = np.asarray(rq)
+    fill = np.asarray(fill, dtype=np.float64)
+    if fill.shape != rq.shape:
+        raise ValueError(f"The observation fill must have shape {rq.shape}, got {fill.shape}")
+    unknown = rq == NO_RANGE
+    if not np.all(np.isfinite(fill[unknown])):
+        raise ValueError("The observation fill must be finite at every unknown pixel")
+    quantised = np.rint((np.where(unknown, fill, low) - low) / span * 2.0**RANGE_BITS)
+    observed = np.where(unknown, np.maximum(quantised, 0.0), rq).astype(np.int64)
+    return observed, (observed if completed else None)

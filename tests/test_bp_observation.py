@@ -1,0 +1,268 @@
+"""BP's departures for issue #10: observations completed by a fill, Eq. 6 with the centres.
+
+``observation="colorization"`` (:mod:`refsynth.synthesis.bp_observation`) and
+``compatibility="overlap-centres"`` (:mod:`refsynth.synthesis.bp_centres`): hand-built
+cases, a brute-force Eq. 6 under hypothesis, and the front door's checks. The
+default path is covered bit for bit by ``tests/test_golden_hashes.py``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import refsynth
+from refsynth.numeric import quantise_intensity, quantise_range
+from refsynth.synthesis.bp import bp_fill
+from refsynth.synthesis.bp_model import (
+    Compatibilities,
+    _overlap_mean_square,
+    fixed_neighbour_terms,
+    pair_compatibilities,
+    psi,
+)
+from refsynth.synthesis.bp_observation import observation_fill, observed_ranges
+from refsynth.synthesis.bp_search import search_candidates
+
+U = 2.0**-32  # one squared step of the 2**-16 grid
+
+
+# -- observed_ranges ------------------------------------------------------------------------
+
+
+def test_observed_ranges_quantises_the_fill_and_keeps_the_measured():
+    rq = np.array([[0, -1, 65536, -1]])
+    observed, training = observed_ranges(rq, 1.0, 2.0, np.array([[7.0, 2.0, 7.0, 0.5]]))
+    # 2.0 is half the span above low = 1.0; 0.5 is below low: clipped to 0
+    assert observed.tolist() == [[0, 32768, 65536, 0]]
+    assert observed.dtype == np.int64 and training is None
+    observed, training = observed_ranges(rq, 1.0, 2.0, np.array([[7.0, 1.5, 7.0, 3.0]]),
+                                         completed=True)
+    assert observed.tolist() == [[0, 16384, 65536, 65536]]
+    assert training is observed
+
+
+def test_observed_ranges_refuses_a_fill_with_holes_or_the_wrong_shape():
+    rq = np.array([[0, -1]])
+    with pytest.raises(ValueError, match="finite at every unknown"):
+        observed_ranges(rq, 0.0, 1.0, np.array([[0.0, np.nan]]))
+    observed_ranges(rq, 0.0, 1.0, np.array([[np.nan, 0.5]]))  # a measured pixel may be NaN
+    with pytest.raises(ValueError, match="shape"):
+        observed_ranges(rq, 0.0, 1.0, np.zeros((2, 2)))
+
+
+def test_observation_fill_is_the_colorization_fill():
+    from refsynth.evaluation.baselines import colorization_fill
+
+    rng = np.random.default_rng(1)
+    image = rng.random((9, 11, 3))
+    partial = np.where(np.arange(11) % 4 == 0, rng.random((9, 11)) + 1.0, np.nan)
+    fill = observation_fill(image, partial, "colorization")
+    np.testing.assert_array_equal(fill, colorization_fill(image, partial))
+    np.testing.assert_array_equal(fill, observation_fill(image, partial,
+                                                         "colorization-completed"))
+    with pytest.raises(ValueError, match="observation"):
+        observation_fill(image, partial, "measured")
+
+
+# -- Eq. 6 with the centres ------------------------------------------------------------------
+
+
+def test_centres_count_as_one_more_shared_pixel():
+    # one shared pixel differing by 3 steps, centres differing by 4: (9 + 16) / 2
+    a = np.array([[[10.0, -1.0]]])
+    b = np.array([[[13.0, 5.0]]])
+    plain = _overlap_mean_square(a, b, quantised=True)
+    assert plain[0, 0, 0] == 9 * U
+    both = _overlap_mean_square(a, b, quantised=True,
+                                centres=(np.array([[100.0]]), np.array([[104.0]])))
+    assert both[0, 0, 0] == (9 + 16) * U / 2
+
+
+def test_centres_alone_where_the_overlap_is_empty_and_nothing_where_one_is_missing():
+    a = np.array([[[-1.0, 7.0]]])
+    b = np.array([[[3.0, -1.0]]])
+    assert _overlap_mean_square(a, b, quantised=True)[0, 0, 0] == 0.0  # Ψ = 1
+    out = _overlap_mean_square(a, b, quantised=True,
+                               centres=(np.array([[50.0]]), np.array([[45.0]])))
+    assert out[0, 0, 0] == 25 * U
+    out = _overlap_mean_square(a, b, quantised=True,
+                               centres=(np.array([[-1.0]]), np.array([[45.0]])))
+    assert out[0, 0, 0] == 0.0
+
+
+@settings(deadline=None, max_examples=60)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 3), st.integers(1, 3), st.integers(1, 6))
+def test_centres_mean_square_matches_brute_force(seed, k, m, f):
+    rng = np.random.default_rng(seed)
+    a = np.where(rng.random((2, k, f)) < 0.4, -1.0, rng.integers(0, 2**16, (2, k, f)))
+    b = np.where(rng.random((2, m, f)) < 0.4, -1.0, rng.integers(0, 2**16, (2, m, f)))
+    ca = np.where(rng.random((2, k)) < 0.2, -1.0, rng.integers(0, 2**16, (2, k)))
+    cb = np.where(rng.random((2, m)) < 0.2, -1.0, rng.integers(0, 2**16, (2, m)))
+    out = _overlap_mean_square(a, b, quantised=True, centres=(ca, cb))
+    for e in range(2):
+        for i in range(k):
+            for j in range(m):
+                terms = [(a[e, i, v] - b[e, j, v]) ** 2 for v in range(f)
+                         if a[e, i, v] >= 0 and b[e, j, v] >= 0]
+                if ca[e, i] >= 0 and cb[e, j] >= 0:
+                    terms.append((ca[e, i] - cb[e, j]) ** 2)
+                want = sum(terms) * U / len(terms) if terms else 0.0
+                assert out[e, i, j] == pytest.approx(want, rel=1e-12, abs=0.0)
+
+
+def _patch(centre, fill=-1.0, n=3):
+    p = np.full((n, n), fill)
+    p[n // 2, n // 2] = centre
+    return p
+
+
+def test_fixed_neighbour_terms_with_centres_compare_the_centres():
+    # a horizontal pair, the fixed node on the left: the patches' overlaps share nothing
+    # measured (only the centres are measured), so only the centres speak
+    cand = np.stack([_patch(100.0), _patch(110.0)])[None]  # (1, 2, 3, 3)
+    fixed = _patch(104.0)[None, None]
+    plain = fixed_neighbour_terms(cand, fixed, "h", "left", quantised=True)
+    assert plain.tolist() == [[0.0, 0.0]]
+    out = fixed_neighbour_terms(cand, fixed, "h", "left", quantised=True, centres=True)
+    assert out.tolist() == [[16 * U, 36 * U]]
+    out = fixed_neighbour_terms(cand, fixed, "v", "right", quantised=True, centres=True)
+    assert out.tolist() == [[16 * U, 36 * U]]
+
+
+def test_compatibilities_with_centres_match_pair_compatibilities():
+    # two horizontal neighbours (0, 1), (0, 2) of a 3×6 image; candidates at measured pixels
+    rng = np.random.default_rng(3)
+    values = rng.integers(0, 2**16, (3, 6)).astype(np.float64)
+    values[:, [1, 2]] = -1.0  # the two nodes' columns unknown
+    values[1, 4] = -1.0
+    plane = np.pad(values, 1, constant_values=-1.0)
+    labels = np.array([[0, 3, 9], [5, 15, 11]])
+    pairs = np.array([[0, 1]])
+    psi_of = Compatibilities(plane, 3, labels, 6, pairs, 1, 0.2, centres=True)
+    plain_of = Compatibilities(plane, 3, labels, 6, pairs, 1, 0.2)
+    patches = np.lib.stride_tricks.sliding_window_view(plane, (3, 3))
+    pj = patches[labels[0] // 6, labels[0] % 6][None]
+    pk = patches[labels[1] // 6, labels[1] % 6][None]
+    centres = (pj[:, :, 1, 1], pk[:, :, 1, 1])
+    a = pj[..., :, 1:].reshape(1, 3, -1)
+    b = pk[..., :, :-1].reshape(1, 3, -1)
+    want = psi(_overlap_mean_square(a, b, True, centres), 0.2)
+    np.testing.assert_array_equal(psi_of(np.array([0])), want)
+    np.testing.assert_array_equal(
+        plain_of(np.array([0])), psi(pair_compatibilities(pj, pk, "h", quantised=True), 0.2))
+    assert not np.array_equal(psi_of.all(), plain_of.all())
+
+
+# -- the observations in the search and in bp_fill -----------------------------------------
+
+
+def _two_plateaus():
+    """A flat image; column 0 measured at 1, column 8 at 5: intensity cannot choose."""
+    image = np.full((5, 9, 1), 0.5)
+    image[0, 8, 0] = 0.0  # a span for the quantisation (ties: column 0 first)
+    partial = np.full((5, 9), np.nan)
+    partial[:, 0] = 1.0
+    partial[:, 8] = 5.0
+    return image, partial
+
+
+def test_the_observed_range_picks_the_candidate_whose_range_fits():
+    image, partial = _two_plateaus()
+    rq, low, span = quantise_range(partial)
+    levels = quantise_intensity(image)
+    rows, cols = np.array([2]), np.array([3])  # nearer column 0 in raster order
+    opts = dict(n=3, k=1, radius=10.0, proximity=0.0, range_weight=1.0,
+                missing_range="mean", pad=10)
+    labels, _ = search_candidates(levels, rq, rows, cols, **opts)
+    assert partial.ravel()[labels[0, 0]] == 1.0
+    fill = np.where(np.isfinite(partial), partial, 5.0)
+    observed, _ = observed_ranges(rq, low, span, fill)
+    labels, dist = search_candidates(levels, rq, rows, cols, observed=observed, **opts)
+    assert partial.ravel()[labels[0, 0]] == 5.0
+    # the measured range as the observation changes nothing, bit for bit
+    same = search_candidates(levels, rq, rows, cols, observed=rq, training=rq, **opts)
+    plain = search_candidates(levels, rq, rows, cols, **opts)
+    assert all(np.array_equal(x, y) for x, y in zip(same, plain, strict=True))
+
+
+def test_bp_fill_follows_the_observation():
+    image, partial = _two_plateaus()
+    edges = np.zeros(partial.shape, bool)
+    plain = bp_fill(image, partial, edges, neighbourhood=3, radius=10.0, k=2)
+    fill = np.where(np.isfinite(partial), partial, 5.0)
+    moved = bp_fill(image, partial, edges, neighbourhood=3, radius=10.0, k=2,
+                    observation=fill)
+    unknown = np.isnan(partial)
+    assert np.all(moved.range[unknown] == 5.0)
+    assert np.any(plain.range[unknown] != 5.0)
+    again = bp_fill(image, partial, edges, neighbourhood=3, radius=10.0, k=2,
+                    observation=np.where(np.isfinite(partial), partial, 1.0))
+    assert np.all(again.range[unknown] == 1.0)
+
+
+def test_bp_fill_defaults_are_the_paper_bit_for_bit():
+    rng = np.random.default_rng(5)
+    image = rng.random((10, 12, 3))
+    partial = np.where(np.arange(12) % 4 == 0, rng.random((10, 12)) + 1.0, np.nan)
+    edges = np.zeros(partial.shape, bool)
+    plain = bp_fill(image, partial, edges, radius=4.0)
+    named = bp_fill(image, partial, edges, radius=4.0, observation=None,
+                    compatibility="overlap")
+    np.testing.assert_array_equal(plain.range, named.range)
+    np.testing.assert_array_equal(plain.beliefs, named.beliefs)
+    centred = bp_fill(image, partial, edges, radius=4.0, compatibility="overlap-centres")
+    assert not np.array_equal(plain.beliefs, centred.beliefs)
+    np.testing.assert_array_equal(plain.labels.shape, centred.labels.shape)
+    with pytest.raises(ValueError, match="`compatibility`"):
+        bp_fill(image, partial, edges, radius=4.0, compatibility="centres")
+
+
+# -- the front door --------------------------------------------------------------------------
+
+
+def _small():
+    image = np.tile(np.linspace(0, 1, 12), (10, 1))
+    partial = np.where(np.arange(12) % 3 == 0, 2.0 + np.arange(12) / 12, np.nan) + np.zeros(
+        (10, 1))
+    return image, partial
+
+
+def test_synthesize_checks_the_options_by_name():
+    image, partial = _small()
+    with pytest.raises(ValueError, match="`observation`"):
+        refsynth.synthesize(image, partial, method="bp", observation="nearest")
+    with pytest.raises(ValueError, match="`compatibility`"):
+        refsynth.synthesize(image, partial, method="bp", compatibility="centres")
+    with pytest.raises(ValueError, match="`observation` applies to method='bp' only"):
+        refsynth.synthesize(image, partial, method="np", observation="colorization")
+    with pytest.raises(ValueError, match="`compatibility` applies to method='bp' only"):
+        refsynth.synthesize(image, partial, method="np", compatibility="overlap-centres")
+    # the defaults are accepted by NP and leave no trace
+    out = refsynth.synthesize(image, partial, method="np", observation="measured",
+                              compatibility="overlap")
+    assert "observation" not in out.params and "compatibility" not in out.params
+
+
+def test_synthesize_passes_the_options_to_bp():
+    image, partial = _small()
+    plain = refsynth.synthesize(image, partial, method="bp", radius=3.0)
+    named = refsynth.synthesize(image, partial, method="bp", radius=3.0,
+                                observation="measured", compatibility="overlap")
+    np.testing.assert_array_equal(plain.range, named.range)
+    np.testing.assert_array_equal(plain.bp.beliefs, named.bp.beliefs)
+    assert "observation" not in plain.params
+    assert named.params["observation"] == "measured"
+    fill = observation_fill(image, partial, "colorization")
+    for name, completed in (("colorization", False), ("colorization-completed", True)):
+        out = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation=name,
+                                  compatibility="overlap-centres")
+        edges = out.edges
+        want = bp_fill(image[:, :, None], partial, edges, radius=3.0, observation=fill,
+                       observation_completed=completed, compatibility="overlap-centres")
+        np.testing.assert_array_equal(out.range, want.range)
+        np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
+        assert out.params["observation"] == name
+        assert out.params["compatibility"] == "overlap-centres"
