@@ -1,6 +1,7 @@
 """NP's narrow Eq. 2 table (issue #15): the same distances as PatchTable, bit for bit."""
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -45,3 +46,54 @@ def test_fill_table_matches_patch_table_through_fills(h, w, channels, n, missing
             value = float(rng.choice([0, 3, 2**16 - 3, 2**16])) * 2.0**-16
             fast.set_range((r + pad) * wp + c + pad, value)
             wide.set_range((r + pad) * wp + c + pad, value)
+
+
+@given(
+    st.integers(1, 7),
+    st.integers(1, 7),
+    st.sampled_from([1, 3]),
+    st.sampled_from([1, 3, 5]),
+    st.integers(0, 2),
+    st.integers(0, 2**32 - 1),
+)
+def test_set_range_writes_the_rows_a_fresh_table_holds(h, w, channels, n, extra_pad, seed):
+    """set_range's strided view: after synthesizing some pixels (border pixels included,
+    whose windows reach into the padding), every row of the image equals, bit for bit, that
+    of a table built afresh with those pixels' range known (every column: R, V, R² high and
+    low parts, and nothing else touched). The padding's rows are never read (they are
+    neither targets nor candidates) and a fresh table leaves them blank."""
+    rng = np.random.default_rng(seed)
+    image = rng.integers(0, 2**16 + 1, (h, w, channels)) * 2.0**-16
+    known = rng.random((h, w)) < 0.4
+    values = rng.choice([0, 1, 3, 2**15 + 1, 2**16 - 1, 2**16], (h, w)) * 2.0**-16
+    pad = n // 2 + extra_pad
+    fast = FillTable(image, np.where(known, values, np.nan), n, pad, 1.0)
+    now = known.copy()
+    wp = w + 2 * pad
+    inside = ((np.arange(h)[:, None] + pad) * wp + np.arange(w)[None, :] + pad).ravel()
+    for flat in rng.permutation(np.flatnonzero(~known.ravel())):
+        r, c = divmod(int(flat), w)
+        fast.set_range((r + pad) * wp + c + pad, float(values[r, c]))
+        now[r, c] = True
+        fresh = FillTable(image, np.where(now, values, np.nan), n, pad, 1.0)
+        assert np.array_equal(fast.table[inside], fresh.table[inside])
+
+
+@pytest.mark.parametrize("product", ["matvec", "matmul"])
+def test_distances_are_the_same_with_either_matrix_vector_product(product, monkeypatch):
+    """numpy >= 2.2's ``matvec`` and the ``@`` older numpy falls back to give the same bits
+    (the sums are exact), on the largest sums the contract allows (every level 2**16 against
+    0, full range against none)."""
+    from refsynth.synthesis import filltable
+
+    if product == "matvec" and not hasattr(np, "matvec"):
+        pytest.skip("numpy < 2.2 has no matvec")
+    monkeypatch.setattr(filltable, "_matvec", getattr(np, product))
+    rng = np.random.default_rng(1)
+    image = np.where(rng.random((9, 9, 3)) < 0.5, 1.0, 0.0)
+    range_norm = np.where(rng.random((9, 9)) < 0.6, rng.choice([0.0, 1.0], (9, 9)), np.nan)
+    fast = FillTable(image, range_norm, 5, 3, 1.0)
+    wide = PatchTable(image, range_norm, 5, 3, 1.0)
+    inside = ((np.arange(9)[:, None] + 3) * 15 + np.arange(9)[None, :] + 3).ravel()
+    for p in inside:
+        assert np.array_equal(fast.distances(int(p), inside), wide.distances(int(p), inside))

@@ -4,14 +4,14 @@ NP (:mod:`refsynth.synthesis.nonparametric`) evaluates Eq. 2 between the
 voxel ``p`` it fills and every candidate ``q`` of ``A_p`` (Eq. 3), one voxel
 at a time. :class:`FillTable` holds, per voxel of the padded frame, the row
 
-.. math:: [\, I_{v,c} \mid s_q \mid R_v \mid V_v \mid R_v^2 \,]_{v \in N_q}
+.. math:: [\, I_{v,c} \mid s_q \mid 1 \mid R_v \mid V_v \mid R_v^2 \,]_{v \in N_q}
 
-(intensity; the self term ``s_q = Σ_v G_v Σ_c I²``; range, stored as 0 where
-unknown; has-range indicator; squared range) in float32. The integers of the
+(intensity; the self term ``s_q = Σ_v G_v Σ_c I²``; the constant 1; range, stored as 0
+where unknown; has-range indicator; squared range) in float32. The integers of the
 numeric contract (:mod:`refsynth.numeric`) up to ``2**16`` are exact in
 float32; ``s_q`` (below ``2**52``) is stored as three float32 parts and
 ``R²`` (up to ``2**32``) as two, each part exact and their sum exactly the
-integer. A row is 712 bytes for a colour 5×5 window, against 1200 for
+integer. A row is 716 bytes for a colour 5×5 window, against 1200 for
 :class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]``
 (BP's table): the table of a 900×750 image takes about 500 MB instead of 850,
 and each step gathers 40 % fewer bytes.
@@ -26,10 +26,10 @@ The gathered rows are widened to float64 and the four sums of Eq. 2
     w_s = \sum_v G_v V_p V_q, \qquad w_a = \sum_v G_v V_p
 
 come from three matrix–vector products with weights built from ``p``'s row
-(``s_i`` over ``[I | s_q]``, ``s_r`` over ``[R | V | R²]``, ``w_s`` over
-``V``; ``w_a`` is the sum of ``w_s``'s weights). The weights carry the sums'
-units, :data:`~refsynth.numeric.EQ2_UNIT` for ``s_i`` and ``s_r`` and
-:data:`~refsynth.numeric.WEIGHT_UNIT` for ``w_s`` and ``w_a`` (powers of two,
+(``s_i`` over ``[I | s_q | 1]``, the constant 1 weighted by ``s_p``; ``s_r`` over
+``[R | V | R²]``; ``w_s`` over ``V``; ``w_a`` is the sum of ``w_s``'s weights). The
+weights carry the sums' units, :data:`~refsynth.numeric.EQ2_UNIT` for ``s_i`` and ``s_r``
+and :data:`~refsynth.numeric.WEIGHT_UNIT` for ``w_s`` and ``w_a`` (powers of two,
 so scaling is exact). Every product and partial sum is an integer below
 ``2**53`` times its unit, so each sum is exact whatever the order (BLAS,
 threads, SIMD): the same integers as ``PatchTable.distances`` and the literal
@@ -37,6 +37,12 @@ reference, times the units ``combine_eq2`` multiplies them by first, then
 combined by the rest of the IEEE operations of
 :func:`refsynth.numeric.combine_eq2`, give the same distances bit for bit
 (``tests/test_np_speed_table.py``).
+
+Per step the cost is a few numpy calls: the products use ``numpy.matvec`` where numpy has it
+(2.2 and later), whose loop stays in this thread (``@`` hands products this size to
+OpenBLAS's threads, whose hand-offs cost more than the products on a shared machine), and a
+synthesized range is written into the 25 rows that hold it through one strided view
+(:meth:`FillTable.set_range`).
 
 References
 ----------
@@ -46,7 +52,7 @@ Torres-Méndez & Dudek (2008), §3.2.2, Eq. 2, doi:10.1007/s11263-007-0108-2.
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
+from numpy.lib.stride_tricks import as_strided, sliding_window_view
 
 from refsynth.numeric import (
     EQ2_UNIT,
@@ -56,9 +62,14 @@ from refsynth.numeric import (
     WEIGHT_UNIT,
     window_weights,
 )
-from refsynth.synthesis.neighbourhood import intensity_patches, window_offsets
+from refsynth.synthesis.neighbourhood import intensity_patches
 
 __all__ = ["FillTable"]
+
+#: Matrix times vector: numpy's own loop where it has one (numpy >= 2.2), which unlike ``@``
+#: never hands these small products to BLAS threads; the sums are exact, so either gives
+#: the same bits.
+_matvec = getattr(np, "matvec", np.matmul)
 
 #: Rows of the frame built at a time (bounds the float64 temporaries).
 _CHUNK_ROWS = 64
@@ -115,13 +126,15 @@ class FillTable:
         nn = n * n
         base = nn * C
         self.nn, self.base = nn, base
-        # column blocks: I, the self term in three parts, R, V, R² high and low parts
-        s0 = base
-        r0 = s0 + 3
+        # column blocks: I, the self term in three parts, the constant 1, R, V, R² high and
+        # low parts
+        s0, one = base, base + 3
+        r0 = one + 1
         v0, h0, l0 = r0 + nn, r0 + 2 * nn, r0 + 3 * nn
         width = l0 + nn
-        self.r0, self.v0, self.h0, self.l0, self.width = r0, v0, h0, l0, width
+        self.one, self.r0, self.v0, self.h0, self.l0, self.width = one, r0, v0, h0, l0, width
         table = np.zeros((self.shape[0] * self.shape[1], width), dtype=np.float32)
+        table[:, one] = 1.0
         frame = table.reshape(self.shape + (width,))
         self.self_term = np.zeros(self.shape[0] * self.shape[1])  # Σ G Σ_c I², exact
         self_frame = self.self_term.reshape(self.shape)
@@ -140,7 +153,7 @@ class FillTable:
             out[:, :, :base] = ints
             s = (ints**2) @ g_int
             self_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = s
-            out[:, :, s0:r0] = _split(s, 3)
+            out[:, :, s0:one] = _split(s, 3)
             r = rp[rows].reshape(-1, W, nn)
             has = np.isfinite(r)
             r = np.where(has, r, 0.0)
@@ -148,28 +161,47 @@ class FillTable:
             out[:, :, v0:h0] = has
             out[:, :, h0:] = np.concatenate(np.moveaxis(_split(r * r, 2), -1, 0), axis=-1)
         self.table = table
-        # p's weights w = row_p[perm] * coef (then the V block times R_p again), over
-        # the columns [I | S | R | V | R²_hi | R²_lo], then Eq. 2's support weights
-        # G V_p; the units of the sums (powers of two) are folded into coef, which
-        # keeps every product and partial sum exact. perm's index `width` reads the
-        # 1 kept after p's row (the weight of the candidate's self term).
-        perm = np.concatenate([np.arange(base), np.full(3, width), np.arange(r0, v0),
-                               np.arange(r0, v0), np.arange(v0, h0), np.arange(v0, h0),
-                               np.arange(v0, h0)])
-        self.perm = perm
-        self.coef = np.concatenate([-2.0 * g_int, np.ones(3), -2.0 * g, g, g, g]) * EQ2_UNIT
+        # s_p u, the weight of the candidates' constant 1 (a power-of-two scaling: exact)
+        self.self_unit = self.self_term * EQ2_UNIT
+        # p's weights, over the columns [I | S | 1 | R | V | R²_hi | R²_lo] and then Eq. 2's
+        # support weights G V_p: w = (row_p[perm] · row_p[square]) · coef, every factor and
+        # product an exact integer times a power of two (the units of the sums, folded into
+        # coef), so every product and partial sum of the mat-vec products stays exact.
+        # `square` reads R_p for the V block (the weight G R_p² u) and the 1 elsewhere; the
+        # weight of the constant 1 is s_p u, written per step.
+        ones = np.full(nn, one)
+        self.perm = np.concatenate([np.arange(base), np.full(4, one), np.arange(r0, v0),
+                                    np.arange(r0, v0), np.arange(v0, h0), np.arange(v0, h0),
+                                    np.arange(v0, h0)])
+        self.square = np.concatenate([np.full(base + 4, one), ones, np.arange(r0, v0), ones,
+                                      ones, ones])
+        self.coef = np.concatenate([-2.0 * g_int, np.ones(4), -2.0 * g, g, g, g]) * EQ2_UNIT
         self.coef = np.concatenate([self.coef, g * WEIGHT_UNIT])
-        self.row = np.ones(width + 1)  # p's row in float64, then the constant 1
         self.weights = np.zeros(width + nn)
+        self.product = np.zeros(width + nn)
+        # views of the weights, made once: intensity and self terms, range, support
+        self.w_si, self.w_sr = self.weights[:r0], self.weights[r0:width]
+        self.g_v = self.weights[width:]  # G V_p w_unit
+        self.ones = np.ones(nn)
         self.channels = C
         self.lam = float(range_weight)
         self.missing_range = missing_range
-        dr, dc = window_offsets(n)
-        offsets = dr * self.shape[1] + dc
-        # p's range sits in the rows p - offset, at that offset's R, V, R² columns
-        self.update_flat = np.tile(-offsets * width, 4) + r0 + np.arange(4 * nn)
-        self.update_values = np.ones(4 * nn, dtype=np.float32)
-        self.flat = table.reshape(-1)
+        # set_range writes p's range into the rows p - o (o an offset of the window, k its
+        # raster index) at the columns R, V, R²_hi, R²_lo + k: with o = (a - h) Wp + (b - h)
+        # for k = a n + b, one strided view per p, shape (4, n, n), whose element (blk, a, b)
+        # is table[p - o, r0 + blk nn + k]: its flat index is p width + h (Wp + 1) width + r0
+        # + blk nn + a (n - Wp width) + b (1 - width). self._p0 = h (Wp + 1) is the smallest
+        # p whose window rows all lie in the frame (every pixel of the image, pad > h).
+        wp = self.shape[1]
+        self._p0 = p0 = h * (wp + 1)
+        self.flat = flat = table.reshape(-1)
+        item = flat.itemsize
+        strides = (width * item, nn * item, (n - wp * width) * item, (1 - width) * item)
+        start = (p0 + h * (wp + 1)) * width + r0  # the element (p0, 0, 0, 0)
+        self._windows = as_strided(flat[start:], shape=(flat.size // width - 2 * p0, 4, n, n),
+                                   strides=strides)
+        self._values = np.ones(4, dtype=np.float32)  # [R, V, R²_hi, R²_lo], broadcast
+        self._value_block = self._values[:, None, None]
 
     def distances(self, p: int, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2 between ``N_p`` and each candidate, as ``PatchTable.distances``.
@@ -198,22 +230,28 @@ class FillTable:
         >>> bool(np.array_equal(fast.distances(33, q), wide.distances(33, q)))
         True
         """
-        r0, v0, h0, width = self.r0, self.v0, self.h0, self.width
-        row = self.row
-        np.copyto(row[:width], self.table[p])
-        w = np.multiply(row.take(self.perm), self.coef, out=self.weights)
-        w[v0:h0] *= row[r0:v0]  # G R_p R_p u, exact
+        row = self.table[p]
+        w = np.multiply(row.take(self.perm), row.take(self.square), out=self.product,
+                        dtype=np.float64)  # I_p, 1, R_p, R_p², V_p: exact
+        np.multiply(w, self.coef, out=self.weights)
+        self.weights[self.one] = self.self_unit[p]  # s_p u, exact
         rows = self.table.take(candidates, axis=0).astype(np.float64)
         # exact: every product and partial sum is an integer below 2**53 times the
-        # power of two its weights carry, so these are the integer sums times their units
-        si = rows[:, :r0] @ w[:r0]  # (s_q - 2 Σ G Σ_c I_p I_q) u
-        si += self.self_term[p] * EQ2_UNIT
-        sr = rows[:, r0:] @ w[r0:width]  # s_r u
+        # power of two its weights carry, so these are the integer sums times their units.
+        # s_i's terms: the positive ones (s_q's parts and s_p) add up to at most
+        # s_p + s_q <= 2 C ΣG 2**32, the negative ones (-2 G I_p I_q) to at least
+        # -2 sqrt(s_p s_q) >= -2 C ΣG 2**32 (Cauchy–Schwarz), so every partial sum, in any
+        # order, lies within ±2 C ΣG 2**32 < 1.6 2**52 (C <= 3, ΣG <= 262151 < 1.01 2**18),
+        # the bound the expanded square had before s_p joined the product
+        r0, width = self.r0, self.width
+        si = _matvec(rows[:, :r0], self.w_si)  # (s_p + s_q - 2 Σ G Σ_c I_p I_q) u
+        sr = _matvec(rows[:, r0:width], self.w_sr)  # s_r u
         if self.missing_range != "mean":
             return _combine(si, sr, None, None, self.divisor, self.lam, self.missing_range)
-        g_v = w[width:]  # G V_p w_unit
-        ws = rows[:, v0:h0] @ g_v  # w_s w_unit
-        return _combine(si, sr, ws, g_v.sum(), self.divisor, self.lam, self.missing_range)
+        g_v = self.g_v  # G V_p w_unit
+        ws = _matvec(rows[:, self.v0 : self.h0], g_v)  # w_s w_unit
+        wa = np.vdot(g_v, self.ones)  # w_a w_unit, exact
+        return _combine(si, sr, ws, wa, self.divisor, self.lam, self.missing_range)
 
     def set_range(self, p: int, value: float) -> None:
         """Record normalised range ``value`` (a multiple of ``2**-16``) at padded index ``p``.
@@ -233,14 +271,12 @@ class FillTable:
         >>> float(table.table[12, table.r0 + 4]) == 2.0**15   # the centre's R column
         True
         """
-        values = self.update_values
-        nn = self.nn
+        values = self._values
         q = float(round(value * 2.0**RANGE_BITS))  # np.rint's value: both round half to even
-        values[:nn] = q
-        hi = float(np.float32(q * q))  # R² as in the table: float32 high and low parts
-        values[2 * nn : 3 * nn] = hi
-        values[3 * nn :] = q * q - hi
-        self.flat[self.update_flat + p * self.width] = values
+        values[0] = q
+        values[2] = q * q  # R² as in the table: float32 high part (rounded to nearest) ...
+        values[3] = q * q - float(values[2])  # ... and the exact low part
+        self._windows[p - self._p0] = self._value_block
 
 
 def _split(x: np.ndarray, parts: int) -> np.ndarray:
