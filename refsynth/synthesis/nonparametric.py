@@ -255,7 +255,7 @@ def np_fill(
     for step in range(total):
         p = int(schedule[step]) if not update else pop()
         candidates = p + disc
-        candidates = candidates[filled[candidates]]
+        candidates = candidates.compress(filled[candidates])
         if candidates.size == 0:
             candidates = _widened_candidates(p, filled, Wp, radius)
         d = distances(p, candidates)

@@ -507,6 +507,14 @@ class FillFront:
         side = 2 * k + 1
         self.scratch = [np.empty((_FIELDS, side, side)), np.empty((7, side, side)), np.ones(
             (7, side, side)), np.empty((4, side, side)), np.empty((2, side, side))]  # field-major
+        # the views _block_priority reads and writes, made once (a view costs about a µs)
+        fields, quotient, divisors, products, pair = self.scratch
+        self._views = (fields, fields[_COUNT : _VCOL + 1], divisors[:3],
+                       fields[_CONF : _NMROW + 1], divisors, quotient, quotient[1:5],
+                       quotient[3:7], products, products[0::2], products[1::2], pair, pair[0],
+                       pair[1], quotient[0], fields[_EDGE], pair[0].view(np.int64))
+        self.change = np.empty(self.templates.shape[1])  # a fill's change to the block
+        self.change_block = self.change.reshape(side, side, _FIELDS)
         tiered = use_edges and edges_last
         self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
         self.tie = rng.permutation(self.inside.size).reshape(self.shape)
@@ -515,8 +523,14 @@ class FillFront:
         self.tier_offset = np.where(self.tier != 0, ABSENT, 0).astype(np.int64)
         self.queue = FrontQueue(self.tie.ravel())
         self.tie_block = self.tie >> self.queue.shift
+        # flat views, and the flat offsets of the block a fill changes (raster order)
+        self.tie_flat, self.tie_block_flat = self.tie.ravel(), self.tie_block.ravel()
+        self.tier_offset_flat = self.tier_offset.ravel()
+        self.block_offsets = (np.arange(-k, k + 1)[:, None] * self.shape[1]
+                              + np.arange(-k, k + 1)[None, :]).ravel()
 
         self.front = front = self.open & (state[..., _NEIGH] > 0)
+        self.front_flat = front.ravel()
         flat = np.flatnonzero(front)
         p = self._priority(state).ravel()[flat]
         self.queue.set(flat, p.view(np.int64) + self.tier_offset.ravel()[flat])
@@ -587,17 +601,22 @@ class FillFront:
         k = self.reach
         rows, cols = slice(i - k, i + k + 1), slice(j - k, j + k + 1)
         block = self.state[rows, cols]
-        block += (np.array(coef) @ self.templates).reshape(block.shape)
+        np.dot(np.array(coef), self.templates, out=self.change)
+        block += self.change_block
         # every 8-neighbour now has a filled neighbour: the open ones are on the front
         self.front[i - 1 : i + 2, j - 1 : j + 2] = self.open[i - 1 : i + 2, j - 1 : j + 2]
         if update:
-            self._reprioritise(block, rows, cols)
+            self._reprioritise(block, p)
 
-    def _reprioritise(self, block: np.ndarray, rows: slice, cols: slice) -> None:
-        # every voxel of the block gets its key afresh: Eq. 10 on the front, absent elsewhere
-        keys = self._block_priority(block).view(np.int64) + self.tier_offset[rows, cols]
-        self.queue.set_in_blocks(self.tie[rows, cols], self.tie_block[rows, cols],
-                                 np.where(self.front[rows, cols], keys, ABSENT))
+    def _reprioritise(self, block: np.ndarray, p: int) -> None:
+        # every voxel of the block gets its key afresh: Eq. 10 on the front, absent elsewhere;
+        # the block's pixels by flat index (raster order, as the block), so that the queue
+        # scatters through contiguous indices
+        pixels = self.block_offsets + p
+        keys = self._block_priority(block).view(np.int64).ravel()
+        keys += self.tier_offset_flat.take(pixels)
+        self.queue.set_in_blocks(self.tie_flat.take(pixels), self.tie_block_flat.take(pixels),
+                                 np.where(self.front_flat.take(pixels), keys, ABSENT))
 
     def _block_priority(self, block: np.ndarray) -> np.ndarray:
         """:meth:`_priority` on the block a fill changed: the same operations, in buffers.
@@ -606,19 +625,19 @@ class FillFront:
         """
         if not self.use_isophotes:
             return self._priority(block)
-        fields, quotient, divisors, products, pair = self.scratch
+        (fields, counts, count_divisors, numerators, divisors, quotient, gradient, normal,
+         products, left, right, pair, flow, norm, c, edge, _) = self._views
         np.copyto(fields, block.transpose(2, 0, 1))
         # [C, Δ_row, Δ_col, m] / [|N_p|, pairs_row, pairs_col, 1, ...]: c, the gradient, m
-        np.maximum(fields[_COUNT : _VCOL + 1], 1.0, out=divisors[:3])
-        np.divide(fields[_CONF : _NMROW + 1], divisors, out=quotient)
-        np.multiply(quotient[1:5], quotient[3:7], out=products)  # g_r m_c, g_c m_r, m_c², −m_r²
-        np.subtract(products[0::2], products[1::2], out=pair)  # the flow, the squared norm
-        flow, norm = pair
+        np.maximum(counts, 1.0, out=count_divisors)
+        np.divide(numerators, divisors, out=quotient)
+        np.multiply(gradient, normal, out=products)  # g_r m_c, g_c m_r, m_c², −m_r²
+        np.subtract(left, right, out=pair)  # the flow, the squared norm
         np.maximum(norm, 1.0, out=norm)
         np.sqrt(norm, out=norm)
         np.abs(flow, out=flow)
         np.divide(flow, norm, out=flow)
         np.subtract(1.0, flow, out=flow)
         np.maximum(flow, 0.0, out=flow)
-        np.multiply(quotient[0], flow, out=flow)
-        return np.add(flow, fields[_EDGE], out=flow)
+        np.multiply(c, flow, out=flow)
+        return np.add(flow, edge, out=flow)
