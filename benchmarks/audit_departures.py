@@ -126,6 +126,13 @@ VARIANTS: dict[str, dict] = {
     "bp-obs-colorization-completed-centres-sigma-s0.1": {
         "method": "bp", "observation": "colorization-completed",
         "compatibility": "overlap-centres", "sigma_s": 0.1},
+    # the same with NP's proposals (bp_proposals): random, 3 seeds
+    "bp-obs-colorization-centres-sigma-s0.1-proposals-np": {
+        "method": "bp", "observation": "colorization", "compatibility": "overlap-centres",
+        "sigma_s": 0.1, "proposals": "np"},
+    "bp-obs-colorization-completed-centres-sigma-s0.1-proposals-np-completed": {
+        "method": "bp", "observation": "colorization-completed",
+        "compatibility": "overlap-centres", "sigma_s": 0.1, "proposals": "np-completed"},
 }
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},

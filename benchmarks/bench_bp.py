@@ -138,6 +138,13 @@ PROPOSAL_VARIANTS = {
     "bp-obs-colorization-completed-centres-sigma-s0.1": {
         "method": "bp", "observation": "colorization-completed",
         "compatibility": "overlap-centres", "sigma_s": 0.1},
+    # the same with NP's proposals (bp_proposals): random, 3 seeds
+    "bp-obs-colorization-centres-sigma-s0.1-proposals-np": {
+        "method": "bp", "observation": "colorization", "compatibility": "overlap-centres",
+        "sigma_s": 0.1, "proposals": "np"},
+    "bp-obs-colorization-completed-centres-sigma-s0.1-proposals-np-completed": {
+        "method": "bp", "observation": "colorization-completed",
+        "compatibility": "overlap-centres", "sigma_s": 0.1, "proposals": "np-completed"},
 }
 #: Section 3's variants that make no random choice: one seed is enough.
 DETERMINISTIC = {name for name, kw in PROPOSAL_VARIANTS.items()
