@@ -138,6 +138,13 @@ PROPOSAL_VARIANTS = {
     "bp-obs-colorization-completed-centres-sigma-s0.1": {
         "method": "bp", "observation": "colorization-completed",
         "compatibility": "overlap-centres", "sigma_s": 0.1},
+    # the training disc widened by the node's depth in its gap (bp_gap_radius)
+    "bp-gap-radius": {"method": "bp", "training_radius": "gap"},
+    "bp-obs-colorization-gap-radius": {"method": "bp", "observation": "colorization",
+                                       "training_radius": "gap"},
+    "bp-obs-colorization-completed-centres-sigma-s0.1-gap-radius": {
+        "method": "bp", "observation": "colorization-completed",
+        "compatibility": "overlap-centres", "sigma_s": 0.1, "training_radius": "gap"},
     # the same with NP's proposals (bp_proposals): random, 3 seeds
     "bp-obs-colorization-centres-sigma-s0.1-proposals-np": {
         "method": "bp", "observation": "colorization", "compatibility": "overlap-centres",

@@ -266,3 +266,64 @@ def test_synthesize_passes_the_options_to_bp():
         np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
         assert out.params["observation"] == name
         assert out.params["compatibility"] == "overlap-centres"
+
+
+# -- the training disc widened by the gap (bp_gap_radius) ----------------------------------
+
+
+def test_gap_depth_is_the_floored_distance_to_the_nearest_measured_pixel():
+    from refsynth.synthesis.bp_gap_radius import gap_depth
+
+    rq = np.full((5, 7), -1)
+    rq[0, 0] = 3
+    rows, cols = np.nonzero(rq == -1)
+    want = np.floor(np.hypot(rows, cols)).astype(int)
+    np.testing.assert_array_equal(gap_depth(rq, rows, cols), want)
+    assert gap_depth(np.full((2, 2), -1), np.array([0]), np.array([1])).tolist() == [0]
+
+
+@settings(deadline=None, max_examples=15)
+@given(st.integers(0, 2**31 - 1))
+def test_gap_radius_is_the_search_at_each_nodes_own_radius(seed):
+    from refsynth.synthesis.bp_gap_radius import gap_depth, gap_radius_candidates
+
+    rng = np.random.default_rng(seed)
+    H, W = 9, 14
+    image = rng.random((H, W, 1))
+    partial = np.where(np.arange(W) % 6 == 0, rng.random((H, W)) + 1.0, np.nan)
+    rq, _, _ = quantise_range(partial)
+    levels = quantise_intensity(image)
+    rows, cols = np.nonzero(np.isnan(partial))
+    opts = dict(n=3, k=3, proximity=0.0, range_weight=1.0, missing_range="mean")
+    labels, dist = gap_radius_candidates(levels, rq, rows, cols, radius=2.0, pad=2, **opts)
+    depth = gap_depth(rq, rows, cols)
+    assert depth.max() >= 2  # nodes at different depths
+    for i in rng.choice(rows.size, 6, replace=False):
+        r = 2.0 + depth[i]
+        want = search_candidates(levels, rq, rows[i : i + 1], cols[i : i + 1], radius=r,
+                                 pad=int(np.ceil(r)), **opts)
+        np.testing.assert_array_equal(labels[i], want[0][0])
+        np.testing.assert_array_equal(dist[i], want[1][0])
+
+
+def test_bp_fill_training_radius():
+    rng = np.random.default_rng(6)
+    image = rng.random((10, 16, 3))
+    partial = np.where(np.arange(16) % 7 == 0, rng.random((10, 16)) + 1.0, np.nan)
+    edges = np.zeros(partial.shape, bool)
+    plain = bp_fill(image, partial, edges, radius=2.0)
+    fixed = bp_fill(image, partial, edges, radius=2.0, training_radius="fixed")
+    np.testing.assert_array_equal(plain.beliefs, fixed.beliefs)
+    gap = bp_fill(image, partial, edges, radius=2.0, training_radius="gap")
+    assert not np.array_equal(plain.candidates, gap.candidates)
+    with pytest.raises(ValueError, match="`training_radius`"):
+        bp_fill(image, partial, edges, training_radius="wide")
+    image2, partial2 = _small()
+    with pytest.raises(ValueError, match="`training_radius`"):
+        refsynth.synthesize(image2, partial2, method="bp", training_radius="wide")
+    with pytest.raises(ValueError, match="`training_radius` applies to method='bp' only"):
+        refsynth.synthesize(image2, partial2, method="np", training_radius="gap")
+    out = refsynth.synthesize(image2, partial2, method="bp", radius=2.0, training_radius="gap")
+    want = bp_fill(image2[:, :, None], partial2, out.edges, radius=2.0, training_radius="gap")
+    np.testing.assert_array_equal(out.range, want.range)
+    assert out.params["training_radius"] == "gap"

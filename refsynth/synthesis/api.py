@@ -54,6 +54,7 @@ from refsynth._checks import (
 from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
 from refsynth.synthesis.bp import EDGE_RULES, BPResult, bp_fill
 from refsynth.synthesis.bp_centres import COMPATIBILITIES
+from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
 from refsynth.synthesis.bp_observation import OBSERVATIONS, observation_fill
 from refsynth.synthesis.bp_proposals import PROPOSALS, np_proposals
 from refsynth.synthesis.canny import canny
@@ -229,7 +230,7 @@ def _proposal_options(method: str, proposals, proposal_runs) -> dict:
     return {"proposals": proposals, "proposal_runs": runs}
 
 
-def _bp_departures(method: str, observation, compatibility) -> dict:
+def _bp_departures(method: str, observation, compatibility, training_radius=None) -> dict:
     """BP's observation and Eq. 6 readings (departures, off by default), checked.
 
     Empty when both are None (Fig. 6 as printed); otherwise the ones given. Both
@@ -240,7 +241,11 @@ def _bp_departures(method: str, observation, compatibility) -> dict:
         out["observation"] = check_choice("observation", observation, OBSERVATIONS)
     if compatibility is not None:
         out["compatibility"] = check_choice("compatibility", compatibility, COMPATIBILITIES)
-    defaults = {"observation": OBSERVATIONS[0], "compatibility": COMPATIBILITIES[0]}
+    if training_radius is not None:
+        out["training_radius"] = check_choice("training_radius", training_radius,
+                                              TRAINING_RADII)
+    defaults = {"observation": OBSERVATIONS[0], "compatibility": COMPATIBILITIES[0],
+                "training_radius": TRAINING_RADII[0]}
     if method != "bp":
         for name, value in out.items():
             if value != defaults[name]:
@@ -293,6 +298,7 @@ def synthesize(
     proposal_runs: int | None = None,
     observation: str | None = None,
     compatibility: str | None = None,
+    training_radius: str | None = None,
 ) -> SynthesisResult:
     """Infer the missing range from intensity and partial range (§3.2).
 
@@ -441,6 +447,13 @@ def synthesize(
         or ``"overlap"``: the mean square over the shared measured pixels, Ψ = 1
         with none. ``"overlap-centres"``: the two labels' centre ranges count as
         one more shared pixel.
+    training_radius : {None, "fixed", "gap"}, BP only
+        **A departure in Fig. 6, step 2**
+        (:mod:`refsynth.synthesis.bp_gap_radius`). None or ``"fixed"``: a
+        node's training set is the measured pixels within ``radius``.
+        ``"gap"``: within ``radius`` plus the node's distance to the nearest
+        measured pixel (floored), so a node deep in a gap searches as far
+        past its edge as one beside it.
 
     Returns
     -------
@@ -492,6 +505,7 @@ def synthesize(
     ``proposal_runs``        —            departure    1
     ``observation``          —            departure    ``"measured"``
     ``compatibility``        —            departure    ``"overlap"``
+    ``training_radius``      —            departure    ``"fixed"``
     =======================  ===========  ===========  ================================
 
     An option marked "—" raises ``ValueError`` for that method unless it is
@@ -539,7 +553,7 @@ def synthesize(
         confidence_update=confidence_update, edges_last=edges_last, edge_rule=edge_rule,
     ))
     proposal_options = _proposal_options(method, proposals, proposal_runs)
-    departures = _bp_departures(method, observation, compatibility)
+    departures = _bp_departures(method, observation, compatibility, training_radius)
     neighbourhood = _at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
         raise ValueError(f"The parameter `neighbourhood` must be odd, got {neighbourhood}")
@@ -605,8 +619,9 @@ def synthesize(
             options["observation"] = observation_fill(image, range_values,
                                                       departures["observation"])
             options["observation_completed"] = departures["observation"].endswith("-completed")
-        if "compatibility" in departures:
-            options["compatibility"] = departures["compatibility"]
+        for name in ("compatibility", "training_radius"):
+            if name in departures:
+                options[name] = departures[name]
         bp = bp_fill(image, range_values, edge_map, **options, **common)
         return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
                                edges=edge_map, method=method, params=params,

@@ -110,6 +110,7 @@ from refsynth.numeric import (
     quantise_intensity,
     quantise_range,
 )
+from refsynth.synthesis.bp_gap_radius import TRAINING_RADII, gap_radius_candidates
 from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate, check_bp_memory
 from refsynth.synthesis.bp_model import (
     COMPATIBILITIES,
@@ -250,6 +251,7 @@ def bp_fill(
     observation: np.ndarray | None = None,
     observation_completed: bool = False,
     compatibility: str = "overlap",
+    training_radius: str = "fixed",
 ) -> BPResult:
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
 
@@ -334,6 +336,10 @@ def bp_fill(
         Eq. 6's mean square over the overlap's shared measured pixels (the
         default), or with the two candidates' centre ranges as one more shared
         pixel (**a departure**, :mod:`refsynth.synthesis.bp_centres`).
+    training_radius : {"fixed", "gap"}, default "fixed"
+        A node's training disc: radius ``r`` (Fig. 6), or ``r`` plus the
+        node's distance to the nearest measured pixel, floored (**a
+        departure**, :mod:`refsynth.synthesis.bp_gap_radius`).
 
     Returns
     -------
@@ -409,10 +415,14 @@ def bp_fill(
     if observation is not None:  # the departure: the observations' range from a fill
         observed, training = observed_ranges(rq, low, span, observation,
                                              completed=observation_completed)
-    labels, dist = search_candidates(levels, rq, rows, cols, n=n, k=k, radius=radius,
-                                     proximity=proximity, range_weight=range_weight,
-                                     missing_range=missing_range, pad=pad, channels=channels,
-                                     observed=observed, training=training)
+    if training_radius not in TRAINING_RADII:
+        raise ValueError(f"The parameter `training_radius` must be one of {TRAINING_RADII}, "
+                         f"got {training_radius!r}")
+    search = gap_radius_candidates if training_radius == "gap" else search_candidates
+    labels, dist = search(levels, rq, rows, cols, n=n, k=k, radius=radius,
+                          proximity=proximity, range_weight=range_weight,
+                          missing_range=missing_range, pad=pad, channels=channels,
+                          observed=observed, training=training)
     del observed, training
     del levels
     frame = None

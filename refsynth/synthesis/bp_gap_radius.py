@@ -1,0 +1,125 @@
+r"""BP's training disc widened by the node's depth in the gap (§3.2.3, Fig. 6, step 2): a departure.
+
+Fig. 6, step 2 takes a node's training set from the measured pixels within
+``r`` of it (refsynth doubles ``r`` only when fewer than ``k`` are found).
+A node ``d`` pixels from the nearest measured pixel then sees only the
+measured pixels in a disc of radius ``r`` reaching ``r − d`` past that
+nearest one: on the Motorcycle's x-stripes at 85 % unknown (17 unknown
+columns between 3 known ones, ``r = 10``) a node in the middle of a gap reaches
+each neighbouring stripe only over about ±5 rows.
+
+**This option is not the paper** (``training_radius="gap"``,
+:func:`refsynth.synthesize`, BP only): node ``i``'s disc has radius
+``r + ⌊d_i⌋``, ``d_i`` its Euclidean distance to the nearest measured pixel,
+so that every node searches the same ``r`` beyond the edge of its gap. A node
+beside a measured pixel (``d_i = 1``) searches ``r + 1``. The rest of step 2 —
+the ranking by Eq. 2, the doubling when fewer than ``k`` are found — is
+unchanged; :func:`gap_radius_candidates` runs
+:func:`~refsynth.synthesis.bp_search.search_candidates` once per value of
+``⌊d_i⌋`` on those nodes, so each node's candidates are exactly those of the
+search at its own radius. The distances are those of
+:func:`scipy.ndimage.distance_transform_edt` (square roots of integers,
+correctly rounded): exact, so the grouping is portable.
+
+Measured: see the README's "Real data" section (issue #10); the benchmarks'
+variants are ``bp-gap-radius`` and ``bp-obs-colorization-gap-radius``.
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.2.3, Fig. 6, doi:10.1007/s11263-007-0108-2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from refsynth.numeric import NO_RANGE
+from refsynth.synthesis.bp_search import search_candidates
+
+__all__ = ["TRAINING_RADII", "gap_depth", "gap_radius_candidates"]
+
+#: The training discs :func:`refsynth.synthesize` accepts for BP: ``"fixed"`` is Fig. 6's
+#: radius ``r`` (the default); ``"gap"`` widens it by the node's depth in its gap.
+TRAINING_RADII = ("fixed", "gap")
+
+
+def gap_depth(rq: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``⌊d⌋`` of each node: its Euclidean distance to the nearest measured pixel, floored.
+
+    Parameters
+    ----------
+    rq : ndarray of int, shape (H, W)
+        The quantised range, ``NO_RANGE`` where unknown.
+    rows, cols : ndarray of int, shape (N,)
+        The nodes.
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+        0 where nothing is measured at all.
+
+    Examples
+    --------
+    >>> rq = np.array([[5, -1, -1, -1, -1]])
+    >>> gap_depth(rq, np.zeros(4, int), np.arange(1, 5)).tolist()
+    [1, 2, 3, 4]
+    >>> gap_depth(np.array([[0, -1], [-1, -1]]), np.array([1]), np.array([1])).tolist()
+    [1]
+    """
+    unknown = np.asarray(rq) == NO_RANGE
+    if unknown.all():
+        return np.zeros(np.size(rows), dtype=np.int64)
+    depth = ndimage.distance_transform_edt(unknown)
+    return np.floor(depth[rows, cols]).astype(np.int64)
+
+
+def gap_radius_candidates(levels, rq, rows, cols, *, radius: float, pad: int, n: int,
+                          **options):
+    """:func:`~refsynth.synthesis.bp_search.search_candidates` at radius ``r + ⌊d_i⌋``.
+
+    Parameters
+    ----------
+    levels, rq, rows, cols
+        As :func:`~refsynth.synthesis.bp_search.search_candidates` takes them.
+    radius : float
+        ``r``.
+    pad : int
+        The frame's padding at radius ``r`` (widened with the radius, as
+        :func:`refsynth.synthesis.bp.bp_fill` sets it: ``max(⌈r⌉, n // 2 + 1)``).
+    n : int
+        The patch side.
+    **options
+        The rest of ``search_candidates``'s keywords (``k`` …).
+
+    Returns
+    -------
+    labels, distances : ndarray of shape (N, k)
+        Each node's candidates as the search at its own radius gives them.
+
+    Examples
+    --------
+    A row measured at both ends: the middle node (2 from each) searches
+    ``r = 1 + 2`` and finds both ends; at ``r = 1`` alone it would double
+    ``r`` until it did.
+
+    >>> levels = np.zeros((1, 5, 1), dtype=np.int64)
+    >>> rq = np.array([[0, -1, -1, -1, 65536]])
+    >>> labels, _ = gap_radius_candidates(levels, rq, np.array([0]), np.array([2]),
+    ...                                   radius=1.0, pad=2, n=1, k=2, proximity=0.0,
+    ...                                   range_weight=1.0, missing_range="mean")
+    >>> sorted(labels[0].tolist())
+    [0, 4]
+    """
+    rows, cols = np.asarray(rows), np.asarray(cols)
+    k = options["k"]
+    labels = np.zeros((rows.size, k), dtype=np.int64)
+    distances = np.zeros((rows.size, k))
+    depth = gap_depth(rq, rows, cols)
+    for extra in np.unique(depth):
+        mine = np.flatnonzero(depth == extra)  # raster order kept
+        wide = float(radius) + float(extra)
+        labels[mine], distances[mine] = search_candidates(
+            levels, rq, rows[mine], cols[mine], n=n, radius=wide,
+            pad=max(pad, int(np.ceil(wide)), n // 2 + 1), **options)
+    return labels, distances
