@@ -136,8 +136,10 @@ class FillTable:
         table = np.zeros((self.shape[0] * self.shape[1], width), dtype=np.float32)
         table[:, one] = 1.0
         frame = table.reshape(self.shape + (width,))
-        self.self_term = np.zeros(self.shape[0] * self.shape[1])  # Σ G Σ_c I², exact
-        self_frame = self.self_term.reshape(self.shape)
+        # Σ G Σ_c I² (exact), then times EQ2_UNIT below: s_p u, the weight of the
+        # candidates' constant 1 (a power-of-two scaling: exact)
+        self.self_unit = np.zeros(self.shape[0] * self.shape[1])
+        self_frame = self.self_unit.reshape(self.shape)
         g = window_weights(n).ravel().astype(np.float64)
         g_int = np.repeat(g, C)  # intensity columns are (offset, channel) raveled
         levels = np.rint(np.asarray(image, dtype=np.float64) * 2.0**INTENSITY_BITS)
@@ -161,8 +163,7 @@ class FillTable:
             out[:, :, v0:h0] = has
             out[:, :, h0:] = np.concatenate(np.moveaxis(_split(r * r, 2), -1, 0), axis=-1)
         self.table = table
-        # s_p u, the weight of the candidates' constant 1 (a power-of-two scaling: exact)
-        self.self_unit = self.self_term * EQ2_UNIT
+        self.self_unit *= EQ2_UNIT
         # p's weights, over the columns [I | S | 1 | R | V | R²_hi | R²_lo] and then Eq. 2's
         # support weights G V_p: w = (row_p[perm] · row_p[square]) · coef, every factor and
         # product an exact integer times a power of two (the units of the sums, folded into
@@ -250,7 +251,7 @@ class FillTable:
             return _combine(si, sr, None, None, self.divisor, self.lam, self.missing_range)
         g_v = self.g_v  # G V_p w_unit
         ws = _matvec(rows[:, self.v0 : self.h0], g_v)  # w_s w_unit
-        wa = np.vdot(g_v, self.ones)  # w_a w_unit, exact
+        wa = np.dot(g_v, self.ones)  # w_a w_unit, exact
         return _combine(si, sr, ws, wa, self.divisor, self.lam, self.missing_range)
 
     def set_range(self, p: int, value: float) -> None:

@@ -103,7 +103,7 @@ class FrontQueue:
         self.keys = np.full(blocks * self.block, ABSENT, dtype=np.int64)
         self.blocks = self.keys.reshape(blocks, self.block)
         self.maxima = np.full(blocks, ABSENT, dtype=np.int64)
-        self._starts = np.arange(0, size * self.block + 1, self.block)  # row starts, for set
+        self._starts = np.arange(0, 64 * self.block, self.block)  # row starts, for set
 
     def set(self, pixels: np.ndarray, keys: np.ndarray) -> None:
         """Give ``pixels`` the ``keys`` (``ABSENT`` removes a pixel).
@@ -174,6 +174,8 @@ class FrontQueue:
         # twice gets the same maximum twice.
         taken = self.blocks.take(blocks, axis=0)
         first = taken.argmax(axis=1)
+        if first.size > self._starts.size:  # a large set (the initial front): more starts
+            self._starts = np.arange(0, first.size * self.block, self.block)
         first += self._starts[: first.size]
         self.maxima[blocks] = taken.take(first)
 
