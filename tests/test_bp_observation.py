@@ -53,18 +53,34 @@ def test_observed_ranges_refuses_a_fill_with_holes_or_the_wrong_shape():
         observed_ranges(rq, 0.0, 1.0, np.zeros((2, 2)))
 
 
-def test_observation_fill_is_the_colorization_fill():
+def test_observation_fill_is_the_portable_colorization_fill():
     from refsynth.evaluation.baselines import colorization_fill
+    from refsynth.synthesis.completion import portable_colorization
 
     rng = np.random.default_rng(1)
     image = rng.random((9, 11, 3))
     partial = np.where(np.arange(11) % 4 == 0, rng.random((9, 11)) + 1.0, np.nan)
     fill = observation_fill(image, partial, "colorization")
-    np.testing.assert_array_equal(fill, colorization_fill(image, partial))
+    # the portable solve, bit for bit, and the baseline's system (its direct solve) closely
+    np.testing.assert_array_equal(fill, portable_colorization(image, partial))
+    np.testing.assert_allclose(fill, colorization_fill(image, partial), atol=1e-3)
     np.testing.assert_array_equal(fill, observation_fill(image, partial,
                                                          "colorization-completed"))
     with pytest.raises(ValueError, match="observation"):
         observation_fill(image, partial, "measured")
+
+
+def test_the_observation_option_never_reaches_the_evaluation_package():
+    # layering (DESIGN.md): synthesis does not import evaluation, not even lazily
+    import ast
+    import inspect
+
+    from refsynth.synthesis import bp_observation, completion
+
+    for module in (bp_observation, completion):
+        for node in ast.walk(ast.parse(inspect.getsource(module))):
+            if isinstance(node, ast.ImportFrom):
+                assert not (node.module or "").startswith("refsynth.evaluation")
 
 
 # -- Eq. 6 with the centres ------------------------------------------------------------------

@@ -35,6 +35,9 @@ from refsynth.cli.arguments import add_subcommand, check_output, integer, make_p
 from refsynth.io import IMAGE_SUFFIXES, WRITE_SUFFIXES, read_array, write_array, write_unit_png16
 from refsynth.plotting.layouts import result_figure
 from refsynth.synthesis.api import synthesize
+from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
+from refsynth.synthesis.bp_model import COMPATIBILITIES
+from refsynth.synthesis.bp_observation import OBSERVATIONS
 
 __all__ = ["pixel_progress", "add_synth_parser"]
 
@@ -178,6 +181,8 @@ _METHOD_OPTIONS = {
     "--proximity": ("proximity", "bp"), "--sigma-i": ("sigma_i", "bp"),
     "--sigma-s": ("sigma_s", "bp"), "--iterations": ("iterations", "bp"),
     "--proposals": ("proposals", "bp"), "--proposal-runs": ("proposal_runs", "bp"),
+    "--observation": ("observation", "bp"), "--training-radius": ("training_radius", "bp"),
+    "--compatibility": ("compatibility", "bp"),
 }
 #: Eq. 2's readings, for both methods: passed on only when given.
 _EQ2_OPTIONS = ("channels", "range_weight", "missing_range", "colour")
@@ -380,4 +385,15 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           "from NP too); default none, the paper's candidates")
     bp_group.add_argument("--proposal-runs", type=integer, metavar="S",
                           help="with --proposals: this many NP fills propose (default 1)")
+    bp_group.add_argument("--observation", choices=list(OBSERVATIONS),
+                          help="a departure from Fig. 6: colorization completes the "
+                          "observations' range for the candidates' ranking "
+                          "(colorization-completed: the training patches' too); default "
+                          "measured, the paper's")
+    bp_group.add_argument("--training-radius", choices=list(TRAINING_RADII),
+                          help="a departure: gap widens each node's training disc by its "
+                          "distance to the nearest measured pixel; default fixed, the paper's r")
+    bp_group.add_argument("--compatibility", choices=list(COMPATIBILITIES),
+                          help="a departure in Eq. 6: overlap-centres counts the two labels' "
+                          "centres as one more shared pixel; default overlap, the paper's")
     return synth

@@ -25,10 +25,13 @@ ranking (Eq. 2 only: Ψ still compares measured range).
 
 :func:`observed_ranges` puts the fill on the measured range's ``2**-16`` grid
 (:mod:`refsynth.numeric`); everything after it is exact integer arithmetic as
-in Fig. 6's search. The fill itself is a floating-point sparse solve, so its
-last bits (and, rarely, a rounding to the grid) may differ between machines:
-unlike the default BP, this option is reproducible on one machine, not
-portably bit for bit.
+in Fig. 6's search. The fill is
+:func:`refsynth.synthesis.completion.portable_colorization`: the system of
+:func:`refsynth.evaluation.baselines.colorization_fill` solved by Gauss–Seidel
+sweeps with fixed-order sums and :func:`~refsynth.numeric.portable_exp`, so
+the option keeps the numeric contract — the same bits on every machine, as
+the default BP. (The baseline's direct sparse solve is not portable bit for
+bit: SuperLU's BLAS picks the order of its sums.)
 
 Measured (MAR in disparity px, the Motorcycle's x-stripes at 63 / 78 / 85 %
 unknown; BP is deterministic, one run each)::
@@ -74,6 +77,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsynth.numeric import NO_RANGE, RANGE_BITS
+from refsynth.synthesis.completion import portable_colorization
 
 __all__ = ["OBSERVATIONS", "observation_fill", "observed_ranges"]
 
@@ -92,7 +96,7 @@ def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: s
     range_values : ndarray of shape (H, W)
         The measured range, NaN where unknown.
     observation : {"colorization", "colorization-completed"}
-        Both use :func:`refsynth.evaluation.baselines.colorization_fill`.
+        Both use :func:`refsynth.synthesis.completion.portable_colorization`.
 
     Returns
     -------
@@ -110,9 +114,7 @@ def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: s
     if observation not in OBSERVATIONS[1:]:
         raise ValueError(f"The parameter `observation` must be one of {OBSERVATIONS[1:]} "
                          f"here, got {observation!r}")
-    from refsynth.evaluation.baselines import colorization_fill  # (baselines import the API)
-
-    return colorization_fill(image, range_values)
+    return portable_colorization(image, range_values)
 
 
 def observed_ranges(
