@@ -39,16 +39,18 @@ too:
 split, size          ``"colorization"``       ``"colorization"`` +      NP (3 seeds)
                                               ``"gap"``
 ===================  =======================  =======================  =====================
-choose, 450×375      0.307 / 0.515 / 0.764    0.314 / 0.513 / 0.700    0.400 / 0.624 / 0.742
-report, 450×375      0.312 / 0.506 / 0.748    0.316 / 0.512 / 0.679    0.408 / 0.589 / 0.738
-report, 741×500      0.301 / 0.515 / 0.843    0.308 / 0.515 / 0.774    0.373 / 0.599 / 0.799
-room, 10/20, 5/25    0.197 / 0.244 m          0.184 / 0.219 m          0.114 / 0.153 m
+choose, 450×375      0.307 / 0.512 / 0.758    0.314 / 0.511 / 0.689    0.400 / 0.624 / 0.742
+report, 450×375      0.312 / 0.504 / 0.743    0.316 / 0.509 / 0.677    0.408 / 0.589 / 0.738
+report, 741×500      0.301 / 0.516 / 0.827    0.308 / 0.517 / 0.742    0.373 / 0.599 / 0.799
+room, 10/20, 5/25    0.197 / 0.245 m          0.185 / 0.220 m          0.114 / 0.153 m
 ===================  =======================  =======================  =====================
 
-(a tie at 63 and 78 %, 8–9 % lower at 85 %). Adding
-``"colorization-completed"``, ``compatibility="overlap-centres"`` and
-σ_s = 0.1: 0.297 / 0.501 / 0.678 choosing, 0.302 / 0.497 / 0.664 and
-0.287 / 0.490 / 0.744 report, 0.179 / 0.212 m on the room.
+(a tie at 63 and 78 %, 9–10 % lower at 85 %; the observations from
+:func:`~refsynth.synthesis.completion.portable_colorization`, ``audit_departures.py``
+and ``bench_bp.py --proposals --room``). Adding ``"colorization-completed"``,
+``compatibility="overlap-centres"`` and σ_s = 0.1 (measured with the direct
+colorization solve, before the portable one): 0.297 / 0.501 / 0.678 choosing,
+0.302 / 0.497 / 0.664 and 0.287 / 0.490 / 0.744 report, 0.179 / 0.212 m on the room.
 
 References
 ----------

@@ -45,10 +45,10 @@ unknown; BP is deterministic, one run each)::
 split, size                   Fig. 6 (observations       ``"colorization"``
                               measured)
 ============================  ========================  ========================
-choose, 450×375               0.328 / 0.597 / 0.848     0.307 / 0.515 / 0.764
-report, 450×375               0.353 / 0.570 / 0.809     0.312 / 0.506 / 0.748
-report, 741×500               0.333 / 0.600 / 0.932     0.301 / 0.515 / 0.843
-room 128×128, grids 10/20,    0.244 / 0.312 m           0.197 / 0.244 m
+choose, 450×375               0.328 / 0.597 / 0.848     0.307 / 0.512 / 0.758
+report, 450×375               0.353 / 0.570 / 0.809     0.312 / 0.504 / 0.743
+report, 741×500               0.333 / 0.600 / 0.932     0.301 / 0.516 / 0.827
+room 128×128, grids 10/20,    0.244 / 0.312 m           0.197 / 0.245 m
 5/25
 ============================  ========================  ========================
 
@@ -57,7 +57,8 @@ Lower at every fraction, size and split, by 6–14 % on the Motorcycle (NP:
 0.799 report; so BP with it beats NP at 63 and 78 %, ties it at 85 % at
 450×375 and still loses at 85 % at 741×500). With ``"colorization-completed"``,
 ``compatibility="overlap-centres"`` and σ_s = 0.1 (Eq. 6's ratio to σ_i
-halved): 0.288 / 0.504 / 0.753 choosing, 0.299 / 0.492 / 0.730 and
+halved; measured with the direct colorization solve, before the portable one):
+0.288 / 0.504 / 0.753 choosing, 0.299 / 0.492 / 0.730 and
 0.282 / 0.493 / 0.837 report, 0.194 / 0.240 m on the room — on the choosing
 split within 3 % of ``"colorization"`` alone except at 63 % (−6 %), on the
 report split 1–6 % lower. On the room NP (0.114 / 0.153 m)
