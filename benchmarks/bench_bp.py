@@ -52,6 +52,7 @@ import sys
 import time
 
 import numpy as np
+from audit_departures import VARIANTS  # this script's folder: one variant table
 
 
 def _rss_mb() -> float:
@@ -119,40 +120,13 @@ def _case(args):
     return row
 
 
-#: Section 3's variants: keyword arguments of refsynth.synthesize.
-PROPOSAL_VARIANTS = {
-    "np": {"method": "np"},
-    "bp": {"method": "bp"},
-    "bp-proposals-np": {"method": "bp", "proposals": "np"},
-    "bp-proposals-np-completed": {"method": "bp", "proposals": "np-completed"},
-    "bp-proposals-np-x3": {"method": "bp", "proposals": "np", "proposal_runs": 3},
-    # departures for issue #10's BP targets (bp_observation, bp_centres): deterministic
-    "bp-obs-colorization": {"method": "bp", "observation": "colorization"},
-    "bp-obs-colorization-completed": {"method": "bp", "observation": "colorization-completed"},
-    "bp-centres": {"method": "bp", "compatibility": "overlap-centres"},
-    "bp-obs-colorization-centres": {"method": "bp", "observation": "colorization",
-                                    "compatibility": "overlap-centres"},
-    "bp-obs-colorization-centres-sigma-s0.1": {
-        "method": "bp", "observation": "colorization", "compatibility": "overlap-centres",
-        "sigma_s": 0.1},
-    "bp-obs-colorization-completed-centres-sigma-s0.1": {
-        "method": "bp", "observation": "colorization-completed",
-        "compatibility": "overlap-centres", "sigma_s": 0.1},
-    # the training disc widened by the node's depth in its gap (bp_gap_radius)
-    "bp-gap-radius": {"method": "bp", "training_radius": "gap"},
-    "bp-obs-colorization-gap-radius": {"method": "bp", "observation": "colorization",
-                                       "training_radius": "gap"},
-    "bp-obs-colorization-completed-centres-sigma-s0.1-gap-radius": {
-        "method": "bp", "observation": "colorization-completed",
-        "compatibility": "overlap-centres", "sigma_s": 0.1, "training_radius": "gap"},
-    # the same with NP's proposals (bp_proposals): random, 3 seeds
-    "bp-obs-colorization-centres-sigma-s0.1-proposals-np": {
-        "method": "bp", "observation": "colorization", "compatibility": "overlap-centres",
-        "sigma_s": 0.1, "proposals": "np"},
-    "bp-obs-colorization-completed-centres-sigma-s0.1-proposals-np-completed": {
-        "method": "bp", "observation": "colorization-completed",
-        "compatibility": "overlap-centres", "sigma_s": 0.1, "proposals": "np-completed"},
-}
+#: Section 3's variants: keyword arguments of refsynth.synthesize, by the names of
+#: audit_departures.py's table (one table for both scripts): NP, Fig. 6's BP and BP's
+#: departures for issue #10 (NP's proposals, the completed observations, Eq. 6 with the
+#: centres, the gap-sized training disc, and their combinations).
+PROPOSAL_VARIANTS = {name: kw for name, kw in VARIANTS.items()
+                     if name in ("np", "bp") or name.startswith(
+                         ("bp-proposals-", "bp-obs-", "bp-centres", "bp-gap-"))}
 #: Section 3's variants that make no random choice: one seed is enough.
 DETERMINISTIC = {name for name, kw in PROPOSAL_VARIANTS.items()
                  if kw["method"] == "bp" and "proposals" not in kw}
