@@ -43,6 +43,7 @@ from scipy.sparse import linalg as sparse_linalg
 
 from refsynth._checks import BT601, check_int, check_real, grey
 from refsynth.synthesis.api import validate_inputs
+from refsynth.synthesis.completion import OFFSETS
 
 __all__ = [
     "nearest_fill",
@@ -188,8 +189,9 @@ def harmonic_fill(intensity: np.ndarray, partial_range: np.ndarray) -> np.ndarra
     return out.reshape(H, W)
 
 
-#: The eight offsets of a 3×3 window around its centre, as (row, col).
-_WINDOW_3X3 = tuple((dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0))
+#: The eight offsets of a 3×3 window around its centre, as (row, col), in raster order
+#: (the portable solve's, :data:`refsynth.synthesis.completion.OFFSETS`).
+_WINDOW_3X3 = OFFSETS
 
 
 def colorization_affinities(grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
