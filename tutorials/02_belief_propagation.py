@@ -241,7 +241,14 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 # 2. **More candidates.** On the Motorcycle case, run BP with `candidates=4`,
 #    8 and 16 (`refsynth.synthesize(..., method="bp", candidates=k)`). How do
 #    the candidate ceiling and BP's MAR move, and what does the gap between
-#    them tell you?
+#    them tell you? Then change the candidates' *order* instead of their
+#    number: deep in a gap the observation patch holds no range, so Eq. 2
+#    ranks the candidates by intensity alone. Run both cases with
+#    `observation="colorization"` (a departure from Fig. 6, off by default:
+#    the colorization fill of the measured range completes every observation
+#    for the ranking), then add `training_radius="gap"`, and compare BP's MAR,
+#    the ceiling and the error of each pixel's first-ranked candidate with
+#    Fig. 6's BP and with NP. What moved — the candidates, or their order?
 # 3. **Turn off the edge-constraint rule** (`use_edges=False` with
 #    `method="bp"`) on both cases. How much does MAR change, and how does that
 #    compare with what the edges do for NP (tutorial 1, exercise 1)?
