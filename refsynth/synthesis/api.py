@@ -438,10 +438,13 @@ def synthesize(
         :mod:`refsynth.synthesis.bp_observation`). None or ``"measured"``: the
         observations hold the measured range only, as printed.
         ``"colorization"``: the colorization fill of the measured range
-        completes every observation, so Eq. 2 ranks the candidates with a
-        range term deep in a gap too; ``"colorization-completed"``: the
-        training patches' range in Eq. 2 as well. BP stays deterministic
-        (reproducible on one machine; the fill is a floating-point solve).
+        (:func:`refsynth.synthesis.completion.portable_colorization`, the same
+        bits on every machine) completes every observation, so Eq. 2 ranks the
+        candidates with a range term deep in a gap too;
+        ``"colorization-completed"``: the training patches' range in Eq. 2 as
+        well. The fill sees the intensity as validated (integer images scaled
+        to [0, 1]), as the colorization baseline does: an intensity offset
+        changes it only by rounding, not bit for bit as the default path.
     compatibility : {None, "overlap", "overlap-centres"}, BP only
         **A departure in Eq. 6** (:mod:`refsynth.synthesis.bp_centres`). None
         or ``"overlap"``: the mean square over the shared measured pixels, Ψ = 1
