@@ -29,9 +29,11 @@ in Fig. 6's search. The fill is
 :func:`refsynth.synthesis.completion.portable_colorization`: the system of
 :func:`refsynth.evaluation.baselines.colorization_fill` solved by Gauss–Seidel
 sweeps with fixed-order sums and :func:`~refsynth.numeric.portable_exp`, so
-the option keeps the numeric contract — the same bits on every machine, as
-the default BP. (The baseline's direct sparse solve is not portable bit for
-bit: SuperLU's BLAS picks the order of its sums.)
+the option gives the same bits on every machine, as the default BP. (The
+baseline's direct sparse solve is not portable bit for bit: SuperLU's BLAS
+picks the order of its sums.) Unlike the default BP it is not bit-invariant
+to an intensity offset: the fill sees the intensity as validated, so an
+offset moves it by rounding.
 
 Measured (MAR in disparity px, the Motorcycle's x-stripes at 63 / 78 / 85 %
 unknown; BP is deterministic, one run each)::
