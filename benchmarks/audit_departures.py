@@ -39,8 +39,13 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+#: Fig. 6 as printed: the observations' measured range and the fixed training disc (BP's
+#: defaults since issue #10 complete the observations and widen the disc by the gap's depth).
+FIG6 = {"observation": "measured", "training_radius": "fixed"}
+
 #: The variants: keyword arguments of refsynth.synthesize. "np" and "bp" are the
-#: defaults; each other entry changes one reading.
+#: defaults, "bp-fig6" is Fig. 6 as printed; each other entry changes one reading — of
+#: Fig. 6 for the BP entries, unless it names the observation or the training disc.
 VARIANTS: dict[str, dict] = {
     "np": {"method": "np"},
     "np-product": {"method": "np", "confidence_update": "product"},
@@ -141,6 +146,10 @@ VARIANTS: dict[str, dict] = {
         "method": "bp", "observation": "colorization-completed",
         "compatibility": "overlap-centres", "sigma_s": 0.1, "proposals": "np-completed"},
 }
+VARIANTS = {name: ({**FIG6, **kw} if kw["method"] == "bp" else kw)
+            for name, kw in VARIANTS.items()}
+VARIANTS["bp"] = {"method": "bp"}          # the defaults: completed observations, gap radius
+VARIANTS["bp-fig6"] = {"method": "bp", **FIG6}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},
           "report": {"phase": 0, "sizes": ("450x375", "741x500")},

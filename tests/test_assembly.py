@@ -300,7 +300,8 @@ def test_bp_on_a_chain_with_fixed_neighbours_finds_the_brute_force_map(seed):
     result = refsynth.synthesize(image, partial, method="bp", candidates=3, radius=radius,
                                  neighbourhood=3, sigma_i=sigma_i, sigma_s=sigma_s,
                                  proximity=proximity, iterations=30, tolerance=0.0,
-                                 use_edges=False)
+                                 use_edges=False, observation="measured",
+                                 training_radius="fixed")   # Fig. 6, as brute-forced
     scores = _brute_force_map(image, partial, result, sigma_i, sigma_s, proximity, radius)
     ranked = sorted(scores.values())
     if ranked[-1] - ranked[-2] < 1e-9 * max(1.0, abs(ranked[-1])):

@@ -34,11 +34,11 @@ U = 2.0**-32  # one squared step of the 2**-16 grid
 
 def test_observed_ranges_quantises_the_fill_and_keeps_the_measured():
     rq = np.array([[0, -1, 65536, -1]])
-    observed, training = observed_ranges(rq, 1.0, 2.0, np.array([[7.0, 2.0, 7.0, 0.5]]))
-    # 2.0 is half the span above low = 1.0; 0.5 is below low: clipped to 0
+    observed, training = observed_ranges(rq, np.array([[7.0, 0.5, 7.0, -0.25]]))
+    # 0.5 is half the span above the minimum; -0.25 is below it: clipped to 0
     assert observed.tolist() == [[0, 32768, 65536, 0]]
     assert observed.dtype == np.int64 and training is None
-    observed, training = observed_ranges(rq, 1.0, 2.0, np.array([[7.0, 1.5, 7.0, 3.0]]),
+    observed, training = observed_ranges(rq, np.array([[7.0, 0.25, 7.0, 1.0]]),
                                          completed=True)
     assert observed.tolist() == [[0, 16384, 65536, 65536]]
     assert training is observed
@@ -47,13 +47,13 @@ def test_observed_ranges_quantises_the_fill_and_keeps_the_measured():
 def test_observed_ranges_refuses_a_fill_with_holes_or_the_wrong_shape():
     rq = np.array([[0, -1]])
     with pytest.raises(ValueError, match="finite at every unknown"):
-        observed_ranges(rq, 0.0, 1.0, np.array([[0.0, np.nan]]))
-    observed_ranges(rq, 0.0, 1.0, np.array([[np.nan, 0.5]]))  # a measured pixel may be NaN
+        observed_ranges(rq, np.array([[0.0, np.nan]]))
+    observed_ranges(rq, np.array([[np.nan, 0.5]]))  # a measured pixel may be NaN
     with pytest.raises(ValueError, match="shape"):
-        observed_ranges(rq, 0.0, 1.0, np.zeros((2, 2)))
+        observed_ranges(rq, np.zeros((2, 2)))
 
 
-def test_observation_fill_is_the_portable_colorization_fill():
+def test_observation_fill_is_the_portable_colorization_of_the_quantised_inputs():
     from refsynth.evaluation.baselines import colorization_fill
     from refsynth.synthesis.completion import portable_colorization
 
@@ -61,13 +61,34 @@ def test_observation_fill_is_the_portable_colorization_fill():
     image = rng.random((9, 11, 3))
     partial = np.where(np.arange(11) % 4 == 0, rng.random((9, 11)) + 1.0, np.nan)
     fill = observation_fill(image, partial, "colorization")
-    # the portable solve, bit for bit, and the baseline's system (its direct solve) closely
-    np.testing.assert_array_equal(fill, portable_colorization(image, partial))
-    np.testing.assert_allclose(fill, colorization_fill(image, partial), atol=1e-3)
+    # the portable solve of the quantised range guided by the quantised intensity, bit for
+    # bit, on the measured range's unit scale; close to the baseline's direct solve
+    q = quantise_intensity(image) / 2.0**16
+    rq, low, span = quantise_range(partial)
+    unit = np.where(rq < 0, np.nan, rq / 2.0**16)
+    np.testing.assert_array_equal(fill, portable_colorization(q, unit))
+    np.testing.assert_allclose(low + span * fill, colorization_fill(image, partial), atol=1e-3)
     np.testing.assert_array_equal(fill, observation_fill(image, partial,
                                                          "colorization-completed"))
     with pytest.raises(ValueError, match="observation"):
         observation_fill(image, partial, "measured")
+
+
+@pytest.mark.parametrize("change", ["offset", "scale", "uint8", "range"])
+def test_observation_fill_follows_the_intensity_convention_bit_for_bit(change):
+    rng = np.random.default_rng(8)
+    image = rng.integers(0, 256, (10, 12, 3)).astype(np.uint8)
+    partial = np.where(rng.random((10, 12)) < 0.35, rng.random((10, 12)) * 3.0 + 1.0, np.nan)
+    plain = observation_fill(image, partial, "colorization")
+    if change == "offset":
+        other = observation_fill(image + 17.5, partial, "colorization")
+    elif change == "scale":
+        other = observation_fill(image * 0.37, partial, "colorization")
+    elif change == "uint8":
+        other = observation_fill(image / 255.0, partial, "colorization")
+    else:
+        other = observation_fill(image, partial * 41.0 + 3.0, "colorization")
+    np.testing.assert_array_equal(plain, other)
 
 
 def test_the_observation_option_never_reaches_the_evaluation_package():
@@ -194,8 +215,8 @@ def test_the_observed_range_picks_the_candidate_whose_range_fits():
                 missing_range="mean", pad=10)
     labels, _ = search_candidates(levels, rq, rows, cols, **opts)
     assert partial.ravel()[labels[0, 0]] == 1.0
-    fill = np.where(np.isfinite(partial), partial, 5.0)
-    observed, _ = observed_ranges(rq, low, span, fill)
+    fill = (np.where(np.isfinite(partial), partial, 5.0) - low) / span
+    observed, _ = observed_ranges(rq, fill)
     labels, dist = search_candidates(levels, rq, rows, cols, observed=observed, **opts)
     assert partial.ravel()[labels[0, 0]] == 5.0
     # the measured range as the observation changes nothing, bit for bit
@@ -208,14 +229,14 @@ def test_bp_fill_follows_the_observation():
     image, partial = _two_plateaus()
     edges = np.zeros(partial.shape, bool)
     plain = bp_fill(image, partial, edges, neighbourhood=3, radius=10.0, k=2)
-    fill = np.where(np.isfinite(partial), partial, 5.0)
-    moved = bp_fill(image, partial, edges, neighbourhood=3, radius=10.0, k=2,
-                    observation=fill)
+    # the observation on the measured range's unit scale: 1 is 5.0, 0 is 1.0
     unknown = np.isnan(partial)
+    moved = bp_fill(image, partial, edges, neighbourhood=3, radius=10.0, k=2,
+                    observation=np.where(unknown, 1.0, np.nan))
     assert np.all(moved.range[unknown] == 5.0)
     assert np.any(plain.range[unknown] != 5.0)
     again = bp_fill(image, partial, edges, neighbourhood=3, radius=10.0, k=2,
-                    observation=np.where(np.isfinite(partial), partial, 1.0))
+                    observation=np.where(unknown, 0.0, np.nan))
     assert np.all(again.range[unknown] == 1.0)
 
 
@@ -253,31 +274,42 @@ def test_synthesize_checks_the_options_by_name():
     with pytest.raises(ValueError, match="`compatibility`"):
         refsynth.synthesize(image, partial, method="bp", compatibility="centres")
     with pytest.raises(ValueError, match="`observation` applies to method='bp' only"):
-        refsynth.synthesize(image, partial, method="np", observation="colorization")
+        refsynth.synthesize(image, partial, method="np", observation="measured")
     with pytest.raises(ValueError, match="`compatibility` applies to method='bp' only"):
         refsynth.synthesize(image, partial, method="np", compatibility="overlap-centres")
-    # the defaults are accepted by NP and leave no trace
-    out = refsynth.synthesize(image, partial, method="np", observation="measured",
-                              compatibility="overlap")
-    assert "observation" not in out.params and "compatibility" not in out.params
+    # BP's defaults are accepted by NP and leave no trace
+    out = refsynth.synthesize(image, partial, method="np", observation="colorization",
+                              compatibility="overlap", training_radius="gap")
+    assert not {"observation", "compatibility", "training_radius"} & set(out.params)
 
 
 def test_synthesize_passes_the_options_to_bp():
     image, partial = _small()
     plain = refsynth.synthesize(image, partial, method="bp", radius=3.0)
     named = refsynth.synthesize(image, partial, method="bp", radius=3.0,
-                                observation="measured", compatibility="overlap")
+                                observation="colorization", compatibility="overlap",
+                                training_radius="gap")
     np.testing.assert_array_equal(plain.range, named.range)
     np.testing.assert_array_equal(plain.bp.beliefs, named.bp.beliefs)
-    assert "observation" not in plain.params
-    assert named.params["observation"] == "measured"
+    # the defaults are recorded: a result says which BP made it
+    assert plain.params["observation"] == "colorization"
+    assert plain.params["training_radius"] == "gap"
+    assert plain.params["compatibility"] == "overlap"
+    fig6 = refsynth.synthesize(image, partial, method="bp", radius=3.0,
+                               observation="measured", training_radius="fixed")
+    want = bp_fill(image[:, :, None], partial, fig6.edges, radius=3.0)
+    np.testing.assert_array_equal(fig6.range, want.range)
+    np.testing.assert_array_equal(fig6.bp.beliefs, want.beliefs)
+    assert fig6.params["observation"] == "measured"
+    assert not np.array_equal(fig6.bp.unary, plain.bp.unary)
     fill = observation_fill(image, partial, "colorization")
     for name, completed in (("colorization", False), ("colorization-completed", True)):
         out = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation=name,
                                   compatibility="overlap-centres")
         edges = out.edges
         want = bp_fill(image[:, :, None], partial, edges, radius=3.0, observation=fill,
-                       observation_completed=completed, compatibility="overlap-centres")
+                       observation_completed=completed, compatibility="overlap-centres",
+                       training_radius="gap")
         np.testing.assert_array_equal(out.range, want.range)
         np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
         assert out.params["observation"] == name
@@ -338,8 +370,12 @@ def test_bp_fill_training_radius():
     with pytest.raises(ValueError, match="`training_radius`"):
         refsynth.synthesize(image2, partial2, method="bp", training_radius="wide")
     with pytest.raises(ValueError, match="`training_radius` applies to method='bp' only"):
-        refsynth.synthesize(image2, partial2, method="np", training_radius="gap")
-    out = refsynth.synthesize(image2, partial2, method="bp", radius=2.0, training_radius="gap")
-    want = bp_fill(image2[:, :, None], partial2, out.edges, radius=2.0, training_radius="gap")
-    np.testing.assert_array_equal(out.range, want.range)
-    assert out.params["training_radius"] == "gap"
+        refsynth.synthesize(image2, partial2, method="np", training_radius="fixed")
+    for name in ("gap", "fixed"):
+        out = refsynth.synthesize(image2, partial2, method="bp", radius=2.0,
+                                  observation="measured", training_radius=name)
+        want = bp_fill(image2[:, :, None], partial2, out.edges, radius=2.0,
+                       training_radius=name)
+        np.testing.assert_array_equal(out.range, want.range)
+        np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
+        assert out.params["training_radius"] == name

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 import refsynth
 from refsynth.cli.synth import pixel_progress
+from refsynth.synthesis import reference as ref
 from refsynth.synthesis import validate_inputs
 from refsynth.synthesis.bp import bp_fill
 from refsynth.synthesis.limits import PARAMETER_BOUNDS, image_reach, search_radius
@@ -137,8 +138,9 @@ def test_np_runs_a_radius_beyond_the_image_as_given():
 
 @pytest.mark.parametrize("proximity", [1.0, 0.3, 1e-90, 1e100])
 def test_bp_with_a_radius_beyond_the_image_keeps_the_priors_scale_bit_for_bit(proximity):
-    """BP's prior mu (|p - q| / r)^2 scales with r: it keeps the caller's r."""
-    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=40.0, proximity=proximity)
+    """BP's prior mu (|p - q| / r)^2 scales with r: it keeps the caller's r (Fig. 6's disc)."""
+    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=40.0, proximity=proximity,
+                                 observation="measured", training_radius="fixed")
     image, values, edges = _prepared(result)
     direct = bp_fill(image, values, edges, radius=40.0, proximity=proximity)
     assert np.array_equal(result.range, direct.range)
@@ -147,13 +149,27 @@ def test_bp_with_a_radius_beyond_the_image_keeps_the_priors_scale_bit_for_bit(pr
     assert result.params["radius"] == 40.0 and result.params["proximity"] == proximity
 
 
+@pytest.mark.parametrize("proximity", [1.0, 1e100])
+def test_bp_with_the_gap_radius_beyond_the_image_is_the_reference_bit_for_bit(proximity):
+    """The gap's discs r + d beyond the image are cut one by one, each keeping its prior
+    mu (|p - q| / (r + d))^2: the literal reference (no cut) gives the same bits."""
+    small_image, small = IMAGE[:8, :9], PARTIAL[:8, :9]
+    result = refsynth.synthesize(small_image, small, method="bp", radius=20.0, candidates=3,
+                                 neighbourhood=3, proximity=proximity, iterations=5)
+    slow = ref.bp_reference(small_image, small, result.edges, neighbourhood=3, radius=20.0,
+                            k=3, proximity=proximity, iterations=5)
+    assert np.array_equal(result.bp.unary, slow.unary)
+    assert np.array_equal(result.range, slow.range)
+
+
 def test_bp_with_more_candidates_than_the_cut_radius_disc_holds_is_unchanged():
     """k beyond the disc of the cut radius: the same padded candidates as the radius given."""
     image = RNG.random((3, 3))
     partial = np.full((3, 3), 2.0)
     partial[1, 1] = np.nan
     partial[0, 2] = 5.0
-    result = refsynth.synthesize(image, partial, method="bp", candidates=60, radius=10.0)
+    result = refsynth.synthesize(image, partial, method="bp", candidates=60, radius=10.0,
+                                 observation="measured", training_radius="fixed")
     assert search_radius("bp", 10.0, 1.0, (3, 3))[0] == 4.0  # a disc of 48 offsets < 60
     prepared, values = validate_inputs(image, partial)
     direct = bp_fill(prepared, values, result.edges, radius=10.0, k=60)

@@ -52,14 +52,23 @@ def _digest(result) -> str:
 
 GOLDEN = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
-    ("steps", "bp"): "da696a7a6b4edcc3d5f381ca",
+    ("steps", "bp"): "7ce147a968fc672ca5e0f018",   # 0.4: issue #10's BP defaults
     ("texture", "np"): "2cebdade5732edbd0564aa81",
+    ("texture", "bp"): "7b4f1ad4a4db7c38cbcda397",
+}
+#: BP as Fig. 6 prints it (the observations' measured range, the fixed training disc):
+#: 0.3's default BP, which issue #10's departures replaced; its hashes are 0.3's.
+FIG6 = dict(observation="measured", training_radius="fixed")
+GOLDEN_FIG6 = {
+    ("steps", "bp"): "da696a7a6b4edcc3d5f381ca",
     ("texture", "bp"): "e2699b75d7f964ac7ec9c282",
 }
 #: 0.2's readings (Eq. 2's channel mean; BP's proximity prior μ = 1), which 0.3's defaults
 #: replaced (the README's audit): their hashes are 0.2's defaults' hashes, unchanged by
 #: 0.3's speed work.
-READINGS_02 = {"np": dict(channels="mean"), "bp": dict(channels="mean", proximity=1.0)}
+READINGS_02 = {"np": dict(channels="mean"),
+               "bp": dict(channels="mean", proximity=1.0, observation="measured",
+                          training_radius="fixed")}
 GOLDEN_02 = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
     ("steps", "bp"): "d8dab12d04faac1c1f7e756e",
@@ -83,3 +92,11 @@ def test_the_golden_hash_of_the_earlier_readings_holds(scene, method):
                                  **READINGS_02[method])
     assert _digest(result) == GOLDEN_02[scene, method], (
         f"{scene}/{method} (0.2's readings): the output changed; new hash {_digest(result)}")
+
+
+@pytest.mark.parametrize(("scene", "method"), list(GOLDEN_FIG6))
+def test_the_golden_hash_of_fig6s_bp_holds(scene, method):
+    intensity, partial = SCENES[scene]()
+    result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0, **FIG6)
+    assert _digest(result) == GOLDEN_FIG6[scene, method], (
+        f"{scene}/{method} (Fig. 6): the output changed; new hash {_digest(result)}")

@@ -66,7 +66,10 @@ def synthesis_case(draw, method: str):
                        proximity=draw(st.sampled_from([0.0, 1.0])),
                        sigma_i=draw(st.sampled_from([0.1, 0.5])),
                        product=draw(st.sampled_from(["max", "max", "sum"])),
-                       edge_rule=draw(st.sampled_from(["silent", "paper"])))
+                       edge_rule=draw(st.sampled_from(["silent", "paper"])),
+                       observation=draw(st.sampled_from(
+                           ["colorization", "measured", "colorization-completed"])),
+                       training_radius=draw(st.sampled_from(["gap", "fixed"])))
     intensity = image[:, :, 0] if C == 1 else image
     return intensity, np.where(known, truth, np.nan), edges & use_edges, options, seed
 
@@ -209,3 +212,58 @@ def test_the_window_is_the_rounded_gaussian_of_neighbourhood_py():
     for n in range(1, 32, 2):
         np.testing.assert_array_equal(ref.window_weights(n),
                                       np.rint(gaussian_window(n) * 2**ref.WINDOW_BITS))
+
+
+# -- BP's default departures in the reference (issue #10) -----------------------------------
+
+
+@FEW
+@given(st.integers(0, 2**32 - 1), st.integers(2, 12), st.integers(2, 12),
+       st.floats(0.05, 0.9))
+def test_the_reference_gap_depth_is_the_floored_distance_transform(seed, H, W, fraction):
+    from refsynth.synthesis.bp_gap_radius import gap_depth
+
+    g = np.random.default_rng(seed)
+    known = g.random((H, W)) < fraction
+    known[g.integers(H), g.integers(W)] = True
+    rq = np.where(known, 0, ref.NO_RANGE)
+    rows, cols = np.nonzero(~known)
+    want = gap_depth(rq, rows, cols)   # scipy's exact Euclidean distance transform
+    got = [ref.gap_depth_reference(known, r, c) for r, c in zip(rows, cols)]
+    assert got == want.tolist()
+
+
+def test_the_reference_gap_depth_on_a_hand_built_row():
+    known = np.array([[True, False, False, False, False, False, True]])
+    depths = [ref.gap_depth_reference(known, 0, c) for c in range(7)]
+    assert depths == [0, 1, 2, 3, 2, 1, 0]
+    # (3, 4) from the corner: exactly 5; (1, 1): sqrt 2 floors to 1
+    corner = np.zeros((5, 5), bool)
+    corner[0, 0] = True
+    assert ref.gap_depth_reference(corner, 3, 4) == 5
+    assert ref.gap_depth_reference(corner, 1, 1) == 1
+
+
+def test_the_reference_observations_are_the_fill_on_the_measured_grid():
+    from refsynth.synthesis.completion import portable_colorization
+
+    g = np.random.default_rng(5)
+    image = g.random((9, 11, 1))
+    partial = np.where(g.random((9, 11)) < 0.4, np.round(2.0 + g.random((9, 11)), 2), np.nan)
+    partial[0, 0] = 2.0
+    edges = np.zeros((9, 11), bool)
+    measured = ref.bp_reference(image, partial, edges, neighbourhood=3, radius=2.0, k=2,
+                                iterations=2, observation="measured")
+    default = ref.bp_reference(image, partial, edges, neighbourhood=3, radius=2.0, k=2,
+                               iterations=2)
+    q, low, span = ref.quantise_range(partial)
+    np.testing.assert_array_equal(measured.observed, q)
+    known = np.isfinite(partial)
+    np.testing.assert_array_equal(default.observed[known], q[known])
+    unit = np.where(q < 0, np.nan, q / 2.0**ref.RANGE_BITS)
+    fill = portable_colorization(ref.quantise_intensity(image) / 2.0**16, unit)
+    want = np.maximum(np.rint(fill * 2.0**ref.RANGE_BITS), 0)
+    np.testing.assert_array_equal(default.observed[~known], want[~known])
+    # the labels stay measured pixels; the ranking moved
+    assert np.all(known[default.candidates[..., 0], default.candidates[..., 1]])
+    assert not np.array_equal(measured.unary, default.unary)

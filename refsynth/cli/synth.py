@@ -386,13 +386,14 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     bp_group.add_argument("--proposal-runs", type=integer, metavar="S",
                           help="with --proposals: this many NP fills propose (default 1)")
     bp_group.add_argument("--observation", choices=list(OBSERVATIONS),
-                          help="a departure from Fig. 6: colorization completes the "
-                          "observations' range for the candidates' ranking "
-                          "(colorization-completed: the training patches' too); default "
-                          "measured, the paper's")
+                          help="the observations' range for the candidates' ranking: "
+                          "colorization (the default, a departure from Fig. 6) completes it "
+                          "by the colorization fill, colorization-completed the training "
+                          "patches' too, measured is the paper's")
     bp_group.add_argument("--training-radius", choices=list(TRAINING_RADII),
-                          help="a departure: gap widens each node's training disc by its "
-                          "distance to the nearest measured pixel; default fixed, the paper's r")
+                          help="each node's training disc: gap (the default, a departure) "
+                          "widens it by the node's distance to the nearest measured pixel, "
+                          "fixed is the paper's r")
     bp_group.add_argument("--compatibility", choices=list(COMPATIBILITIES),
                           help="a departure in Eq. 6: overlap-centres counts the two labels' "
                           "centres as one more shared pixel; default overlap, the paper's")

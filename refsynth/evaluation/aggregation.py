@@ -142,6 +142,7 @@ def without_timing(rows: Sequence[dict]) -> list[dict]:
 #: The paper's relative findings, as (name, better method, worse method, source).
 PAIRWISE_FINDINGS = (
     ("BP < NP", "bp", "np", "Tables 1–4"),
+    ("Fig. 6's BP < NP", "bp-fig6", "np", "Tables 1–4"),
     ("NP < NP without edges", "np", "np-noedges", "Table 3, Fig. 13"),
     ("BP < NP without edges", "bp", "np-noedges", "Table 3, Fig. 13"),
     ("priority order < onion order", "np", "np-onion", "Fig. 7"),

@@ -12,7 +12,9 @@ intensity (exact ties in Eq. 2), grey and colour, edges on and off, and the opti
 must get right: ε, isophotes off, the onion order, ``missing_range="ignore"``, the widened
 search (``r = 1``: a front pixel whose filled neighbours are diagonal has an empty ``A_p``),
 both confidence updates, Eq. 2 on grey and with the channel mean, sum-product, both edge
-rules, the proximity prior on.
+rules, the proximity prior on; BP's default observations (completed by the colorization
+fill, the prepared ``q_observation``) and training disc (widened by the gap's depth), and
+Fig. 6 as printed (``observation="measured"``, ``training_radius="fixed"``) beside them.
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ from refsynth.oracle.runs import run_outputs
 __all__ = ["Case", "CASE_SET_VERSION", "build_cases", "expected_outputs", "select_cases"]
 
 #: The version of the case set (inputs and options); the format's is in export.py.
-CASE_SET_VERSION = 2  # 2: refsynth 0.3's defaults (Eq. 2's channel sum, BP without the prior)
+CASE_SET_VERSION = 3  # 3: BP's defaults of issue #10 (completed observations, the gap's radius)
+# 2: refsynth 0.3's defaults (Eq. 2's channel sum, BP without the prior)
 
 
 @dataclass
@@ -136,6 +139,20 @@ def _run_cases(large: bool) -> list[Case]:
         Case("bp-10x12-grey-k5", "bp", colour,
              dict(neighbourhood=3, radius=2.5, use_edges=True, candidates=5, iterations=12,
                   colour=False, sigma_i=0.5, range_weight=4.0), 11),
+    ]
+    # BP as Fig. 6 prints it (the observations' measured range, the fixed disc), and the
+    # training patches completed too, beside the defaults above
+    sparse = _scene(13, (16, 16), 1, "noise", 0.3)
+    cases += [
+        Case("bp-16x16-fig6", "bp", sparse,
+             dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=4, iterations=10,
+                  observation="measured", training_radius="fixed"), 13),
+        Case("bp-16x16-completed-prior", "bp", sparse,
+             dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=4, iterations=10,
+                  observation="colorization-completed", proximity=1.0), 13),
+        Case("bp-16x16-fig6-gap", "bp", sparse,
+             dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=4, iterations=10,
+                  observation="measured"), 13),
     ]
     # larger: 32×32 with the priority order, 64×64 onion (the reference is slow beyond)
     big = _scene(32, (32, 32), 1, "noise", 0.75)

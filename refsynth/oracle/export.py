@@ -36,7 +36,7 @@ FORMAT_VERSION = 1
 #: The version of the numeric contract the expected values follow (README, "The oracle").
 CONTRACT_VERSION = 1
 
-_PREPARED = {"q_intensity", "q_range", "window", "tie", "draws", "onion_tie"}
+_PREPARED = {"q_intensity", "q_range", "q_observation", "window", "tie", "draws", "onion_tie"}
 _TRACE = ("step_", "cand_", "sweep")
 
 SCHEMA = {

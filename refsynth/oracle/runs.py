@@ -122,8 +122,8 @@ def _bp_run(inputs: dict, options: dict, reference) -> dict:
         kept = sorted({s for s in KEPT_SWEEPS if s <= done} | ({done} if done else set()))
     sweeps = (np.stack([run.trace[s - 1][0] for s in kept]) if kept
               else np.zeros((0, 2 * len(run.pairs), k)))
-    return dict(range=run.range, confidence=run.confidence, order=run.order,
-                labels=run.labels, candidates=run.candidates,
+    return dict(q_observation=run.observed, range=run.range, confidence=run.confidence,
+                order=run.order, labels=run.labels, candidates=run.candidates,
                 candidate_values=run.candidate_values, unary=run.unary, pairs=run.pairs,
                 log_psi=run.log_psi, messages=run.messages, beliefs=run.beliefs,
                 iterations=np.array(run.iterations, dtype=np.int64),

@@ -37,6 +37,7 @@ Modeling", IJCV 79:137–158 (2008), §3.2, doi:10.1007/s11263-007-0108-2.
 """
 
 from refsynth.synthesis.api import (
+    BP_DEPARTURES,
     BP_OPTIONS,
     NP_OPTIONS,
     SynthesisResult,
@@ -86,6 +87,7 @@ __all__ = [
     "SynthesisResult",
     "NP_OPTIONS",
     "BP_OPTIONS",
+    "BP_DEPARTURES",
     # what it accepts (validate_inputs, normalise_intensity, PARAMETER_BOUNDS, image_reach, ...)
     *_LIMIT_NAMES,
     # §3.2.1: the MRF neighbourhood

@@ -76,6 +76,7 @@ __all__ = [
     "normalise_intensity",
     "NP_OPTIONS",
     "BP_OPTIONS",
+    "BP_DEPARTURES",
 ]
 
 METHODS = ("np", "bp")
@@ -230,29 +231,34 @@ def _proposal_options(method: str, proposals, proposal_runs) -> dict:
     return {"proposals": proposals, "proposal_runs": runs}
 
 
-def _bp_departures(method: str, observation, compatibility, training_radius=None) -> dict:
-    """BP's observation and Eq. 6 readings (departures, off by default), checked.
+#: BP's readings of Fig. 6, step 2 and Eq. 6 when the caller names none: the observations
+#: completed by the colorization fill and the training disc widened by the gap's depth
+#: (departures that won on real data, issue #10; ``"measured"``, ``"fixed"`` are Fig. 6's).
+BP_DEPARTURES = MappingProxyType({"observation": "colorization", "compatibility": "overlap",
+                                  "training_radius": "gap"})
 
-    Empty when both are None (Fig. 6 as printed); otherwise the ones given. Both
-    are BP's: ``method="np"`` refuses them unless they are the default.
+
+def _bp_departures(method: str, observation, compatibility, training_radius=None) -> dict:
+    """BP's readings of Fig. 6, step 2 and Eq. 6 (:data:`BP_DEPARTURES` where None), checked.
+
+    For ``method="bp"`` all three, the defaults filled in; the other methods
+    refuse them unless they are None or the default, and get ``{}``.
     """
-    out = {}
+    given = {}
     if observation is not None:
-        out["observation"] = check_choice("observation", observation, OBSERVATIONS)
+        given["observation"] = check_choice("observation", observation, OBSERVATIONS)
     if compatibility is not None:
-        out["compatibility"] = check_choice("compatibility", compatibility, COMPATIBILITIES)
+        given["compatibility"] = check_choice("compatibility", compatibility, COMPATIBILITIES)
     if training_radius is not None:
-        out["training_radius"] = check_choice("training_radius", training_radius,
-                                              TRAINING_RADII)
-    defaults = {"observation": OBSERVATIONS[0], "compatibility": COMPATIBILITIES[0],
-                "training_radius": TRAINING_RADII[0]}
+        given["training_radius"] = check_choice("training_radius", training_radius,
+                                                TRAINING_RADII)
     if method != "bp":
-        for name, value in out.items():
-            if value != defaults[name]:
+        for name, value in given.items():
+            if value != BP_DEPARTURES[name]:
                 raise ValueError(f"The parameter `{name}` applies to method='bp' only; "
                                  f"method={method!r} does not use it")
         return {}
-    return out
+    return {**BP_DEPARTURES, **given}
 
 
 def _random_source(seed) -> np.random.Generator:
@@ -433,30 +439,32 @@ def synthesize(
     proposal_runs : int, BP with ``proposals`` only, default 1
         How many NP fills propose (each a label per pixel; the seeds follow one
         another from ``seed``'s generator).
-    observation : {None, "measured", "colorization", "colorization-completed"}, BP only
-        **A departure from Fig. 6, step 2** (issue #10;
-        :mod:`refsynth.synthesis.bp_observation`). None or ``"measured"``: the
+    observation : {None, "colorization", "measured", "colorization-completed"}, BP only
+        Fig. 6, step 2's observations ``y_i`` (issue #10;
+        :mod:`refsynth.synthesis.bp_observation`). None or ``"colorization"``
+        (the default, **a departure from Fig. 6** that won on real data): the
+        colorization fill of the measured range
+        (:func:`refsynth.synthesis.bp_observation.observation_fill`: the
+        portable solve, the same bits on every machine, of the quantised range
+        guided by the quantised intensity, so the intensity convention below
+        holds for it too) completes every observation, so Eq. 2 ranks the
+        candidates with a range term deep in a gap too. ``"measured"``: the
         observations hold the measured range only, as printed.
-        ``"colorization"``: the colorization fill of the measured range
-        (:func:`refsynth.synthesis.completion.portable_colorization`, the same
-        bits on every machine) completes every observation, so Eq. 2 ranks the
-        candidates with a range term deep in a gap too;
-        ``"colorization-completed"``: the training patches' range in Eq. 2 as
-        well. The fill sees the intensity as validated (integer images scaled
-        to [0, 1]), as the colorization baseline does: an intensity offset
-        changes it only by rounding, not bit for bit as the default path.
+        ``"colorization-completed"``: the training patches' range in Eq. 2 is
+        completed as well.
     compatibility : {None, "overlap", "overlap-centres"}, BP only
         **A departure in Eq. 6** (:mod:`refsynth.synthesis.bp_centres`). None
         or ``"overlap"``: the mean square over the shared measured pixels, Ψ = 1
         with none. ``"overlap-centres"``: the two labels' centre ranges count as
         one more shared pixel.
-    training_radius : {None, "fixed", "gap"}, BP only
-        **A departure in Fig. 6, step 2**
-        (:mod:`refsynth.synthesis.bp_gap_radius`). None or ``"fixed"``: a
-        node's training set is the measured pixels within ``radius``.
-        ``"gap"``: within ``radius`` plus the node's distance to the nearest
-        measured pixel (floored), so a node deep in a gap searches as far
-        past its edge as one beside it.
+    training_radius : {None, "gap", "fixed"}, BP only
+        Fig. 6, step 2's training disc (:mod:`refsynth.synthesis.bp_gap_radius`).
+        None or ``"gap"`` (the default, **a departure** that won on real data
+        together with the completed observations): within ``radius`` plus the
+        node's distance to the nearest measured pixel (floored), so a node
+        deep in a gap searches as far past its edge as one beside it.
+        ``"fixed"``: the measured pixels within ``radius``, as printed.
+        ``observation="measured", training_radius="fixed"`` is Fig. 6's BP.
 
     Returns
     -------
@@ -506,9 +514,9 @@ def synthesize(
     ``edge_rule``            —            §3.2.3       ``"silent"``
     ``proposals``            —            departure    None
     ``proposal_runs``        —            departure    1
-    ``observation``          —            departure    ``"measured"``
-    ``compatibility``        —            departure    ``"overlap"``
-    ``training_radius``      —            departure    ``"fixed"``
+    ``observation``          —            step 2       ``"colorization"`` (departure)
+    ``compatibility``        —            Eq. 6        ``"overlap"``
+    ``training_radius``      —            step 2       ``"gap"`` (departure)
     =======================  ===========  ===========  ================================
 
     An option marked "—" raises ``ValueError`` for that method unless it is
@@ -582,15 +590,19 @@ def synthesize(
     if progress is not None and not callable(progress):
         raise TypeError("The parameter `progress` must be callable or None")
     rng = _random_source(seed)
-    # beyond the image's diagonal the radius means the whole image (bit for bit)
-    run_radius, proximity = search_radius(method, radius, options.get("proximity", 0.0),
-                                          range_values.shape)
+    # beyond the image's diagonal the radius means the whole image (bit for bit); the gap's
+    # discs (r plus each node's depth) are cut one by one (bp_gap_radius)
+    cut_radius, cut_proximity = search_radius(method, radius, options.get("proximity", 0.0),
+                                              range_values.shape)
+    run_radius, proximity = cut_radius, cut_proximity
+    if departures.get("training_radius") == "gap":
+        run_radius, proximity = radius, options.get("proximity", 0.0)
     extra_labels = proposal_options.get("proposal_runs", 0)
     if proposal_options:  # NP runs first, at its own radius
         np_radius = search_radius("np", radius, 0.0, range_values.shape)[0]
         check_memory("np", image, range_values, neighbourhood=neighbourhood, radius=np_radius,
                      colour=colour)
-    check_memory(method, image, range_values, neighbourhood=neighbourhood, radius=run_radius,
+    check_memory(method, image, range_values, neighbourhood=neighbourhood, radius=cut_radius,
                  candidates=options.get("candidates", 8) + extra_labels, colour=colour)
 
     if edges is None:
@@ -618,13 +630,13 @@ def synthesize(
                 **{**common, "radius": np_radius, "progress": None})
             options["proposal_phi"] = "match"
             options["proposal_completed"] = proposal_options["proposals"] == "np-completed"
-        if departures.get("observation", "measured") != "measured":  # the departure
+        if departures["observation"] != "measured":  # the default: completed observations
             options["observation"] = observation_fill(image, range_values,
-                                                      departures["observation"])
+                                                      departures["observation"],
+                                                      colour=colour)
             options["observation_completed"] = departures["observation"].endswith("-completed")
-        for name in ("compatibility", "training_radius"):
-            if name in departures:
-                options[name] = departures[name]
+        options["compatibility"] = departures["compatibility"]
+        options["training_radius"] = departures["training_radius"]
         bp = bp_fill(image, range_values, edge_map, **options, **common)
         return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
                                edges=edge_map, method=method, params=params,

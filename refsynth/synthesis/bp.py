@@ -325,10 +325,14 @@ def bp_fill(
         Complete the training patches' unknown range from the first proposal.
     observation : ndarray of shape (H, W), optional
         **A departure from Fig. 6, step 2**
-        (:mod:`refsynth.synthesis.bp_observation`): a dense range (e.g. the
-        colorization fill), finite at every unknown pixel, that completes the
-        observations ``y_i`` for Eq. 2's ranking of the candidates. None (the
-        default): the observations hold the measured range only, as printed.
+        (:mod:`refsynth.synthesis.bp_observation`): a dense range on the
+        measured range's unit scale, ``(D − low) / span``, finite at every
+        unknown pixel (:func:`~refsynth.synthesis.bp_observation.observation_fill`,
+        the colorization fill), that completes the observations ``y_i`` for
+        Eq. 2's ranking of the candidates. None: the observations hold the
+        measured range only, as printed. (:func:`refsynth.synthesize` passes
+        the colorization fill by default; this function's defaults are
+        Fig. 6's.)
     observation_completed : bool, default False
         With ``observation``, complete the training patches' range for Eq. 2
         from it too.
@@ -413,7 +417,7 @@ def bp_fill(
     # step 2: candidates, and step 3: log Phi
     observed = training = None
     if observation is not None:  # the departure: the observations' range from a fill
-        observed, training = observed_ranges(rq, low, span, observation,
+        observed, training = observed_ranges(rq, observation,
                                              completed=observation_completed)
     if training_radius not in TRAINING_RADII:
         raise ValueError(f"The parameter `training_radius` must be one of {TRAINING_RADII}, "

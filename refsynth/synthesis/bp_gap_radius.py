@@ -59,11 +59,14 @@ Torres-Méndez & Dudek (2008), §3.2.3, Fig. 6, doi:10.1007/s11263-007-0108-2.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import ndimage
 
 from refsynth.numeric import NO_RANGE
 from refsynth.synthesis.bp_search import search_candidates
+from refsynth.synthesis.limits import search_radius
 
 __all__ = ["TRAINING_RADII", "gap_depth", "gap_radius_candidates"]
 
@@ -144,10 +147,13 @@ def gap_radius_candidates(levels, rq, rows, cols, *, radius: float, pad: int, n:
     labels = np.zeros((rows.size, k), dtype=np.int64)
     distances = np.zeros((rows.size, k))
     depth = gap_depth(rq, rows, cols)
+    proximity = options.pop("proximity")
     for extra in np.unique(depth):
         mine = np.flatnonzero(depth == extra)  # raster order kept
         wide = float(radius) + float(extra)
+        # a disc beyond the image runs at the cut radius with the same prior, bit for bit
+        run, mu = search_radius("bp", wide, proximity, rq.shape)
         labels[mine], distances[mine] = search_candidates(
-            levels, rq, rows[mine], cols[mine], n=n, radius=wide,
-            pad=max(pad, int(np.ceil(wide)), n // 2 + 1), **options)
+            levels, rq, rows[mine], cols[mine], n=n, radius=run, proximity=mu,
+            pad=max(pad, math.ceil(run), n // 2 + 1), **options)
     return labels, distances

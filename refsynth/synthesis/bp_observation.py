@@ -79,8 +79,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsynth.numeric import NO_RANGE, RANGE_BITS
+from refsynth.numeric import (
+    INTENSITY_BITS,
+    NO_RANGE,
+    RANGE_BITS,
+    quantise_grey,
+    quantise_intensity,
+    quantise_range,
+)
 from refsynth.synthesis.completion import portable_colorization
+from refsynth.synthesis.limits import normalise_intensity
 
 __all__ = ["OBSERVATIONS", "observation_fill", "observed_ranges"]
 
@@ -89,8 +97,15 @@ __all__ = ["OBSERVATIONS", "observation_fill", "observed_ranges"]
 OBSERVATIONS = ("measured", "colorization", "colorization-completed")
 
 
-def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: str) -> np.ndarray:
-    """The dense range that completes the observations, for ``observation``.
+def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: str,
+                     *, colour: bool = True) -> np.ndarray:
+    """The dense range that completes the observations, on the measured range's unit scale.
+
+    The colorization fill of the *quantised* range ``q_r / 2**16`` guided by the
+    *quantised* intensity ``q_i / 2**16`` (:mod:`refsynth.numeric`: each brought to
+    its own span), so that an intensity offset or positive scale, ``uint8`` against
+    the same values as floats, and a positive scale of the range give the same
+    fill, bit for bit — the intensity convention of :func:`refsynth.synthesize`.
 
     Parameters
     ----------
@@ -100,11 +115,17 @@ def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: s
         The measured range, NaN where unknown.
     observation : {"colorization", "colorization-completed"}
         Both use :func:`refsynth.synthesis.completion.portable_colorization`.
+    colour : bool, default True
+        Guide the fill by the quantised colour (the fill reduces it to grey
+        with BT.601's weights, as the colorization baseline does) or, False,
+        by the quantised grey level that Eq. 2 compares with ``colour=False``.
 
     Returns
     -------
     ndarray of shape (H, W)
-        Finite wherever the range is unknown; the measured range unchanged.
+        ``(D − low) / span`` of the filled range ``D`` (``low``, ``span``: the
+        measured range's minimum and span), finite everywhere; at a measured
+        pixel its quantised value ``q_r / 2**16``.
 
     Examples
     --------
@@ -112,16 +133,22 @@ def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: s
     >>> partial = np.full((4, 6), np.nan); partial[:, 0] = 1.0; partial[:, 5] = 3.0
     >>> fill = observation_fill(image, partial, "colorization")
     >>> bool(np.all(np.isfinite(fill))), float(fill[0, 0]), float(fill[0, 5])
-    (True, 1.0, 3.0)
+    (True, 0.0, 1.0)
     """
     if observation not in OBSERVATIONS[1:]:
         raise ValueError(f"The parameter `observation` must be one of {OBSERVATIONS[1:]} "
                          f"here, got {observation!r}")
-    return portable_colorization(image, range_values)
+    levels = quantise_intensity(normalise_intensity(image))
+    if not colour:
+        levels = quantise_grey(levels)
+    levels = levels * 2.0**-INTENSITY_BITS
+    rq, _, _ = quantise_range(range_values)
+    unit = np.where(rq == NO_RANGE, np.nan, rq * 2.0**-RANGE_BITS)
+    return portable_colorization(levels, unit)
 
 
 def observed_ranges(
-    rq: np.ndarray, low: float, span: float, fill: np.ndarray, *, completed: bool = False
+    rq: np.ndarray, fill: np.ndarray, *, completed: bool = False
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """The observations' range (and, ``completed``, the training patches') on the grid.
 
@@ -130,12 +157,11 @@ def observed_ranges(
     rq : ndarray of int, shape (H, W)
         The measured range quantised (:func:`refsynth.numeric.quantise_range`),
         ``NO_RANGE`` where unknown.
-    low, span : float
-        That quantisation's offset and span: the fill goes on the same grid,
-        ``rint(2**16 (D − low) / span)``, clipped below at 0 (so that a value
-        below the measured minimum still reads as range).
     fill : ndarray of shape (H, W)
-        A dense range, finite wherever ``rq`` is ``NO_RANGE``.
+        A dense range on the measured range's unit scale (:func:`observation_fill`),
+        finite wherever ``rq`` is ``NO_RANGE``; it goes on ``rq``'s grid as
+        ``rint(2**16 fill)``, clipped below at 0 (so that a value below the
+        measured minimum still reads as range).
     completed : bool, default False
         Also return the same array for the training patches.
 
@@ -154,9 +180,9 @@ def observed_ranges(
     Examples
     --------
     >>> rq = np.array([[0, -1, 65536]])
-    >>> observed_ranges(rq, 1.0, 2.0, np.array([[9.0, 2.5, 9.0]]))[0].tolist()
+    >>> observed_ranges(rq, np.array([[9.0, 0.75, 9.0]]))[0].tolist()
     [[0, 49152, 65536]]
-    >>> observed_ranges(rq, 1.0, 2.0, np.array([[0.0, 0.5, 0.0]]), completed=True)[1].tolist()
+    >>> observed_ranges(rq, np.array([[0.0, -0.25, 0.0]]), completed=True)[1].tolist()
     [[0, 0, 65536]]
     """
     rq = np.asarray(rq)
@@ -166,6 +192,6 @@ def observed_ranges(
     unknown = rq == NO_RANGE
     if not np.all(np.isfinite(fill[unknown])):
         raise ValueError("The observation fill must be finite at every unknown pixel")
-    quantised = np.rint((np.where(unknown, fill, low) - low) / span * 2.0**RANGE_BITS)
+    quantised = np.rint(np.where(unknown, fill, 0.0) * 2.0**RANGE_BITS)
     observed = np.where(unknown, np.maximum(quantised, 0.0), rq).astype(np.int64)
     return observed, (observed if completed else None)

@@ -65,6 +65,7 @@ from refsynth.numeric import (
     quantise_range,
     window_weights,
 )
+from refsynth.synthesis.completion import portable_colorization
 
 __all__ = [
     "quantise_intensity", "quantise_grey", "quantise_range", "window_weights", "portable_exp",
@@ -341,7 +342,10 @@ class BPReference:
     4-neighbour pair of unknown pixels (horizontal pairs then vertical, raster order):
     ``pairs`` (E, 2) node indices, ``log_psi`` (E, k, k) and ``messages`` (2E, k): row ``e``
     goes ``pairs[e, 0] → pairs[e, 1]``, row ``E + e`` back; ``iterations`` the sweeps done;
-    ``trace`` (with ``trace=True``) the messages and the largest change after every sweep.
+    ``trace`` (with ``trace=True``) the messages and the largest change after every sweep;
+    ``observed`` (H, W) int64 the observations' range on the measured range's grid (the
+    measured range, and with a completing ``observation`` the fill's; ``NO_RANGE`` where
+    none).
     """
 
     range: np.ndarray
@@ -357,6 +361,7 @@ class BPReference:
     beliefs: np.ndarray
     iterations: int
     trace: list | None = None
+    observed: np.ndarray | None = None
 
 
 def overlap_mean_square(first, second, direction):
@@ -375,16 +380,17 @@ def overlap_mean_square(first, second, direction):
     return (int(np.sum(d * d)) * 2.0 ** (-2 * RANGE_BITS)) / count
 
 
-def _bp_candidates(frame, known, r, c, k, radius, proximity, range_weight, missing_range, side,
-                   channels="sum"):
+def _bp_candidates(observed, frame, known, r, c, k, radius, proximity, range_weight,
+                   missing_range, side, channels="sum"):
     """Fig. 6, step 2: the ``k`` training patches (measured centres) closest to node (r, c).
 
-    Ranked by Eq. 2 plus ``μ |v|² / r²``, ties by the raster order of the offsets; the radius
+    Ranked by Eq. 2 between the observation (``observed``'s patch) and the training patch
+    (``frame``'s), plus ``μ |v|² / r²``, ties by the raster order of the offsets; the radius
     doubles until ``k`` are found, every measured pixel is in the disc, or ``ceil(r) ≥ side``
     (the padded frame's longer side). Too few: the last one repeats.
     """
     total_known = int(known.sum())
-    target = frame.patch(r, c)
+    target = observed.patch(r, c)
     r_t = radius
     while True:
         offsets = disc_offsets(r_t)
@@ -425,15 +431,58 @@ def _send(t, axis, product):
     return m - (float(portable_log(z)) + m.max())
 
 
+def _observed_frame(frame, image, range_values, observation, colour):
+    """The observations ``y_i``: ``frame`` itself, or its range completed by the fill.
+
+    With ``observation="colorization"`` (or ``"-completed"``) every unknown pixel's range is
+    ``max(rint(2**16 f), 0)``, ``f`` the colorization fill
+    (:func:`refsynth.synthesis.completion.portable_colorization`) of the quantised range
+    ``q_r / 2**16`` guided by the quantised intensity ``q_i / 2**16`` (the fill reduces
+    colour to grey itself; with ``colour=False`` the grey level of Eq. 2); the measured
+    range is kept.
+    """
+    if observation == "measured":
+        return frame
+    q_intensity = quantise_intensity(image)
+    if not colour:
+        q_intensity = quantise_grey(q_intensity)
+    q_intensity = q_intensity * 2.0**-INTENSITY_BITS
+    q_range, _, _ = quantise_range(range_values)
+    fill = portable_colorization(
+        q_intensity, np.where(q_range == NO_RANGE, np.nan, q_range * 2.0**-RANGE_BITS))
+    observed = _Frame(image, range_values, frame.n, colour)
+    inner = observed.qr[frame.h : frame.h + frame.shape[0], frame.h : frame.h + frame.shape[1]]
+    for r, c in zip(*np.nonzero(inner == NO_RANGE)):
+        inner[r, c] = max(round(float(fill[r, c]) * 2.0**RANGE_BITS), 0)
+    return observed
+
+
+def gap_depth_reference(known, r, c) -> int:
+    """``⌊d⌋``: the distance from (r, c) to the nearest measured pixel, floored (0: none)."""
+    rows, cols = np.nonzero(known)
+    if rows.size == 0:
+        return 0
+    return math.isqrt(int(np.min((rows - r) ** 2 + (cols - c) ** 2)))   # integers: exact
+
+
 def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=8,
                  sigma_i=0.1, sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=0.0, colour=True, edge_rule="silent", channels="sum",
+                 observation="colorization", training_radius="gap",
                  trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
-    2. Labels of node ``i``: its ``k`` closest training patches (:func:`_bp_candidates`).
+    2. Labels of node ``i``: its ``k`` closest training patches (:func:`_bp_candidates`),
+       ranked by Eq. 2 against its observation ``y_i``. refsynth's defaults depart from
+       Fig. 6 here (issue #10, measured in :mod:`refsynth.synthesis.bp_observation` and
+       :mod:`refsynth.synthesis.bp_gap_radius`): with ``observation="colorization"``
+       ``y_i``'s unknown range is completed by the colorization fill
+       (:func:`_observed_frame`; ``"colorization-completed"``: the training patches' too, in
+       Eq. 2 only), and with ``training_radius="gap"`` the disc's radius is
+       ``r + ⌊d_i⌋`` (:func:`gap_depth_reference`; the prior μ then divides by that radius
+       squared). ``observation="measured"``, ``training_radius="fixed"`` is Fig. 6 as printed.
     3. Eq. 7, ``log Φ(x_i^l, y_i) = −d_l / 2σ_i²`` with ``d_l`` the ranking distance.
     4. Eq. 6, ``log Ψ = −|d^l − d^m|² / 2σ_s²`` (:func:`overlap_mean_square`) for each pair
        of unknown 4-neighbours; a measured neighbour adds ``log Ψ`` against its own patch to
@@ -456,18 +505,21 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     H, W = range_values.shape
     h = neighbourhood // 2
     frame = _Frame(image, range_values, neighbourhood, colour)
+    observed = _observed_frame(frame, image, range_values, observation, colour)
+    training = observed if observation == "colorization-completed" else frame
     on_edge = np.asarray(edges, dtype=bool) & use_edges
     deaf = edge_rule == "paper"
     known = np.isfinite(range_values)
     pad = max(int(math.ceil(radius)), h + 1)
-    side = max(H, W) + 2 * pad
     nodes = [(r, c) for r in range(H) for c in range(W) if not known[r, c]]
     node_of = {p: i for i, p in enumerate(nodes)}
     N = len(nodes)
     cands, unary = np.zeros((N, k, 2), np.int64), np.zeros((N, k))
     for i, (r, c) in enumerate(nodes):                                  # steps 2 and 3
-        cand, dist = _bp_candidates(frame, known, r, c, k, radius, proximity, range_weight,
-                                    missing_range, side, channels)
+        wide = radius + (gap_depth_reference(known, r, c) if training_radius == "gap" else 0)
+        cand, dist = _bp_candidates(observed, training, known, r, c, k, wide, proximity,
+                                    range_weight, missing_range,
+                                    max(H, W) + 2 * max(pad, math.ceil(wide)), channels)
         cands[i] = cand
         unary[i] = [-d / (2.0 * sigma_i * sigma_i) for d in dist]
         patches = [frame.patch(a, b)[1] for a, b in cand]
@@ -553,4 +605,5 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     order = np.array(nodes, dtype=np.int64).reshape(-1, 2)
     return BPReference(out, confidence, order, labels, cands, values, unary,
                        np.array([p[:2] for p in pairs], np.int64).reshape(-1, 2), log_psi,
-                       messages, belief, done, sweeps)
+                       messages, belief, done, sweeps,
+                       observed.qr[h : h + H, h : h + W].copy())
