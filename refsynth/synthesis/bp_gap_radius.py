@@ -8,8 +8,9 @@ nearest one: on the Motorcycle's x-stripes at 85 % unknown (17 unknown
 columns between 3 known ones, ``r = 10``) a node in the middle of a gap reaches
 each neighbouring stripe only over about ±5 rows.
 
-**This option is not the paper** (``training_radius="gap"``,
-:func:`refsynth.synthesize`, BP only): node ``i``'s disc has radius
+**This option is not the paper, and it is refsynth's default since 0.4**,
+with the completed observations (``training_radius="gap"``,
+:func:`refsynth.synthesize`, BP; ``"fixed"`` is Fig. 6's): node ``i``'s disc has radius
 ``r + ⌊d_i⌋``, ``d_i`` its Euclidean distance to the nearest measured pixel,
 so that every node searches the same ``r`` beyond the edge of its gap. A node
 beside a measured pixel (``d_i = 1``) searches ``r + 1``. The rest of step 2 —
@@ -19,13 +20,16 @@ unchanged; :func:`gap_radius_candidates` runs
 ``⌊d_i⌋`` on those nodes, so each node's candidates are exactly those of the
 search at its own radius. The distances are those of
 :func:`scipy.ndimage.distance_transform_edt` (square roots of integers,
-correctly rounded): exact, so the grouping is portable.
+correctly rounded): exact, so the grouping is portable. A disc beyond the
+image runs at the image's reach with the prior's coefficient
+``μ / (r + ⌊d_i⌋)²`` kept bit for bit
+(:func:`refsynth.synthesis.limits.search_radius`, group by group).
 
 Measured (MAR in disparity px, the Motorcycle's x-stripes at 63 / 78 / 85 %
 unknown, one run each: BP is deterministic)::
 
     python benchmarks/audit_departures.py --split choose --seeds 0 --jobs 1 \
-        --variants bp-gap-radius,bp-obs-colorization-gap-radius
+        --variants bp-fig6,bp-gap-radius,bp-obs-colorization,bp
 
 Alone it helps only where the gaps are wide: 0.354 / 0.629 / 0.791 on the
 choosing split against Fig. 6's 0.328 / 0.597 / 0.848 (and on the room
@@ -71,7 +75,7 @@ from refsynth.synthesis.limits import search_radius
 __all__ = ["TRAINING_RADII", "gap_depth", "gap_radius_candidates"]
 
 #: The training discs :func:`refsynth.synthesize` accepts for BP: ``"fixed"`` is Fig. 6's
-#: radius ``r`` (the default); ``"gap"`` widens it by the node's depth in its gap.
+#: radius ``r``; ``"gap"`` (the default) widens it by the node's depth in its gap.
 TRAINING_RADII = ("fixed", "gap")
 
 

@@ -11,37 +11,38 @@ pixels two partial training patches share, rarely overrules it.
 NP (§3.2.2) avoids this by comparing each pixel with the range it has
 already synthesized.
 
-**This module is not the paper.** With ``observation="colorization"``
-(:func:`refsynth.synthesize`, BP only), a classical fill of the measured range
-(Levin et al.'s colorization, :func:`observation_fill`: one sparse solve, no
-random choice, so BP stays deterministic) gives every observation a range:
+**This module is not the paper, and it is refsynth's default since 0.4.**
+With ``observation="colorization"`` (:func:`refsynth.synthesize`, BP; the
+default, which won on real data: the README's "Real data"), a classical fill
+of the measured range (Levin et al.'s colorization, :func:`observation_fill`:
+no random choice, so BP stays deterministic) gives every observation a range:
 Eq. 2 between ``y_i`` and a training patch then has a range term at every
 offset where the training patch has range, and ranks the candidates by how
 well their measured range fits that estimate as well as by intensity. The
 training set, the labels (the training patches' measured range), Φ's
-formula, Ψ and the messages are Fig. 6's. ``"colorization-completed"`` also
-completes the training patches' unknown range from the same fill for the
-ranking (Eq. 2 only: Ψ still compares measured range).
+formula, Ψ and the messages are Fig. 6's. ``"measured"`` is Fig. 6 as
+printed; ``"colorization-completed"`` also completes the training patches'
+unknown range from the same fill for the ranking (Eq. 2 only: Ψ still
+compares measured range).
 
-:func:`observed_ranges` puts the fill on the measured range's ``2**-16`` grid
-(:mod:`refsynth.numeric`); everything after it is exact integer arithmetic as
-in Fig. 6's search. The fill is
-:func:`refsynth.synthesis.completion.portable_colorization`: the system of
-:func:`refsynth.evaluation.baselines.colorization_fill` solved by Gauss–Seidel
-sweeps with fixed-order sums and :func:`~refsynth.numeric.portable_exp`, so
-the option gives the same bits on every machine, as the default BP. (The
-baseline's direct sparse solve is not portable bit for bit: SuperLU's BLAS
-picks the order of its sums.) Unlike the default BP it is not bit-invariant
-to an intensity offset: the fill sees the intensity as validated, so an
-offset moves it by rounding.
+The fill is :func:`refsynth.synthesis.completion.portable_colorization` (the
+system of :func:`refsynth.evaluation.baselines.colorization_fill` solved by
+Gauss–Seidel sweeps with fixed-order sums and
+:func:`~refsynth.numeric.portable_exp`: the same bits on every machine, which
+the baseline's SuperLU solve is not) of the *quantised* range guided by the
+*quantised* intensity (:mod:`refsynth.numeric`), so an offset or positive
+scale of the intensity, ``uint8`` against the same values as floats, and a
+positive scale of the range change nothing, bit for bit, as for Fig. 6's BP.
+:func:`observed_ranges` puts the fill on the measured range's ``2**-16``
+grid; everything after it is exact integer arithmetic as in Fig. 6's search.
 
 Measured (MAR in disparity px, the Motorcycle's x-stripes at 63 / 78 / 85 %
 unknown; BP is deterministic, one run each)::
 
     python benchmarks/audit_departures.py --split choose --seeds 0 --jobs 1 \
-        --variants bp,bp-obs-colorization,bp-obs-colorization-completed-centres-sigma-s0.1
+        --variants bp-fig6,bp-obs-colorization,bp-obs-colorization-completed-centres-sigma-s0.1
     python benchmarks/audit_departures.py --split report --seeds 0 --jobs 1 \
-        --variants bp,bp-obs-colorization,bp-obs-colorization-completed-centres-sigma-s0.1
+        --variants bp-fig6,bp-obs-colorization,bp-obs-colorization-completed-centres-sigma-s0.1
 
 ============================  ========================  ========================
 split, size                   Fig. 6 (observations       ``"colorization"``
@@ -92,8 +93,9 @@ from refsynth.synthesis.limits import normalise_intensity
 
 __all__ = ["OBSERVATIONS", "observation_fill", "observed_ranges"]
 
-#: The observations :func:`refsynth.synthesize` accepts for BP: ``"measured"`` is Fig. 6's
-#: (the default); the others complete them by a classical fill (see above).
+#: The observations :func:`refsynth.synthesize` accepts for BP: ``"measured"`` is Fig. 6's;
+#: the others complete them by a classical fill (see above; ``"colorization"`` is the
+#: default, :data:`refsynth.synthesis.api.BP_DEPARTURES`).
 OBSERVATIONS = ("measured", "colorization", "colorization-completed")
 
 
