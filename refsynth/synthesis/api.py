@@ -7,9 +7,10 @@ Every other part of refsynth (the command line, the tutorials, the
 benchmarks, a faster port checking itself against this one) calls this
 function.
 
-Each method has options of its own (:data:`NP_OPTIONS`, :data:`BP_OPTIONS`):
-they default to ``None``, which means the method's default, and giving one to
-the other method raises ``ValueError`` unless it is that option's default.
+Each method has options of its own (:data:`NP_OPTIONS`, :data:`BP_OPTIONS`,
+checked in :mod:`refsynth.synthesis.options`): they default to ``None``, which
+means the method's default, and giving one to the other method raises
+``ValueError`` unless it is that option's default.
 
 The intensity convention
 ------------------------
@@ -37,36 +38,35 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import partial
-from types import MappingProxyType
 
 import numpy as np
 
-from refsynth._checks import (
-    check_bool,
-    check_choice,
-    check_in_range,
-    check_int,
-    check_real,
-    check_seed,
-    is_int,
-)
+from refsynth._checks import check_bool, check_choice, check_real
 from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
-from refsynth.synthesis.bp import EDGE_RULES, BPResult, bp_fill
-from refsynth.synthesis.bp_centres import COMPATIBILITIES
-from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
-from refsynth.synthesis.bp_observation import OBSERVATIONS, observation_fill
-from refsynth.synthesis.bp_proposals import PROPOSALS, np_proposals
+from refsynth.synthesis.bp import BPResult, bp_fill
+from refsynth.synthesis.bp_observation import observation_fill
+from refsynth.synthesis.bp_proposals import np_proposals
 from refsynth.synthesis.canny import canny
 from refsynth.synthesis.limits import (
-    PARAMETER_BOUNDS,
     check_canny_sigma,
     check_memory,
     normalise_intensity,
     search_radius,
     validate_inputs,
 )
-from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES, np_fill
+from refsynth.synthesis.nonparametric import np_fill
+from refsynth.synthesis.options import (
+    BP_DEPARTURES,
+    BP_OPTIONS,
+    METHODS,
+    NP_OPTIONS,
+    at_least,
+    bounded,
+    check_bp_departures,
+    check_method_options,
+    check_proposals,
+    random_source,
+)
 from refsynth.synthesis.similarity import CHANNELS, MISSING_RANGE
 
 __all__ = [
@@ -78,32 +78,6 @@ __all__ = [
     "BP_OPTIONS",
     "BP_DEPARTURES",
 ]
-
-METHODS = ("np", "bp")
-PRODUCTS = ("max", "sum")
-ORDERINGS = ("priority", "onion")
-
-#: The options only NP uses, with NP's defaults (§3.2.2, §3.2.4); read-only.
-NP_OPTIONS = MappingProxyType({
-    "epsilon": 0.1,
-    "use_isophotes": True,
-    "ordering": "priority",
-    "confidence_update": "best",
-    "edges_last": True,
-})
-#: The options only BP uses, with BP's defaults (§3.2.3); read-only.
-BP_OPTIONS = MappingProxyType({
-    "candidates": 8,
-    "proximity": 0.0,
-    "sigma_i": 0.1,
-    "sigma_s": 0.2,
-    "iterations": 50,
-    "tolerance": 1e-4,
-    "product": "max",
-    "edge_rule": "silent",
-})
-_OPTIONS = {"np": NP_OPTIONS, "bp": BP_OPTIONS}
-
 
 @dataclass(frozen=True)
 class SynthesisResult:
@@ -159,116 +133,6 @@ class SynthesisResult:
     iterations: int = 0
     candidate_values: np.ndarray | None = None
     bp: BPResult | None = None
-
-
-def _at_least(name: str, value, minimum: int) -> int:
-    """An integer option ``>= minimum`` (the type check of :func:`check_int`)."""
-    value = check_int(name, value)
-    if value < minimum:
-        raise ValueError(f"The parameter `{name}` must be >= {minimum}, got {value}")
-    return value
-
-
-def _bounded(name: str):
-    """The check of a real parameter within its :data:`PARAMETER_BOUNDS`."""
-    return partial(check_in_range, name, low=PARAMETER_BOUNDS[name][0],
-                   high=PARAMETER_BOUNDS[name][1])
-
-
-#: How each method-specific option is checked (when it is given).
-_OPTION_CHECKS = {
-    "epsilon": _bounded("epsilon"),
-    "use_isophotes": partial(check_bool, "use_isophotes"),
-    "ordering": partial(check_choice, "ordering", choices=ORDERINGS),
-    "candidates": partial(_at_least, "candidates", minimum=1),
-    "proximity": _bounded("proximity"),
-    "sigma_i": _bounded("sigma_i"),
-    "sigma_s": _bounded("sigma_s"),
-    "iterations": partial(_at_least, "iterations", minimum=0),
-    "tolerance": partial(check_real, "tolerance", minimum=0.0),
-    "product": partial(check_choice, "product", choices=PRODUCTS),
-    "confidence_update": partial(check_choice, "confidence_update", choices=CONFIDENCE_UPDATES),
-    "edges_last": partial(check_bool, "edges_last"),
-    "edge_rule": partial(check_choice, "edge_rule", choices=EDGE_RULES),
-}
-
-
-def _method_options(method: str, given: dict) -> dict:
-    """The options of ``method``, checked, with its defaults where ``None`` was given.
-
-    Every option given is checked first; an option of the *other* method
-    raises ``ValueError`` unless it is that option's default.
-    """
-    checked = {name: _OPTION_CHECKS[name](value) for name, value in given.items()
-               if value is not None}
-    for other, defaults in _OPTIONS.items():
-        for name, default in defaults.items():
-            if other != method and name in checked and checked[name] != default:
-                raise ValueError(
-                    f"The parameter `{name}` applies to method={other!r} only; "
-                    f"method={method!r} does not use it"
-                )
-    return {name: checked.get(name, default) for name, default in _OPTIONS[method].items()}
-
-
-def _proposal_options(method: str, proposals, proposal_runs) -> dict:
-    """BP's proposals (a departure, :mod:`refsynth.synthesis.bp_proposals`), checked.
-
-    Empty when ``proposals`` is None (the paper's Fig. 6); otherwise ``proposals`` and
-    ``proposal_runs``. Both are BP's: ``method="np"`` refuses them.
-    """
-    if proposals is None:
-        if proposal_runs is not None:
-            _at_least("proposal_runs", proposal_runs, 1)
-            raise ValueError("The parameter `proposal_runs` needs `proposals` (e.g. 'np'); "
-                             "without it BP has no proposals to run")
-        return {}
-    proposals = check_choice("proposals", proposals, PROPOSALS)
-    runs = 1 if proposal_runs is None else _at_least("proposal_runs", proposal_runs, 1)
-    if method != "bp":
-        raise ValueError(f"The parameter `proposals` applies to method='bp' only; "
-                         f"method={method!r} does not use it")
-    return {"proposals": proposals, "proposal_runs": runs}
-
-
-#: BP's readings of Fig. 6, step 2 and Eq. 6 when the caller names none: the observations
-#: completed by the colorization fill and the training disc widened by the gap's depth
-#: (departures that won on real data, issue #10; ``"measured"``, ``"fixed"`` are Fig. 6's).
-BP_DEPARTURES = MappingProxyType({"observation": "colorization", "compatibility": "overlap",
-                                  "training_radius": "gap"})
-
-
-def _bp_departures(method: str, observation, compatibility, training_radius=None) -> dict:
-    """BP's readings of Fig. 6, step 2 and Eq. 6 (:data:`BP_DEPARTURES` where None), checked.
-
-    For ``method="bp"`` all three, the defaults filled in; the other methods
-    refuse them unless they are None or the default, and get ``{}``.
-    """
-    given = {}
-    if observation is not None:
-        given["observation"] = check_choice("observation", observation, OBSERVATIONS)
-    if compatibility is not None:
-        given["compatibility"] = check_choice("compatibility", compatibility, COMPATIBILITIES)
-    if training_radius is not None:
-        given["training_radius"] = check_choice("training_radius", training_radius,
-                                                TRAINING_RADII)
-    if method != "bp":
-        for name, value in given.items():
-            if value != BP_DEPARTURES[name]:
-                raise ValueError(f"The parameter `{name}` applies to method='bp' only; "
-                                 f"method={method!r} does not use it")
-        return {}
-    return {**BP_DEPARTURES, **given}
-
-
-def _random_source(seed) -> np.random.Generator:
-    """The generator behind every random choice: from an int, a Generator or None."""
-    if not (seed is None or is_int(seed) or isinstance(seed, np.random.Generator)):
-        raise TypeError(
-            "The parameter `seed` must be an int, a numpy Generator or None, "
-            f"got {type(seed).__name__}"
-        )
-    return np.random.default_rng(check_seed(seed))  # a Generator is returned unaltered
 
 
 def synthesize(
@@ -557,15 +421,15 @@ def synthesize(
     """
     image, range_values = validate_inputs(intensity, partial_range)
     method = check_choice("method", method, METHODS)
-    options = _method_options(method, dict(
+    options = check_method_options(method, dict(
         epsilon=epsilon, use_isophotes=use_isophotes, ordering=ordering,
         candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
         iterations=iterations, tolerance=tolerance, product=product,
         confidence_update=confidence_update, edges_last=edges_last, edge_rule=edge_rule,
     ))
-    proposal_options = _proposal_options(method, proposals, proposal_runs)
-    departures = _bp_departures(method, observation, compatibility, training_radius)
-    neighbourhood = _at_least("neighbourhood", neighbourhood, 1)
+    proposal_options = check_proposals(method, proposals, proposal_runs)
+    departures = check_bp_departures(method, observation, compatibility, training_radius)
+    neighbourhood = at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
         raise ValueError(f"The parameter `neighbourhood` must be odd, got {neighbourhood}")
     radius = check_real("radius", radius)
@@ -574,7 +438,7 @@ def synthesize(
     if radius < 1:
         raise ValueError(f"The parameter `radius` must be >= 1 pixel, got {radius}")
     canny_sigma = check_canny_sigma(canny_sigma, range_values.shape)
-    range_weight = _bounded("range_weight")(range_weight)
+    range_weight = bounded("range_weight")(range_weight)
     missing_range = check_choice("missing_range", missing_range, MISSING_RANGE)
     colour = check_bool("colour", colour)
     channels = check_choice("channels", channels, CHANNELS)
@@ -589,7 +453,7 @@ def synthesize(
             raise TypeError(f"The parameter `edges` must be a boolean array, got {edges.dtype}")
     if progress is not None and not callable(progress):
         raise TypeError("The parameter `progress` must be callable or None")
-    rng = _random_source(seed)
+    rng = random_source(seed)
     # beyond the image's diagonal the radius means the whole image (bit for bit); the gap's
     # discs (r plus each node's depth) are cut one by one (bp_gap_radius)
     cut_radius, cut_proximity = search_radius(method, radius, options.get("proximity", 0.0),
