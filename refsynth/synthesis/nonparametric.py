@@ -252,17 +252,21 @@ def np_fill(
     pop, fill, distances, set_range = front.queue.pop, front.fill, table.distances, table.set_range
     confidence_of = front.confidence_of
     grid, unit = 2.0**CONFIDENCE_BITS, 2.0**-CONFIDENCE_BITS
+    # p and Eq. 5's threshold as 0-d arrays: a ufunc takes a Python scalar by a slower path
+    at, threshold = np.zeros((), dtype=np.int64), np.zeros(())
     for step in range(total):
         p = int(schedule[step]) if not update else pop()
-        candidates = p + disc
+        at[()] = p
+        candidates = np.add(disc, at)
         candidates = candidates.compress(filled[candidates])
         if candidates.size == 0:
             candidates = _widened_candidates(p, filled, Wp, radius)
         d = distances(p, candidates)
         best = int(d.argmin())
         # Eq. 5 (eq5_set): the members within (1 + epsilon) of the best, in candidate order
-        members = (d <= scale * d[best]).nonzero()[0]
-        q = int(candidates[members[int(draws[step] * members.size)]])
+        threshold[()] = scale * d[best]
+        members = candidates.compress(np.less_equal(d, threshold))
+        q = int(members[int(draws[step] * members.size)])
         value = float(values[q])
         original[p] = original[q]
         confidence = confidence_of(int(candidates[best]))  # Eq. 11 of N_best
