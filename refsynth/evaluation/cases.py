@@ -16,7 +16,7 @@ validates it and returns its canonical form:
   ``distance`` or ``distanceNN`` (Fig. 2's distance-driven columns, 60 % or
   NN % unknown);
 - methods: ``np``, ``np-noedges``, ``np-noisophotes``, ``np-onion``, ``bp``,
-  ``bp-noedges``, and the baselines of :mod:`refsynth.evaluation.baselines` by name
+  ``bp-noedges``, ``bp-fig6`` (Fig. 6 as printed), and the baselines of :mod:`refsynth.evaluation.baselines` by name
   (``nearest``, ``linear``, ``harmonic``, ``colorization``,
   ``joint-bilateral``).
 
