@@ -208,6 +208,10 @@ class FillTable:
                                    strides=strides)
         self._values = np.ones(4, dtype=np.float32)  # [R, V, R²_hi, R²_lo], broadcast
         self._value_block = self._values[:, None, None]
+        # single values through memoryviews (cheaper than numpy's scalar indexing); a
+        # float32 item is set by C's conversion, rounding to nearest as numpy's
+        self._values_mv = memoryview(self._values)
+        self._weights_mv, self._self_mv = memoryview(self.weights), memoryview(self.self_unit)
 
     def distances(self, p: int, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2 between ``N_p`` and each candidate, as ``PatchTable.distances``.
@@ -240,7 +244,7 @@ class FillTable:
         w = np.multiply(row.take(self.perm), row.take(self.square), out=self.product,
                         dtype=np.float64)  # I_p, 1, R_p, R_p², V_p: exact
         np.multiply(w, self.coef, out=self.weights)
-        self.weights[self.one] = self.self_unit[p]  # s_p u, exact
+        self._weights_mv[self.one] = self._self_mv[p]  # s_p u, exact
         rows = self.table.take(candidates, axis=0).astype(np.float64)
         # exact: every product and partial sum is an integer below 2**53 times the
         # power of two its weights carry, so these are the integer sums times their units.
@@ -279,11 +283,11 @@ class FillTable:
         >>> float(table.table[12, table.r0 + 4]) == 2.0**15   # the centre's R column
         True
         """
-        values = self._values
+        values = self._values_mv
         q = float(round(value * 2.0**RANGE_BITS))  # np.rint's value: both round half to even
         values[0] = q
         values[2] = q * q  # R² as in the table: float32 high part (rounded to nearest) ...
-        values[3] = q * q - float(values[2])  # ... and the exact low part
+        values[3] = q * q - values[2]  # ... and the exact low part
         self._windows[p - self._p0] = self._value_block
 
 

@@ -103,7 +103,10 @@ class FrontQueue:
         self.keys = np.full(blocks * self.block, ABSENT, dtype=np.int64)
         self.blocks = self.keys.reshape(blocks, self.block)
         self.maxima = np.full(blocks, ABSENT, dtype=np.int64)
-        self._starts = np.arange(0, 64 * self.block, self.block)  # row starts, for set
+        self._starts = np.zeros(0, dtype=np.int64)  # the taken rows' starts, for set
+        # pop's single values through memoryviews (Python ints, cheaper than numpy scalars)
+        self._keys_mv, self._maxima_mv, self._pixel_mv = (
+            memoryview(a) for a in (self.keys, self.maxima, self.pixel_at))
 
     def set(self, pixels: np.ndarray, keys: np.ndarray) -> None:
         """Give ``pixels`` the ``keys`` (``ABSENT`` removes a pixel).
@@ -152,12 +155,12 @@ class FrontQueue:
 
         Parameters
         ----------
-        slots : ndarray of int, shape (M,)
-            ``tie`` of the pixels.
-        blocks : ndarray of int, shape (M,)
-            ``slots >> self.shift``.
-        keys : ndarray of int64, shape (M,)
-            Their keys.
+        slots : ndarray of int
+            ``tie`` of the pixels (any shape).
+        blocks : ndarray of int
+            ``slots >> self.shift``, same shape.
+        keys : ndarray of int64
+            Their keys, same shape.
 
         Examples
         --------
@@ -173,10 +176,12 @@ class FrontQueue:
         # the reduction machinery, several µs per call on these short rows. A block named
         # twice gets the same maximum twice.
         taken = self.blocks.take(blocks, axis=0)
-        first = taken.argmax(axis=1)
-        if first.size > self._starts.size:  # a large set (the initial front): more starts
-            self._starts = np.arange(0, first.size * self.block, self.block)
-        first += self._starts[: first.size]
+        first = taken.argmax(axis=-1)
+        starts = self._starts
+        if starts.shape != first.shape:  # kept for the next set of this shape
+            starts = self._starts = np.arange(0, first.size * self.block,
+                                              self.block).reshape(first.shape)
+        first += starts
         self.maxima[blocks] = taken.take(first)
 
     def pop(self) -> int:
@@ -197,9 +202,12 @@ class FrontQueue:
         """
         b = int(self.maxima.argmax())
         row = self.blocks[b]
-        k = int(row.argmax())
-        if row[k] == ABSENT:
+        start = b << self.shift
+        slot = start + int(row.argmax())
+        keys = self._keys_mv
+        if keys[slot] == ABSENT:
             return -1
-        row[k] = ABSENT
-        self.maxima[b] = row[row.argmax()]  # the block's new maximum (argmax: cheaper than max)
-        return int(self.pixel_at[(b << self.shift) + k])
+        keys[slot] = ABSENT
+        # the block's new maximum (argmax: cheaper than max)
+        self._maxima_mv[b] = keys[start + int(row.argmax())]
+        return self._pixel_mv[slot]

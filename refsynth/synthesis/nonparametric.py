@@ -250,6 +250,8 @@ def np_fill(
     scale = 1.0 + epsilon
     update = ordering != "onion"
     pop, fill, distances, set_range = front.queue.pop, front.fill, table.distances, table.set_range
+    # single values through memoryviews (Python scalars, cheaper than numpy's indexing)
+    values_at, original_at, order_at = memoryview(values), memoryview(original), memoryview(order)
     confidence_of = front.confidence_of
     grid, unit = 2.0**CONFIDENCE_BITS, 2.0**-CONFIDENCE_BITS
     # p and Eq. 5's threshold as 0-d arrays: a ufunc takes a Python scalar by a slower path
@@ -267,15 +269,15 @@ def np_fill(
         threshold[()] = scale * d[best]
         members = candidates.compress(np.less_equal(d, threshold))
         q = int(members[int(draws[step] * members.size)])
-        value = float(values[q])
-        original[p] = original[q]
+        value = values_at[q]
+        original_at[p] = original_at[q]
         confidence = confidence_of(int(candidates[best]))  # Eq. 11 of N_best
         if confidence_update == "product":
             confidence = confidence_of(p) * confidence
         # on_confidence_grid: round half to even onto multiples of 2**-40
         fill(p, value, round(confidence * grid) * unit, update=update)
         set_range(p, value)
-        order[step] = p
+        order_at[step] = p
         if progress is not None and (step + 1) % tick == 0:
             progress(step + 1, total)
     if progress is not None:

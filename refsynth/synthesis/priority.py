@@ -56,6 +56,7 @@ inpainting", CVPR 2003 (the notation and the confidence/data-term scheme).
 from __future__ import annotations
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
 from scipy import ndimage
 
 from refsynth._checks import check_int
@@ -376,6 +377,29 @@ def priority(
     return np.where(fill_front(filled), p, np.nan)
 
 
+def _flat(array: np.ndarray) -> np.ndarray:
+    """``array`` with its two pixel axes merged, a view (never a copy)."""
+    flat = array.view()
+    flat.shape = (array.shape[0] * array.shape[1],) + array.shape[2:]  # raises if a copy
+    return flat
+
+
+def _blocks(array: np.ndarray, side: int) -> tuple[int, np.ndarray]:
+    """Every ``side × side`` block of a frame-shaped array, as one strided view.
+
+    Returns ``(offset, view)``: ``view[p - offset]`` is the block of ``array`` (a view into
+    it, writeable) centred on the flat pixel ``p``, for every ``p`` whose block lies in the
+    frame.
+    """
+    width = array.shape[1]
+    offset = (side // 2) * (width + 1)
+    flat = _flat(array)
+    step = flat.strides[0]
+    view = as_strided(flat, shape=(flat.shape[0] - 2 * offset, side, side) + flat.shape[1:],
+                      strides=(step, width * step, step) + flat.strides[1:])
+    return offset, view
+
+
 # fields of FillFront's per-pixel state (last axis), ordered so that Eq. 10 reads contiguous
 # slices: [C, Δ_row, Δ_col, m_col, m_row, m_col, −m_row] over [|N_p|, pairs_row, pairs_col]
 _CONF, _DROW, _DCOL, _MCOL, _MROW, _MCOL2, _NMROW, _COUNT, _VROW, _VCOL, _NEIGH, _EDGE = range(12)
@@ -481,8 +505,9 @@ class FillFront:
         H, W = known.shape
         self.shape = (H + 2 * pad, W + 2 * pad)
         self.inside = np.pad(np.ones((H, W), dtype=bool), pad)
-        self.filled = np.pad(known, pad)
-        self.range_norm = np.pad(np.where(known, range_norm, 0.0), pad)
+        # C order (np.pad keeps a transposed input's): the flat views below need it
+        self.filled = np.ascontiguousarray(np.pad(known, pad))
+        self.range_norm = np.ascontiguousarray(np.pad(np.where(known, range_norm, 0.0), pad))
         self.confidence = self.filled.astype(np.float64)
         state = np.empty(self.shape + (_FIELDS,))
         state[..., _CONF] = box_sum(self.confidence, n)
@@ -522,20 +547,33 @@ class FillFront:
         self.change_block = self.change.reshape(side, side, _FIELDS)
         tiered = use_edges and edges_last
         self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
-        self.tie = rng.permutation(self.inside.size).reshape(self.shape)
+        self.tie = np.ascontiguousarray(rng.permutation(self.inside.size).reshape(self.shape))
         # unknown voxels inside the image; tier 1 (edge voxels) adds -2**63 to the key
         self.open = self.inside & ~self.filled
-        self.tier_offset = np.where(self.tier != 0, ABSENT, 0).astype(np.int64)
+        self.tier_offset = np.ascontiguousarray(np.where(self.tier != 0, ABSENT, 0), np.int64)
         self.queue = FrontQueue(self.tie.ravel())
         self.tie_block = self.tie >> self.queue.shift
-        # flat views, and the flat offsets of the block a fill changes (raster order)
-        self.tie_flat, self.tie_block_flat = self.tie.ravel(), self.tie_block.ravel()
-        self.tier_offset_flat = self.tier_offset.ravel()
-        self.block_offsets = (np.arange(-k, k + 1)[:, None] * self.shape[1]
-                              + np.arange(-k, k + 1)[None, :]).ravel()
+        # flat views, and the flat offsets of the block a fill changes (raster order) from
+        # its top-left pixel
+        self.tie_flat, self.tie_block_flat = _flat(self.tie), _flat(self.tie_block)
+        self.tier_offset_flat = _flat(self.tier_offset)
+        self.block_offsets = (np.arange(side)[:, None] * self.shape[1]
+                              + np.arange(side)[None, :]).ravel()
 
         self.front = front = self.open & (state[..., _NEIGH] > 0)
-        self.front_flat = front.ravel()
+        self.front_flat = _flat(front)
+        # per step, one integer index instead of slicing: every block around a pixel as one
+        # strided view (element p - offset: the block centred on p), and the single values
+        # through memoryviews (Python floats and bools, the same values as numpy's scalars)
+        self._offset, self._state_blocks = _blocks(state, side)
+        self._offset3, self._front3 = _blocks(front, 3)
+        self._open3 = _blocks(self.open, 3)[1]
+        self._filled_mv, self._open_mv, self._range_mv, self._confidence_mv = (
+            memoryview(_flat(a)) for a in (self.filled, self.open, self.range_norm,
+                                            self.confidence))
+        self._state_mv = memoryview(_flat(state).reshape(-1))
+        self._keys = self._views[-1].reshape(-1)  # _block_priority's result, as int64
+        self._at = np.zeros((), dtype=np.int64)  # the block's top-left pixel, as a 0-d array
         flat = np.flatnonzero(front)
         p = self._priority(state).ravel()[flat]
         self.queue.set(flat, p.view(np.int64) + self.tier_offset.ravel()[flat])
@@ -569,8 +607,8 @@ class FillFront:
 
     def confidence_of(self, flat: int) -> float:
         """Eq. 11 at one padded flat index, as a Python float (:meth:`confidence_at`'s value)."""
-        s = self.flat_state
-        return float(s[flat, _CONF]) / float(s[flat, _COUNT])
+        s, at = self._state_mv, flat * _FIELDS
+        return s[at + _CONF] / s[at + _COUNT]
 
     def pop(self) -> int:
         """Remove and return the padded flat index of the highest-priority front voxel.
@@ -585,40 +623,44 @@ class FillFront:
         Adds the change to every running sum on the windows that contain ``p``
         and, when ``update`` is True, re-prioritises the front around it.
         """
-        i, j = divmod(p, self.shape[1])
-        filled, r = self.filled, self.range_norm
+        width = self.shape[1]
+        filled, r = self._filled_mv, self._range_mv  # flat, by memoryview
         coef = [confidence, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
         # the pairs (i, j-1)-(i, j), (i, j)-(i, j+1), (i-1, j)-(i, j), (i, j)-(i+1, j)
-        if filled[i, j - 1]:
-            coef[1], coef[2] = value - r[i, j - 1], 1.0
-        if filled[i, j + 1]:
-            coef[3], coef[4] = r[i, j + 1] - value, 1.0
-        if filled[i - 1, j]:
-            coef[5], coef[6] = value - r[i - 1, j], 1.0
-        if filled[i + 1, j]:
-            coef[7], coef[8] = r[i + 1, j] - value, 1.0
-        filled[i, j] = True
-        self.open[i, j] = False
-        r[i, j] = value
-        self.confidence[i, j] = confidence
+        if filled[p - 1]:
+            coef[1], coef[2] = value - r[p - 1], 1.0
+        if filled[p + 1]:
+            coef[3], coef[4] = r[p + 1] - value, 1.0
+        if filled[p - width]:
+            coef[5], coef[6] = value - r[p - width], 1.0
+        if filled[p + width]:
+            coef[7], coef[8] = r[p + width] - value, 1.0
+        filled[p] = True
+        self._open_mv[p] = False
+        r[p] = value
+        self._confidence_mv[p] = confidence
         # the templates' support: the central max(n, 3)² of the (n+2)² block, so no
         # other voxel's sums, and hence priority, change
-        k = self.reach
-        rows, cols = slice(i - k, i + k + 1), slice(j - k, j + k + 1)
-        block = self.state[rows, cols]
+        at = p - self._offset
+        block = self._state_blocks[at]
         np.dot(np.array(coef), self.templates, out=self.change)
         block += self.change_block
         # every 8-neighbour now has a filled neighbour: the open ones are on the front
-        self.front[i - 1 : i + 2, j - 1 : j + 2] = self.open[i - 1 : i + 2, j - 1 : j + 2]
+        self._front3[p - self._offset3] = self._open3[p - self._offset3]
         if update:
-            self._reprioritise(block, p)
+            self._reprioritise(block, at)
 
-    def _reprioritise(self, block: np.ndarray, p: int) -> None:
+    def _reprioritise(self, block: np.ndarray, at: int) -> None:
         # every voxel of the block gets its key afresh: Eq. 10 on the front, absent elsewhere;
         # the block's pixels by flat index (raster order, as the block), so that the queue
-        # scatters through contiguous indices
-        pixels = self.block_offsets + p
-        keys = self._block_priority(block).view(np.int64).ravel()
+        # scatters through contiguous 1-d indices (much cheaper than a 2-d strided index)
+        self._at[()] = at  # the block's top-left pixel
+        pixels = np.add(self.block_offsets, self._at)
+        if self.use_isophotes:
+            self._block_priority(block)
+            keys = self._keys
+        else:
+            keys = self._priority(block).view(np.int64).ravel()
         keys += self.tier_offset_flat.take(pixels)
         self.queue.set_in_blocks(self.tie_flat.take(pixels), self.tie_block_flat.take(pixels),
                                  np.where(self.front_flat.take(pixels), keys, self._absent))
