@@ -180,6 +180,11 @@ class FillTable:
         self.coef = np.concatenate([self.coef, g * WEIGHT_UNIT])
         self.weights = np.zeros(width + nn)
         self.product = np.zeros(width + nn)
+        # row_p[perm] and row_p[square] by one take into a buffer (mode "clip": the indices
+        # are valid, and "raise" with out= would take into a temporary first)
+        self._both = np.concatenate([self.perm, self.square])
+        self._taken = np.empty(2 * (width + nn), dtype=np.float32)
+        self._by_perm, self._by_square = self._taken[: width + nn], self._taken[width + nn :]
         # views of the weights, made once: intensity and self terms, range, support
         self.w_si, self.w_sr = self.weights[:r0], self.weights[r0:width]
         self.g_v = self.weights[width:]  # G V_p w_unit
@@ -241,7 +246,8 @@ class FillTable:
         True
         """
         row = self.table[p]
-        w = np.multiply(row.take(self.perm), row.take(self.square), out=self.product,
+        row.take(self._both, out=self._taken, mode="clip")
+        w = np.multiply(self._by_perm, self._by_square, out=self.product,
                         dtype=np.float64)  # I_p, 1, R_p, R_p², V_p: exact
         np.multiply(w, self.coef, out=self.weights)
         self._weights_mv[self.one] = self._self_mv[p]  # s_p u, exact

@@ -404,6 +404,9 @@ def _blocks(array: np.ndarray, side: int) -> tuple[int, np.ndarray]:
 # slices: [C, Δ_row, Δ_col, m_col, m_row, m_col, −m_row] over [|N_p|, pairs_row, pairs_col]
 _CONF, _DROW, _DCOL, _MCOL, _MROW, _MCOL2, _NMROW, _COUNT, _VROW, _VCOL, _NEIGH, _EDGE = range(12)
 _FIELDS = 12
+#: Subtracted from a closed pixel's ``_NEIGH`` (filled, or off the image), above its largest
+#: count (9): the front is then exactly where ``_NEIGH > 0`` (integers: exact)
+_CLOSED = 16.0
 
 
 def _update_templates(n: int) -> np.ndarray:
@@ -433,6 +436,7 @@ def _update_templates(n: int) -> np.ndarray:
     t[9][near + (_MCOL,)] = t[9][near + (_MCOL2,)] = _SOBEL_COL[::-1, ::-1]
     t[9][near + (_NMROW,)] = -_SOBEL_ROW[::-1, ::-1]
     t[9][near + (_NEIGH,)] = 1.0
+    t[9][h + 1, h + 1, _NEIGH] -= _CLOSED  # p itself closes
     return t.reshape(10, -1)
 
 
@@ -444,10 +448,11 @@ class FillFront:
     over the n×n window, the confidence (Eq. 11) and the range differences
     with their counts (Eq. 12's isophote), and the Sobel gradient of the
     filled mask (the front normal) and the 3×3 count of filled neighbours
-    (the front). These live side by side in one pixel-major array, so filling
-    a voxel is one small matrix product (:func:`_update_templates`) added to
-    the max(n, 3)² block around it (where the sums change), and re-prioritising
-    reads that block once and hands its keys to a
+    (less 16 on a closed pixel: the front is where it is positive). These
+    live side by side in one pixel-major array, so filling a voxel is one
+    small matrix product (:func:`_update_templates`) added to the max(n, 3)²
+    block around it (where the sums change), and re-prioritising reads that
+    block once and hands its keys to a
     :class:`~refsynth.synthesis.frontqueue.FrontQueue`. The order is that of
     the key ``(tier, −P, tie)``: lowest tier, highest Eq. 10 priority, smallest
     tie-break rank.
@@ -547,27 +552,34 @@ class FillFront:
         self.change_block = self.change.reshape(side, side, _FIELDS)
         tiered = use_edges and edges_last
         self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
-        self.tie = np.ascontiguousarray(rng.permutation(self.inside.size).reshape(self.shape))
+        tie = np.asarray(rng.permutation(self.inside.size), dtype=np.int64).reshape(self.shape)
         # unknown voxels inside the image; tier 1 (edge voxels) adds -2**63 to the key
         self.open = self.inside & ~self.filled
-        self.tier_offset = np.ascontiguousarray(np.where(self.tier != 0, ABSENT, 0), np.int64)
-        self.queue = FrontQueue(self.tie.ravel())
-        self.tie_block = self.tie >> self.queue.shift
-        # flat views, and the flat offsets of the block a fill changes (raster order) from
-        # its top-left pixel
-        self.tie_flat, self.tie_block_flat = _flat(self.tie), _flat(self.tie_block)
-        self.tier_offset_flat = _flat(self.tier_offset)
+        self.queue = FrontQueue(tie.ravel())
+        # per pixel, side by side: its tie rank (its slot in the queue), the slot's block and
+        # the tier's offset to the key, so that a fill reads a block's three by one take
+        self.pixel_info = np.stack([tie, tie >> self.queue.shift,
+                                    np.where(self.tier != 0, ABSENT, 0)], dtype=np.int64)
+        self.tie, self.tie_block, self.tier_offset = self.pixel_info
+        self.pixel_info_flat = self.pixel_info.reshape(3, -1)
+        self.tie_flat, self.tie_block_flat, self.tier_offset_flat = self.pixel_info_flat
+        # the flat offsets of the block a fill changes (raster order) from its top-left pixel
         self.block_offsets = (np.arange(side)[:, None] * self.shape[1]
                               + np.arange(side)[None, :]).ravel()
 
-        self.front = front = self.open & (state[..., _NEIGH] > 0)
-        self.front_flat = _flat(front)
+        # the front (unknown voxels with a filled 8-neighbour) is where _NEIGH > 0
+        state[..., _NEIGH] -= np.where(self.open, 0.0, _CLOSED)
+        front = state[..., _NEIGH] > 0
         # per step, one integer index instead of slicing: every block around a pixel as one
         # strided view (element p - offset: the block centred on p), and the single values
         # through memoryviews (Python floats and bools, the same values as numpy's scalars)
         self._offset, self._state_blocks = _blocks(state, side)
-        self._offset3, self._front3 = _blocks(front, 3)
-        self._open3 = _blocks(self.open, 3)[1]
+        # the blocks and a fill's change field-major, (fields, side, side), as _block_priority
+        # reads them
+        self._field_blocks = self._state_blocks.transpose(0, 3, 1, 2)
+        self._change_fields = self.change_block.transpose(2, 0, 1)
+        self._neigh = self._views[0][_NEIGH].reshape(-1)  # the block's _NEIGH, field-major
+        self._zeros = np.zeros(side * side)
         self._filled_mv, self._open_mv, self._range_mv, self._confidence_mv = (
             memoryview(_flat(a)) for a in (self.filled, self.open, self.range_norm,
                                             self.confidence))
@@ -642,11 +654,9 @@ class FillFront:
         # the templates' support: the central max(n, 3)² of the (n+2)² block, so no
         # other voxel's sums, and hence priority, change
         at = p - self._offset
-        block = self._state_blocks[at]
+        block = self._field_blocks[at]
         np.dot(np.array(coef), self.templates, out=self.change)
-        block += self.change_block
-        # every 8-neighbour now has a filled neighbour: the open ones are on the front
-        self._front3[p - self._offset3] = self._open3[p - self._offset3]
+        block += self._change_fields
         if update:
             self._reprioritise(block, at)
 
@@ -657,25 +667,27 @@ class FillFront:
         self._at[()] = at  # the block's top-left pixel
         pixels = np.add(self.block_offsets, self._at)
         if self.use_isophotes:
-            self._block_priority(block)
-            keys = self._keys
+            self._block_priority(block)  # copies the block's fields
+            keys, on = self._keys, np.greater(self._neigh, self._zeros)  # on the front
         else:
-            keys = self._priority(block).view(np.int64).ravel()
-        keys += self.tier_offset_flat.take(pixels)
-        self.queue.set_in_blocks(self.tie_flat.take(pixels), self.tie_block_flat.take(pixels),
-                                 np.where(self.front_flat.take(pixels), keys, self._absent))
+            keys = self._priority(block.transpose(1, 2, 0)).view(np.int64).ravel()
+            on = (block[_NEIGH] > 0).ravel()
+        slots, blocks, tiers = self.pixel_info_flat.take(pixels, axis=1)
+        keys += tiers
+        self.queue.set_in_blocks(slots, blocks, np.where(on, keys, self._absent))
 
     def _block_priority(self, block: np.ndarray) -> np.ndarray:
         """:meth:`_priority` on the block a fill changed: the same operations, in buffers.
 
-        Field-major copies; one product forms ``g · m`` and ``m²`` (``m_c² − (−m_r²)``, exact).
+        ``block`` is field-major, ``(fields, side, side)``. Field-major copies; one product
+        forms ``g · m`` and ``m²`` (``m_c² − (−m_r²)``, exact).
         """
         if not self.use_isophotes:
-            return self._priority(block)
+            return self._priority(block.transpose(1, 2, 0))
         (fields, counts, count_divisors, numerators, divisors, quotient, gradient, normal,
          products, left, right, pair, flow, norm, c, edge, _) = self._views
         ones3, one, zero = self._constants  # 1.0, 1.0, 0.0
-        np.copyto(fields, block.transpose(2, 0, 1))
+        np.copyto(fields, block)
         # [C, Δ_row, Δ_col, m] / [|N_p|, pairs_row, pairs_col, 1, ...]: c, the gradient, m
         np.maximum(counts, ones3, out=count_divisors)
         np.divide(numerators, divisors, out=quotient)
