@@ -552,23 +552,21 @@ class FillFront:
         self.change_block = self.change.reshape(side, side, _FIELDS)
         tiered = use_edges and edges_last
         self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
-        tie = np.asarray(rng.permutation(self.inside.size), dtype=np.int64).reshape(self.shape)
+        self.tie = np.ascontiguousarray(rng.permutation(self.inside.size).reshape(self.shape))
         # unknown voxels inside the image; tier 1 (edge voxels) adds -2**63 to the key
         self.open = self.inside & ~self.filled
-        self.queue = FrontQueue(tie.ravel())
-        # per pixel, side by side: its tie rank (its slot in the queue), the slot's block and
-        # the tier's offset to the key, so that a fill reads a block's three by one take
-        self.pixel_info = np.stack([tie, tie >> self.queue.shift,
-                                    np.where(self.tier != 0, ABSENT, 0)], dtype=np.int64)
-        self.tie, self.tie_block, self.tier_offset = self.pixel_info
-        self.pixel_info_flat = self.pixel_info.reshape(3, -1)
-        self.tie_flat, self.tie_block_flat, self.tier_offset_flat = self.pixel_info_flat
+        self.tier_offset = np.ascontiguousarray(np.where(self.tier != 0, ABSENT, 0), np.int64)
+        self.queue = FrontQueue(self.tie.ravel())
+        self.tie_block = self.tie >> self.queue.shift
+        # flat views
+        self.tie_flat, self.tie_block_flat = _flat(self.tie), _flat(self.tie_block)
+        self.tier_offset_flat = _flat(self.tier_offset)
         # the flat offsets of the block a fill changes (raster order) from its top-left pixel
         self.block_offsets = (np.arange(side)[:, None] * self.shape[1]
                               + np.arange(side)[None, :]).ravel()
 
         # the front (unknown voxels with a filled 8-neighbour) is where _NEIGH > 0
-        state[..., _NEIGH] -= np.where(self.open, 0.0, _CLOSED)
+        np.subtract(state[..., _NEIGH], _CLOSED, out=state[..., _NEIGH], where=~self.open)
         front = state[..., _NEIGH] > 0
         # per step, one integer index instead of slicing: every block around a pixel as one
         # strided view (element p - offset: the block centred on p), and the single values
@@ -672,9 +670,9 @@ class FillFront:
         else:
             keys = self._priority(block.transpose(1, 2, 0)).view(np.int64).ravel()
             on = (block[_NEIGH] > 0).ravel()
-        slots, blocks, tiers = self.pixel_info_flat.take(pixels, axis=1)
-        keys += tiers
-        self.queue.set_in_blocks(slots, blocks, np.where(on, keys, self._absent))
+        keys += self.tier_offset_flat.take(pixels)
+        self.queue.set_in_blocks(self.tie_flat.take(pixels), self.tie_block_flat.take(pixels),
+                                 np.where(on, keys, self._absent))
 
     def _block_priority(self, block: np.ndarray) -> np.ndarray:
         """:meth:`_priority` on the block a fill changed: the same operations, in buffers.
