@@ -16,9 +16,9 @@ validates it and returns its canonical form:
   ``distance`` or ``distanceNN`` (Fig. 2's distance-driven columns, 60 % or
   NN % unknown);
 - methods: ``np``, ``np-noedges``, ``np-noisophotes``, ``np-onion``, ``bp``,
-  ``bp-noedges``, ``bp-fig6`` (Fig. 6 as printed), and the baselines of :mod:`refsynth.evaluation.baselines` by name
-  (``nearest``, ``linear``, ``harmonic``, ``colorization``,
-  ``joint-bilateral``).
+  ``bp-noedges``, ``bp-fig6`` (Fig. 6 as printed), and the baselines of
+  :mod:`refsynth.evaluation.baselines` by name (``nearest``, ``linear``,
+  ``harmonic``, ``colorization``, ``joint-bilateral``).
 
 Numbers in specs are ASCII digits only (``synthetic-٣`` is not room 3).
 :func:`scene_label` names a scene as the result tables do
