@@ -56,12 +56,12 @@ inpainting", CVPR 2003 (the notation and the confidence/data-term scheme).
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided
 from scipy import ndimage
 
 from refsynth._checks import check_int
 from refsynth.synthesis.frontqueue import ABSENT, FrontQueue
 from refsynth.synthesis.onion import onion_order  # re-exported: Fig. 7's order
+from refsynth.synthesis.strided import block_views, flat_view
 
 __all__ = [
     "box_sum",
@@ -377,29 +377,6 @@ def priority(
     return np.where(fill_front(filled), p, np.nan)
 
 
-def _flat(array: np.ndarray) -> np.ndarray:
-    """``array`` with its two pixel axes merged, a view (never a copy)."""
-    flat = array.view()
-    flat.shape = (array.shape[0] * array.shape[1],) + array.shape[2:]  # raises if a copy
-    return flat
-
-
-def _blocks(array: np.ndarray, side: int) -> tuple[int, np.ndarray]:
-    """Every ``side × side`` block of a frame-shaped array, as one strided view.
-
-    Returns ``(offset, view)``: ``view[p - offset]`` is the block of ``array`` (a view into
-    it, writeable) centred on the flat pixel ``p``, for every ``p`` whose block lies in the
-    frame.
-    """
-    width = array.shape[1]
-    offset = (side // 2) * (width + 1)
-    flat = _flat(array)
-    step = flat.strides[0]
-    view = as_strided(flat, shape=(flat.shape[0] - 2 * offset, side, side) + flat.shape[1:],
-                      strides=(step, width * step, step) + flat.strides[1:])
-    return offset, view
-
-
 # fields of FillFront's per-pixel state (last axis), ordered so that Eq. 10 reads contiguous
 # slices: [C, Δ_row, Δ_col, m_col, m_row, m_col, −m_row] over [|N_p|, pairs_row, pairs_col]
 _CONF, _DROW, _DCOL, _MCOL, _MROW, _MCOL2, _NMROW, _COUNT, _VROW, _VCOL, _NEIGH, _EDGE = range(12)
@@ -559,8 +536,8 @@ class FillFront:
         self.queue = FrontQueue(self.tie.ravel())
         self.tie_block = self.tie >> self.queue.shift
         # flat views
-        self.tie_flat, self.tie_block_flat = _flat(self.tie), _flat(self.tie_block)
-        self.tier_offset_flat = _flat(self.tier_offset)
+        self.tie_flat, self.tie_block_flat = flat_view(self.tie), flat_view(self.tie_block)
+        self.tier_offset_flat = flat_view(self.tier_offset)
         # the flat offsets of the block a fill changes (raster order) from its top-left pixel
         self.block_offsets = (np.arange(side)[:, None] * self.shape[1]
                               + np.arange(side)[None, :]).ravel()
@@ -571,7 +548,7 @@ class FillFront:
         # per step, one integer index instead of slicing: every block around a pixel as one
         # strided view (element p - offset: the block centred on p), and the single values
         # through memoryviews (Python floats and bools, the same values as numpy's scalars)
-        self._offset, self._state_blocks = _blocks(state, side)
+        self._offset, self._state_blocks = block_views(state, side)
         # the blocks and a fill's change field-major, (fields, side, side), as _block_priority
         # reads them
         self._field_blocks = self._state_blocks.transpose(0, 3, 1, 2)
@@ -579,9 +556,9 @@ class FillFront:
         self._neigh = self._views[0][_NEIGH].reshape(-1)  # the block's _NEIGH, field-major
         self._zeros = np.zeros(side * side)
         self._filled_mv, self._open_mv, self._range_mv, self._confidence_mv = (
-            memoryview(_flat(a)) for a in (self.filled, self.open, self.range_norm,
+            memoryview(flat_view(a)) for a in (self.filled, self.open, self.range_norm,
                                             self.confidence))
-        self._state_mv = memoryview(_flat(state).reshape(-1))
+        self._state_mv = memoryview(flat_view(state).reshape(-1))
         self._keys = self._views[-1].reshape(-1)  # _block_priority's result, as int64
         self._at = np.zeros((), dtype=np.int64)  # the block's top-left pixel, as a 0-d array
         flat = np.flatnonzero(front)
