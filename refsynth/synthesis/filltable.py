@@ -317,7 +317,7 @@ def _split(x: np.ndarray, parts: int) -> np.ndarray:
 
 
 def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: str,
-             scalars=None):
+             scalars: tuple):
     """:func:`refsynth.numeric.combine_eq2` in place on ``si``, ``sr`` and ``ws``.
 
     ``si`` and ``sr`` arrive already multiplied by :data:`~refsynth.numeric.EQ2_UNIT`,
@@ -325,12 +325,9 @@ def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: 
     two: exact, the same values ``combine_eq2`` forms first). The rest are the same
     IEEE operations in the same order (so the same bits), without allocating, and
     without the multiplications and divisions by 1 (exact identities): ``si``
-    returns the distances. ``scalars``, if given, holds the operands ``C``, ``λ``,
-    ``λ ε`` and ``ε`` as 0-d float64 arrays (the same values; see ``FillTable``).
+    returns the distances. ``scalars`` holds the operands ``C``, ``λ``, ``λ ε`` and
+    ``ε`` as 0-d float64 arrays (the same values; see ``FillTable``).
     """
-    if scalars is None:
-        scalars = (np.array(float(channels)), np.array(float(range_weight)),
-                   np.array(range_weight * SUPPORT_PRIOR), np.array(SUPPORT_PRIOR))
     divisor, lam, lam_prior, prior = scalars
     if channels != 1:  # x / 1 and x * 1 are x exactly: skipped
         np.divide(si, divisor, out=si)

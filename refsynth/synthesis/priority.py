@@ -655,10 +655,9 @@ class FillFront:
         """:meth:`_priority` on the block a fill changed: the same operations, in buffers.
 
         ``block`` is field-major, ``(fields, side, side)``. Field-major copies; one product
-        forms ``g · m`` and ``m²`` (``m_c² − (−m_r²)``, exact).
+        forms ``g · m`` and ``m²`` (``m_c² − (−m_r²)``, exact). Only with isophotes
+        (:meth:`_reprioritise` calls :meth:`_priority` otherwise).
         """
-        if not self.use_isophotes:
-            return self._priority(block.transpose(1, 2, 0))
         (fields, counts, count_divisors, numerators, divisors, quotient, gradient, normal,
          products, left, right, pair, flow, norm, c, edge, _) = self._views
         ones3, one, zero = self._constants  # 1.0, 1.0, 0.0
