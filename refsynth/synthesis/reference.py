@@ -35,7 +35,9 @@ The helpers of the contract live in :mod:`refsynth.numeric` and are re-exported 
 The options of issue #10 (each is a reading of the paper; the defaults are refsynth's
 readings until they are audited on real data) are implemented here as plainly as the rest:
 ``confidence_update`` (Eq. 11's update), ``colour`` (Eq. 2 on the colour channels or on grey),
-``edges_last`` (NP's edge tier) and ``edge_rule`` (BP's edge-constraint rule).
+``edges_last`` (NP's edge tier) and ``edge_rule`` (BP's edge-constraint rule); and BP's
+``observation`` and ``training_radius`` (Fig. 6's step 2), whose defaults since 0.4 are
+departures that won on real data (:func:`bp_reference`).
 
 References
 ----------
@@ -70,7 +72,7 @@ from refsynth.synthesis.completion import portable_colorization
 __all__ = [
     "quantise_intensity", "quantise_grey", "quantise_range", "window_weights", "portable_exp",
     "portable_log", "combine_eq2", "on_confidence_grid", "eq2_distance", "confidence_term",
-    "priority_terms", "disc_offsets", "overlap_mean_square",
+    "priority_terms", "disc_offsets", "overlap_mean_square", "gap_depth_reference",
     "np_reference", "bp_reference", "NPReference", "BPReference",
     "INTENSITY_BITS", "RANGE_BITS", "WINDOW_BITS", "CONFIDENCE_BITS", "SUPPORT_PRIOR",
     "NO_RANGE", "VALUE_TOLERANCE",
