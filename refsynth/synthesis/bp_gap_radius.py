@@ -17,8 +17,9 @@ beside a measured pixel (``d_i = 1``) searches ``r + 1``. The rest of step 2 —
 the ranking by Eq. 2, the doubling when fewer than ``k`` are found — is
 unchanged; :func:`gap_radius_candidates` runs
 :func:`~refsynth.synthesis.bp_search.search_candidates` once per value of
-``⌊d_i⌋`` on those nodes, so each node's candidates are exactly those of the
-search at its own radius. The distances are those of
+``⌊d_i⌋`` on those nodes, from patch rows built once
+(:func:`~refsynth.synthesis.bp_search.search_features`), so each node's
+candidates are exactly those of the search at its own radius. The distances are those of
 :func:`scipy.ndimage.distance_transform_edt` (square roots of integers,
 correctly rounded): exact, so the grouping is portable. A disc beyond the
 image runs at the image's reach with the prior's coefficient
@@ -69,7 +70,7 @@ import numpy as np
 from scipy import ndimage
 
 from refsynth.numeric import NO_RANGE
-from refsynth.synthesis.bp_search import search_candidates
+from refsynth.synthesis.bp_search import search_candidates, search_features
 from refsynth.synthesis.limits import search_radius
 
 __all__ = ["TRAINING_RADII", "gap_depth", "gap_radius_candidates"]
@@ -152,6 +153,9 @@ def gap_radius_candidates(levels, rq, rows, cols, *, radius: float, pad: int, n:
     distances = np.zeros((rows.size, k))
     depth = gap_depth(rq, rows, cols)
     proximity = options.pop("proximity")
+    # the patch rows once for every depth (each build is a pass over the whole image)
+    options["features"] = search_features(levels, rq, n, observed=options.pop("observed", None),
+                                          training=options.pop("training", None))
     for extra in np.unique(depth):
         mine = np.flatnonzero(depth == extra)  # raster order kept
         wide = float(radius) + float(extra)

@@ -47,7 +47,7 @@ from refsynth.numeric import NO_RANGE, combine_eq2, window_weights
 from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
 from refsynth.synthesis.similarity import PatchTable
 
-__all__ = ["search_candidates", "candidates", "stable_smallest"]
+__all__ = ["search_candidates", "search_features", "candidates", "stable_smallest"]
 
 _CHUNK_FLOATS = 1 << 24  # about 128 MB of float64 per block of the literal search
 _BLOCK = 1 << 21  # entries of a (candidate rows × nodes) or (nodes × offsets) block
@@ -137,6 +137,43 @@ class _Features:
         return (self.ipad[rr, cc].reshape(r.size, -1), self.vpad[rr, cc], self.rpad[rr, cc])
 
 
+def search_features(
+    levels: np.ndarray,
+    rq: np.ndarray,
+    n: int,
+    *,
+    observed: np.ndarray | None = None,
+    training: np.ndarray | None = None,
+) -> tuple[_Features, _Features]:
+    """The training and the observations' patch rows :func:`search_candidates` reads.
+
+    Built once per image (each costs a pass over the whole image); a caller that
+    runs the search several times on one image — :func:`~refsynth.synthesis.
+    bp_gap_radius.gap_radius_candidates`, once per gap depth — builds them here
+    and passes them as ``features``, which changes no number.
+
+    Parameters
+    ----------
+    levels, rq, n, observed, training
+        As :func:`search_candidates` takes them.
+
+    Returns
+    -------
+    training_rows, observation_rows
+        The rows of the training patches (``training``, or ``rq``) and of the
+        nodes' observations (``observed``, or the training rows themselves).
+
+    Examples
+    --------
+    >>> rq = np.array([[0, -1], [65536, -1]])
+    >>> rows, same = search_features(np.zeros((2, 2, 1), dtype=np.int64), rq, 1)
+    >>> rows is same, rows.support.tolist()
+    (True, [[1.0, 0.0], [1.0, 0.0]])
+    """
+    features = _Features(levels, rq if training is None else training, n)
+    return features, features if observed is None else _Features(levels, observed, n)
+
+
 def search_candidates(
     levels: np.ndarray,
     rq: np.ndarray,
@@ -153,6 +190,7 @@ def search_candidates(
     channels: str = "sum",
     observed: np.ndarray | None = None,
     training: np.ndarray | None = None,
+    features: tuple[_Features, _Features] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` closest training patches of each node by Eq. 2 (Fig. 6, step 2).
 
@@ -197,6 +235,10 @@ def search_candidates(
     training : ndarray of int, shape (H, W), optional
         **A departure**, likewise: the range of the training patches in Eq. 2.
         The training set stays the measured pixels of ``rq``.
+    features : pair, optional
+        :func:`search_features` of the same ``levels``, ``rq``, ``n``,
+        ``observed`` and ``training`` (then those two are not read): the rows
+        built once for several searches on one image. None: built here.
 
     Returns
     -------
@@ -220,8 +262,9 @@ def search_candidates(
     [(0, 1), (1, 1)]
     """
     H, W = rq.shape
-    features = _Features(levels, rq if training is None else training, n)
-    node_features = features if observed is None else _Features(levels, observed, n)
+    if features is None:
+        features = search_features(levels, rq, n, observed=observed, training=training)
+    features, node_features = features
     known = rq != NO_RANGE
     total_known = int(known.sum())
     n_nodes = node_rows.size

@@ -67,6 +67,8 @@ __all__ = ["portable_affinities", "portable_colorization"]
 #: The 3×3 window without its centre, (row, col) offsets in raster order.
 OFFSETS = tuple((dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0))
 
+_BAND = 1 << 15  # pixels of a colour updated at once by a sweep (its operands stay in cache)
+
 
 def _shifted(padded: np.ndarray, dr: int, dc: int, shape: tuple[int, int]) -> np.ndarray:
     """``padded[1 + r + dr, 1 + c + dc]`` for every ``(r, c)`` of ``shape`` (a view)."""
@@ -232,33 +234,57 @@ def _gauss_seidel(
     Four-colour Gauss–Seidel, at most ``max_sweeps`` sweeps; stops after a sweep whose largest
     change is ``<= stop``. Every sum is added in the order of :data:`OFFSETS`. Returns the
     solution and the number of sweeps run.
+
+    The correction is held as four contiguous planes, one per colour, each with a border of
+    zeros (the weight is 0 there), so that a neighbour of a colour is a shifted slice of
+    another colour's plane; a colour is updated band by band of about :data:`_BAND` pixels,
+    whose operands stay in the processor's cache. No two pixels of one colour are neighbours,
+    so the bands of a colour read nothing that another band of it writes: the same
+    operations on the same values as one update of the whole colour, bit for bit.
     """
     H, W = rhs.shape
-    y = np.zeros((H + 2, W + 2))  # the correction with a border of zeros (weight 0 there)
+    hh, ww = (H + 1) // 2, (W + 1) // 2
+    planes = {(pr, pc): np.zeros((hh + 2, ww + 2)) for pr in (0, 1) for pc in (0, 1)}
     colours = []
     for pr in (0, 1):
         for pc in (0, 1):
             cells = (slice(pr, None, 2), slice(pc, None, 2))
             h, w = rhs[cells].shape
-            reads = [y[1 + pr + sr:pr + sr + 2 * h:2, 1 + pc + sc:pc + sc + 2 * w:2]
-                     for sr, sc in OFFSETS]
+            reads = []
+            for sr, sc in OFFSETS:  # pixel (2i + pr + sr, ...) is row i + (pr + sr) // 2 there
+                qr, qc = pr + sr, pc + sc
+                r0, c0 = 1 + qr // 2, 1 + qc // 2
+                reads.append(planes[qr % 2, qc % 2][r0:r0 + h, c0:c0 + w])
+            band = max(1, _BAND // max(w, 1))
             colours.append(([np.ascontiguousarray(wk[cells]) for wk in weights], reads,
                             np.ascontiguousarray(rhs[cells]), np.ascontiguousarray(diagonal[cells]),
-                            y[1 + pr:pr + 2 * h:2, 1 + pc:pc + 2 * w:2], np.empty((h, w)),
-                            np.empty((h, w))))
+                            planes[pr, pc][1:1 + h, 1:1 + w], h, band))
+    largest_band = max(_BAND, ww)  # a band's pixels, at most: band · w <= max(_BAND, w)
+    total_buffer = np.empty(largest_band)
+    term_buffer = np.empty(largest_band)
     sweeps = 0
     while sweeps < max_sweeps:
         sweeps += 1
         largest = 0.0
-        for wc, reads, bc, dc, cell, total, term in colours:
-            np.copyto(total, bc)
-            for k in range(len(OFFSETS)):  # b + w_0 y_0 + w_1 y_1 + …, left to right
-                np.multiply(wc[k], reads[k], out=term)
-                np.add(total, term, out=total)
-            np.divide(total, dc, out=total)
-            np.subtract(total, cell, out=term)
-            largest = max(largest, float(np.max(np.abs(term, out=term))))
-            cell[...] = total
+        for wc, reads, bc, dc, cell, h, band in colours:
+            w = cell.shape[1]
+            for i0 in range(0, h, band):
+                rows = slice(i0, min(i0 + band, h))
+                size = (rows.stop - i0) * w
+                total = total_buffer[:size].reshape(-1, w)
+                term = term_buffer[:size].reshape(-1, w)
+                np.copyto(total, bc[rows])
+                for k in range(len(OFFSETS)):  # b + w_0 y_0 + w_1 y_1 + …, left to right
+                    np.multiply(wc[k][rows], reads[k][rows], out=term)
+                    np.add(total, term, out=total)
+                np.divide(total, dc[rows], out=total)
+                np.subtract(total, cell[rows], out=term)
+                largest = max(largest, float(np.max(np.abs(term, out=term))))
+                cell[rows] = total
         if largest <= stop:
             break
-    return y[1:-1, 1:-1].copy(), sweeps
+    y = np.empty((H, W))
+    for (pr, pc), plane in planes.items():
+        h, w = y[pr::2, pc::2].shape
+        y[pr::2, pc::2] = plane[1:1 + h, 1:1 + w]
+    return y, sweeps
