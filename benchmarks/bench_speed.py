@@ -33,6 +33,7 @@ Run::
     python benchmarks/bench_speed.py                   # all sizes and methods (~10 min)
     python benchmarks/bench_speed.py --quick           # 112×94 and 225×188 only
     python benchmarks/bench_speed.py --sizes 450x375 --methods np,colorization --repeat 3
+    python benchmarks/bench_speed.py --bp-stages       # BP's stages, CPU time (~3 min)
 
 Needs scikit-image (the Motorcycle).
 """
@@ -51,7 +52,7 @@ import numpy as np
 
 SIZES = ((112, 94), (225, 188), (450, 375), (900, 750))
 QUICK_SIZES = SIZES[:2]
-METHODS = ("np", "bp", "colorization", "nearest", "joint-bilateral")
+METHODS = ("np", "bp", "bp-fig6", "colorization", "nearest", "joint-bilateral")
 UNKNOWN = 0.78  # x-stripes, as bench_np.py / bench_bp.py
 LINEAR_TOLERANCE = 0.25  # issue #15 item 4: µs per unknown pixel within ±25 %
 
@@ -86,6 +87,8 @@ def _fill(method: str):
     return {
         "np": lambda image, partial: refsynth.synthesize(image, partial, seed=0),
         "bp": lambda image, partial: refsynth.synthesize(image, partial, method="bp"),
+        "bp-fig6": lambda image, partial: refsynth.synthesize(
+            image, partial, method="bp", observation="measured", training_radius="fixed"),
         "colorization": baselines.colorization_fill,
         "nearest": baselines.nearest_fill,
         "joint-bilateral": baselines.joint_bilateral_fill,
@@ -138,7 +141,7 @@ def _time(methods, image, partial, repeat: int):
             result = fill(image, partial)
             best[method] = min(best[method], time.perf_counter() - start)
             cpu[method] = min(cpu[method], time.process_time() - start_cpu)
-            if hasattr(result, "iterations") and method == "bp":
+            if hasattr(result, "iterations") and method.startswith("bp"):
                 sweeps[method] = int(result.iterations)
     return best, cpu, sweeps
 
@@ -191,6 +194,68 @@ def run(sizes, methods, repeat: int = 1, rss: bool = True, out=sys.stdout) -> di
     return results
 
 
+def bp_stages(sizes, out=sys.stdout) -> dict:
+    """CPU time of each of BP's stages (0.4's defaults), read from its progress reports.
+
+    BP reports per mille of its work, each stage within its share
+    (:data:`refsynth.synthesis.api.OBSERVATION_SHARE`, :data:`refsynth.synthesis.bp.BP_STAGES`);
+    a stage ends at the first report at or past the end of its share (the first stage's
+    time includes what comes before the fill: the checks, the quantisation and Canny).
+    Beside each stage's CPU time: µs per unknown pixel, its measured share of the whole and
+    the share assumed, and the sweeps of the colorization fill on the same input
+    (``portable_colorization``, the observations' solver, on the unquantised input: its
+    count, not its bits).
+
+    Returns
+    -------
+    dict
+        ``{(width, height): {"unknown": int, "sweeps": int, "stages": {name: CPU s}}}``.
+    """
+    import refsynth
+    from refsynth.synthesis.api import OBSERVATION_SHARE
+    from refsynth.synthesis.bp import BP_STAGES
+    from refsynth.synthesis.completion import portable_colorization
+
+    names = ["observations' fill"] + [name for name, _ in BP_STAGES]
+    rest = sum(share for _, share in BP_STAGES)
+    shares = [OBSERVATION_SHARE] + [(1 - OBSERVATION_SHARE) * share / rest
+                                    for _, share in BP_STAGES]
+    ends = np.cumsum(shares) * 1000
+    print("BP's stages (0.4's defaults) in CPU time, from its progress reports; "
+          "Motorcycle, x-stripes 78 % unknown\n", file=out)
+    print("| size | stage | CPU s | µs per unknown pixel | share measured | share assumed |",
+          file=out)
+    print("|---|---|---|---|---|---|", file=out)
+    results = {}
+    for size in sizes:
+        image, partial, _ = _case(size)
+        unknown = int(np.isnan(partial).sum())
+        _, sweeps = portable_colorization(image, partial, return_sweeps=True)
+        seen = []
+        start = time.process_time()
+        refsynth.synthesize(image, partial, method="bp",
+                            progress=lambda done, total, seen=seen, start=start: seen.append(
+                                (time.process_time() - start, done)))
+        # a stage's end, in whole per mille, is reached to within 2 (two roundings down)
+        stamps = [next(t for t, done in seen if done >= end - 2) for end in ends]
+        times = np.diff([0.0, *stamps])
+        total = stamps[-1]
+        results[size] = dict(unknown=unknown, sweeps=int(sweeps),
+                             stages=dict(zip(names, (float(t) for t in times), strict=True)))
+        for name, seconds, share in zip(names, times, shares, strict=True):
+            label = f"{name} ({sweeps} sweeps)" if name == names[0] else name
+            print(f"| {size[0]}×{size[1]} | {label} | {seconds:.3f} | "
+                  f"{1e6 * seconds / unknown:.3g} | {seconds / total:.0%} | {share:.0%} |",
+                  file=out, flush=True)
+    if len(results) > 1:
+        print("\nµs per unknown pixel by stage, smallest to largest size:", file=out)
+        for name in names:
+            per = [1e6 * r["stages"][name] / r["unknown"] for r in results.values()]
+            print(f"- {name}: " + " / ".join(f"{v:.3g}" for v in per)
+                  + f" (max/min {max(per) / max(min(per), 1e-12) - 1:+.0%})", file=out)
+    return results
+
+
 def _linearity(results: dict, methods, out, key: str = "seconds", what: str = "wall") -> None:
     """µs per unknown pixel (``key``: wall or CPU seconds) from the smallest to the largest
     size, against ±25 %."""
@@ -223,6 +288,9 @@ def main(argv=None) -> int:
                         help="112x94 and 225x188 only")
     parser.add_argument("--no-rss", action="store_true",
                         help="skip the peak-RSS subprocesses (timings only)")
+    parser.add_argument("--bp-stages", action="store_true",
+                        help="instead: the CPU time of each of BP's stages, read from its "
+                        "progress reports, and the observations' fill's sweeps")
     parser.add_argument("--child", nargs=2, metavar=("METHOD", "SIZE"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
@@ -236,6 +304,9 @@ def main(argv=None) -> int:
     if args.quick and args.sizes:
         parser.error("--quick and --sizes are exclusive")
     sizes = QUICK_SIZES if args.quick else (args.sizes or SIZES)
+    if args.bp_stages:
+        bp_stages(sizes)
+        return 0
     run(sizes, args.methods, repeat=args.repeat, rss=not args.no_rss)
     return 0
 

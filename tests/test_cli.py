@@ -530,6 +530,16 @@ def test_synth_reports_progress_on_stderr_when_it_is_not_a_terminal(files, capsy
     assert err[-1].startswith("synthesizing: 100 % (360/360)")
 
 
+def test_synth_bp_reports_pixels_worth_of_its_work_with_a_rate(files, capsys, monkeypatch):
+    """#15 item 5: BP's lines came only at its five stages' ends, without a rate."""
+    monkeypatch.setattr("refsynth.cli.synth.LOG_INTERVAL", 0.0)
+    status, _, err = _run(["synth", str(files / "image.npy"), str(files / "partial.npy"),
+                           "--method", "bp", "--out", str(files / "o.npy")], capsys)
+    assert status == 0 and len(err) > 5 and all(line.startswith("synthesizing: ") for line in err)
+    assert all(" px/s" in line for line in err) and any("left" in line for line in err)
+    assert err[-1].startswith("synthesizing: 100 % (360/360)")
+
+
 # ----------------------------------------------------------------------------- demo, figures
 
 

@@ -277,11 +277,16 @@ def _cmd_synth(args) -> int:
     options = {name: getattr(args, name) for name, _ in _METHOD_OPTIONS.values()}
     options.update({name: getattr(args, name) for name in _EQ2_OPTIONS
                     if getattr(args, name) is not None})
+    report = pixel_progress("synthesizing", rate="px")
+    if args.method == "bp":  # BP reports per mille of its work: shown as pixels' worth of it
+        unknown = int(np.count_nonzero(~np.isfinite(partial)))
+        progress = lambda done, total: report(done * unknown // total, unknown)  # noqa: E731
+    else:
+        progress = report
     result = synthesize(
         intensity, partial, method=args.method, seed=args.seed,
         neighbourhood=args.neighbourhood, radius=args.radius, use_edges=not args.no_edges,
-        progress=pixel_progress("synthesizing", rate="px" if args.method == "np" else None),
-        **options,
+        progress=progress, **options,
     )
     scale = 1.0 if args.png_scale is None else args.png_scale
     write_array(make_parent(out), result.range, png_scale=scale)

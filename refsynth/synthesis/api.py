@@ -67,6 +67,7 @@ from refsynth.synthesis.options import (
     check_proposals,
     random_source,
 )
+from refsynth.synthesis.progress import StagedProgress
 from refsynth.synthesis.similarity import CHANNELS, MISSING_RANGE
 
 __all__ = [
@@ -77,7 +78,13 @@ __all__ = [
     "NP_OPTIONS",
     "BP_OPTIONS",
     "BP_DEPARTURES",
+    "OBSERVATION_SHARE",
 ]
+
+#: The observations' fill's share of BP's work with ``observation="colorization"`` (BP's
+#: progress reports, :mod:`refsynth.synthesis.progress`): CPU time on the Motorcycle,
+#: x-stripes 78 % (``python benchmarks/bench_speed.py --bp-stages``).
+OBSERVATION_SHARE = 0.25
 
 @dataclass(frozen=True)
 class SynthesisResult:
@@ -239,8 +246,11 @@ def synthesize(
         pixels last. BP: the edge-constraint rule (``edge_rule``). ``False``
         is the paper's no-edge ablation (Fig. 13, Table 3).
     progress : callable, optional
-        Called as ``progress(done, total)`` every few hundred pixels (NP) or
-        after each of BP's five stages.
+        Called as ``progress(done, total)``: NP in pixels, every few hundred
+        pixels; BP in per mille of its estimated work, as the observations'
+        fill sweeps, the candidates are searched and the messages are sent
+        (:data:`refsynth.synthesis.bp.BP_STAGES`, :data:`OBSERVATION_SHARE`),
+        so that no stage runs long without a report.
     epsilon : float, NP only, default 0.1
         Tolerance ε of Eq. 5, in ``[0, 1e100]``.
     use_isophotes : bool, NP only, default True
@@ -494,14 +504,18 @@ def synthesize(
                 **{**common, "radius": np_radius, "progress": None})
             options["proposal_phi"] = "match"
             options["proposal_completed"] = proposal_options["proposals"] == "np-completed"
-        if departures["observation"] != "measured":  # the default: completed observations
+        filled = departures["observation"] != "measured"
+        stages = StagedProgress(progress, [OBSERVATION_SHARE if filled else 0.0,
+                                           1.0 - OBSERVATION_SHARE])
+        if filled:  # the default: completed observations
             options["observation"] = observation_fill(image, range_values,
                                                       departures["observation"],
-                                                      colour=colour)
+                                                      colour=colour, progress=stages.stage(0))
             options["observation_completed"] = departures["observation"].endswith("-completed")
         options["compatibility"] = departures["compatibility"]
         options["training_radius"] = departures["training_radius"]
-        bp = bp_fill(image, range_values, edge_map, **options, **common)
+        bp = bp_fill(image, range_values, edge_map, **options,
+                     **{**common, "progress": stages.stage(1)})
         return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
                                edges=edge_map, method=method, params=params,
                                iterations=bp.iterations, candidate_values=bp.candidate_values,

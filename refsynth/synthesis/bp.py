@@ -125,10 +125,17 @@ from refsynth.synthesis.bp_observation import observed_ranges
 from refsynth.synthesis.bp_proposals import proposal_frame
 from refsynth.synthesis.bp_search import candidates, search_candidates
 from refsynth.synthesis.messages import belief_propagation
+from refsynth.synthesis.progress import StagedProgress
 
-__all__ = ["BPResult", "bp_fill", "bp_memory_estimate", "BP_MEMORY_LIMIT", "candidates", "phi",
-           "psi", "pair_compatibilities", "fixed_neighbour_terms", "grid_edges",
-           "belief_propagation"]
+__all__ = ["BPResult", "BP_STAGES", "bp_fill", "bp_memory_estimate", "BP_MEMORY_LIMIT",
+           "candidates", "phi", "psi", "pair_compatibilities", "fixed_neighbour_terms",
+           "grid_edges", "belief_propagation"]
+
+#: BP's stages and their shares of its work, for its progress reports
+#: (:class:`~refsynth.synthesis.progress.StagedProgress`): CPU time on the Motorcycle,
+#: x-stripes 78 % (``python benchmarks/bench_speed.py --bp-stages``).
+BP_STAGES = (("search", 0.60), ("measured neighbours", 0.01), ("compatibilities", 0.01),
+             ("messages", 0.37), ("MAP", 0.01))
 
 _FIXED_BLOCK = 4096  # nodes per block of the fixed neighbours' terms (about 8 MB each)
 _NODE_BLOCK = 1 << 16  # nodes per block of step 6
@@ -304,7 +311,12 @@ def bp_fill(
     edge_rule : {"silent", "paper"}, default "silent"
         The reading of the edge-constraint rule (see above).
     progress : callable, optional
-        ``progress(step, 5)`` after each of the five stages.
+        ``progress(done, 1000)``: per mille of the work, each stage — the
+        candidate search (steps 2–3), the measured neighbours' terms and the
+        compatibilities (step 4), the messages (step 5) and the MAP (step 6) —
+        in its share of :data:`BP_STAGES` (:mod:`refsynth.synthesis.progress`),
+        the search by nodes and the messages by the edges sent; ``(1000,
+        1000)`` at the end.
     memory_limit : int, optional
         Bytes; refuse (``ValueError``), before any work, a call whose
         :func:`bp_memory_estimate` exceeds it. Default
@@ -405,14 +417,7 @@ def bp_fill(
     rows, cols = np.divmod(flat, W)
     on_edge = (np.asarray(edges, dtype=bool) & use_edges).ravel()
     deaf = on_edge[flat] if edge_rule == "paper" else np.zeros(flat.size, dtype=bool)
-    total = 5
-    step = 0
-
-    def tick():
-        nonlocal step
-        step += 1
-        if progress is not None:
-            progress(step, total)
+    stages = StagedProgress(progress, [share for _, share in BP_STAGES])
 
     # step 2: candidates, and step 3: log Phi
     observed = training = None
@@ -426,7 +431,7 @@ def bp_fill(
     labels, dist = search(levels, rq, rows, cols, n=n, k=k, radius=radius,
                           proximity=proximity, range_weight=range_weight,
                           missing_range=missing_range, pad=pad, channels=channels,
-                          observed=observed, training=training)
+                          observed=observed, training=training, progress=stages.stage(0))
     del observed, training
     del levels
     frame = None
@@ -437,7 +442,7 @@ def bp_fill(
         labels, dist, k = frame.labels, frame.distance, frame.labels.shape[1]
     unary = phi(dist, sigma_i)
     del dist
-    tick()
+    stages.complete(0)
     # every pixel's range patch on the contract's grid (−1 where unknown), a view; with
     # proposals, their frames stacked below the measured one
     if frame is None:
@@ -479,7 +484,7 @@ def bp_fill(
                                            centres=centres)
                 # each node has one such neighbour per direction and side
                 unary[node[s]] += psi(ms, sigma_s)
-    tick()
+    stages.complete(1)
     # step 4: k x k compatibilities between unknown neighbours, computed where needed
     pair_h, pair_v = node_of[pairs_all.pop("h")], node_of[pairs_all.pop("v")]
     del node_of, pairs_all
@@ -487,14 +492,15 @@ def bp_fill(
     compatibilities = Compatibilities(qpad, n, labels, W, pairs, pair_h.shape[0], sigma_s,
                                       centres=centres)
     del pair_h, pair_v
-    tick()
+    stages.complete(2)
     # step 5: messages; the edge-constraint rule silences (and deafens) edge nodes
     belief, done, messages = belief_propagation(
         unary, pairs, compatibilities, silent=on_edge[flat] if use_edges else None,
         deaf=deaf if edge_rule == "paper" else None, iterations=iterations,
         tolerance=tolerance, product=product, damping=damping, return_messages=True,
+        progress=stages.stage(3),
     )
-    tick()
+    stages.complete(3)
     # step 6: MAP label, its centre range, and its normalised belief (by blocks of nodes)
     out = range_values.copy()
     confidence = known.astype(np.float64)
@@ -517,7 +523,7 @@ def bp_fill(
         cand[sl, :, 0], cand[sl, :, 1] = np.divmod(labels[sl], W)
     if frame is not None:  # a proposal's centre is its node: the row within its frame
         cand[:, :, 0] %= H + 2 * h
-    tick()
+    stages.finish()
     order = np.stack([rows, cols], axis=1).astype(np.int64)
     return BPResult(range=out, confidence=confidence, order=order, iterations=done,
                     candidate_values=cand_values, labels=best, candidates=cand, unary=unary,

@@ -111,7 +111,7 @@ def gap_depth(rq: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
 
 
 def gap_radius_candidates(levels, rq, rows, cols, *, radius: float, pad: int, n: int,
-                          **options):
+                          progress=None, **options):
     """:func:`~refsynth.synthesis.bp_search.search_candidates` at radius ``r + ⌊d_i⌋``.
 
     Parameters
@@ -125,6 +125,8 @@ def gap_radius_candidates(levels, rq, rows, cols, *, radius: float, pad: int, n:
         :func:`refsynth.synthesis.bp.bp_fill` sets it: ``max(⌈r⌉, n // 2 + 1)``).
     n : int
         The patch side.
+    progress : callable, optional
+        ``progress(done, total)``: the nodes ranked so far, of ``N``.
     **options
         The rest of ``search_candidates``'s keywords (``k`` …).
 
@@ -156,12 +158,16 @@ def gap_radius_candidates(levels, rq, rows, cols, *, radius: float, pad: int, n:
     # the patch rows once for every depth (each build is a pass over the whole image)
     options["features"] = search_features(levels, rq, n, observed=options.pop("observed", None),
                                           training=options.pop("training", None))
+    ranked = 0
     for extra in np.unique(depth):
         mine = np.flatnonzero(depth == extra)  # raster order kept
         wide = float(radius) + float(extra)
         # a disc beyond the image runs at the cut radius with the same prior, bit for bit
         run, mu = search_radius("bp", wide, proximity, rq.shape)
+        report = None if progress is None else (
+            lambda done, _, before=ranked: progress(before + done, rows.size))
         labels[mine], distances[mine] = search_candidates(
             levels, rq, rows[mine], cols[mine], n=n, radius=run, proximity=mu,
-            pad=max(pad, math.ceil(run), n // 2 + 1), **options)
+            pad=max(pad, math.ceil(run), n // 2 + 1), progress=report, **options)
+        ranked += mine.size
     return labels, distances

@@ -78,6 +78,8 @@ SIGGRAPH 2004 (the fill).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from refsynth.numeric import (
@@ -100,7 +102,8 @@ OBSERVATIONS = ("measured", "colorization", "colorization-completed")
 
 
 def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: str,
-                     *, colour: bool = True) -> np.ndarray:
+                     *, colour: bool = True,
+                     progress: Callable[[int, int], None] | None = None) -> np.ndarray:
     """The dense range that completes the observations, on the measured range's unit scale.
 
     The colorization fill of the *quantised* range ``q_r / 2**16`` guided by the
@@ -121,6 +124,9 @@ def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: s
         Guide the fill by the quantised colour (the fill reduces it to grey
         with BT.601's weights, as the colorization baseline does) or, False,
         by the quantised grey level that Eq. 2 compares with ``colour=False``.
+    progress : callable, optional
+        ``progress(done, total)`` as the fill's sweeps go
+        (:func:`~refsynth.synthesis.completion.portable_colorization`).
 
     Returns
     -------
@@ -146,7 +152,7 @@ def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: s
     levels = levels * 2.0**-INTENSITY_BITS
     rq, _, _ = quantise_range(range_values)
     unit = np.where(rq == NO_RANGE, np.nan, rq * 2.0**-RANGE_BITS)
-    return portable_colorization(levels, unit)
+    return portable_colorization(levels, unit, progress=progress)
 
 
 def observed_ranges(

@@ -41,6 +41,8 @@ doi:10.1007/s11263-007-0108-2.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from refsynth.numeric import NO_RANGE, combine_eq2, window_weights
@@ -167,8 +169,8 @@ def search_features(
     --------
     >>> rq = np.array([[0, -1], [65536, -1]])
     >>> rows, same = search_features(np.zeros((2, 2, 1), dtype=np.int64), rq, 1)
-    >>> rows is same, rows.support.tolist()
-    (True, [[1.0, 0.0], [1.0, 0.0]])
+    >>> rows is same, (rows.support > 0).tolist()  # Σ_v G_v V: where the window has range
+    (True, [[True, False], [True, False]])
     """
     features = _Features(levels, rq if training is None else training, n)
     return features, features if observed is None else _Features(levels, observed, n)
@@ -191,6 +193,7 @@ def search_candidates(
     observed: np.ndarray | None = None,
     training: np.ndarray | None = None,
     features: tuple[_Features, _Features] | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` closest training patches of each node by Eq. 2 (Fig. 6, step 2).
 
@@ -239,6 +242,10 @@ def search_candidates(
         :func:`search_features` of the same ``levels``, ``rq``, ``n``,
         ``observed`` and ``training`` (then those two are not read): the rows
         built once for several searches on one image. None: built here.
+    progress : callable, optional
+        ``progress(done, total)``: the nodes ranked so far, of ``N``, after
+        each tile of the first pass (the nodes whose radius doubles are
+        counted there, and the doubled passes report nothing).
 
     Returns
     -------
@@ -271,7 +278,7 @@ def search_candidates(
     labels = np.zeros((n_nodes, k), dtype=np.int64)
     dist = np.full((n_nodes, k), np.inf)
     todo = np.arange(n_nodes)
-    r = float(radius)
+    r = first = float(radius)
     # no offset longer than the image's diagonal can reach a pixel: the disc stops there
     longest = float(np.hypot(H, W))
     options = dict(k=k, radius=radius, proximity=proximity, range_weight=range_weight,
@@ -286,11 +293,15 @@ def search_candidates(
         bounds = np.flatnonzero(np.diff(np.sort(key))) + 1
         step = max(1, _BLOCK // max(dr.size, 1))
         found = []
+        ranked = 0
         for members in np.split(grouped, bounds):
             for start in range(0, members.size, step):
                 part = members[start : start + step]
                 found.append(_rank_block(features, known, node_rows[part], node_cols[part],
                                          part, (dr, dc), r, labels, dist, options))
+            ranked += members.size
+            if progress is not None and r == first:
+                progress(ranked, n_nodes)
         done = np.concatenate(found) if found else np.zeros(0, dtype=np.int64)
         left = np.ones(n_nodes, dtype=bool)
         left[done] = False

@@ -55,6 +55,8 @@ N. Silberman, D. Hoiem, P. Kohli and R. Fergus, ECCV 2012: the NYU Depth V2 tool
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from scipy import ndimage
 
@@ -67,6 +69,7 @@ __all__ = ["portable_affinities", "portable_colorization"]
 #: The 3×3 window without its centre, (row, col) offsets in raster order.
 OFFSETS = tuple((dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0))
 
+_PER_MILLE = 1000  # the total of a progress report
 _BAND = 1 << 15  # pixels of a colour updated at once by a sweep (its operands stay in cache)
 
 
@@ -145,7 +148,9 @@ def portable_colorization(
     alpha: float = 1.0,
     tolerance: float = 1e-4,
     max_sweeps: int = 2000,
-) -> np.ndarray:
+    progress: Callable[[int, int], None] | None = None,
+    return_sweeps: bool = False,
+) -> np.ndarray | tuple[np.ndarray, int]:
     r"""Fill the range by Levin et al.'s colorization, the same bits on every machine.
 
     The system of :func:`refsynth.evaluation.baselines.colorization_fill` (each pixel's range
@@ -168,11 +173,22 @@ def portable_colorization(
         span (max − min) of the measured range; >= 0 (0 runs ``max_sweeps`` sweeps).
     max_sweeps : int, default 2000
         The most sweeps, >= 1.
+    progress : callable, optional
+        ``progress(done, 1000)`` after a sweep: per mille of the sweeps this
+        fill is estimated to need (the rate at which the largest change has
+        fallen, extrapolated to the stopping rule's ``tolerance``), never
+        backwards, and ``(1000, 1000)`` at the end. It reads the sweeps and
+        changes nothing in them.
+    return_sweeps : bool, default False
+        Also return the number of sweeps run.
 
     Returns
     -------
     ndarray of shape (H, W), float64
         Measured pixels unchanged; a constant measured range comes back exactly.
+    sweeps : int
+        Only with ``return_sweeps``: the Gauss–Seidel sweeps run (at most
+        ``max_sweeps``).
 
     Raises
     ------
@@ -220,20 +236,57 @@ def portable_colorization(
         rhs = rhs + weights[k] * (_shifted(padded, dr, dc, shape) - start)
     diagonal = np.where(known, 1.0 + alpha, 1.0)
     span = float(np.max(range_values[known])) - float(np.min(range_values[known]))
-    correction, _ = _gauss_seidel(weights, rhs, diagonal, tolerance * span, max_sweeps)
+    on_sweep = None if progress is None else _SweepEstimate(progress, tolerance * span,
+                                                             max_sweeps)
+    correction, sweeps = _gauss_seidel(weights, rhs, diagonal, tolerance * span, max_sweeps,
+                                       on_sweep=on_sweep)
+    if progress is not None:
+        progress(_PER_MILLE, _PER_MILLE)
     out = start + correction
     out[known] = range_values[known]
-    return out
+    return (out, sweeps) if return_sweeps else out
+
+
+class _SweepEstimate:
+    """``on_sweep(sweeps, largest)`` → ``progress(done, 1000)``: the sweeps done over an estimate.
+
+    The largest change of a Gauss–Seidel sweep falls about geometrically; its rate over the
+    later half of the sweeps so far, extrapolated to ``stop``, estimates the sweeps left (on
+    the Motorcycle at 450×375 it reads about 30 / 50 / 70 / 90 % at a tenth, a quarter, a half
+    and nine tenths of the time: early, as a slowing convergence makes it).
+    """
+
+    def __init__(self, progress, stop: float, max_sweeps: int) -> None:
+        self.progress, self.stop, self.max_sweeps = progress, stop, max_sweeps
+        self.history: list[float] = []
+        self.reported = -1
+
+    def __call__(self, sweeps: int, largest: float) -> None:
+        self.history.append(largest)
+        left = self.max_sweeps - sweeps
+        back = len(self.history) // 2  # the rate over the later half of the sweeps so far
+        if back and self.stop > 0 and largest > self.stop:
+            before = self.history[-1 - back]
+            if 0 < largest < before:
+                rate = float(portable_log(before / largest)) / back  # per sweep
+                left = min(left, float(portable_log(largest / self.stop)) / rate)
+        done = sweeps / (sweeps + max(left, 0.0))
+        done = min(int(done * _PER_MILLE), _PER_MILLE - 1)
+        if done > self.reported:  # never backwards
+            self.reported = done
+            self.progress(done, _PER_MILLE)
 
 
 def _gauss_seidel(
-    weights: np.ndarray, rhs: np.ndarray, diagonal: np.ndarray, stop: float, max_sweeps: int
+    weights: np.ndarray, rhs: np.ndarray, diagonal: np.ndarray, stop: float, max_sweeps: int,
+    *, on_sweep: Callable[[int, float], None] | None = None,
 ) -> tuple[np.ndarray, int]:
     """Solve ``diagonal·y − Σ_k weights[k]·y(shifted by OFFSETS[k]) = rhs`` from ``y = 0``.
 
     Four-colour Gauss–Seidel, at most ``max_sweeps`` sweeps; stops after a sweep whose largest
     change is ``<= stop``. Every sum is added in the order of :data:`OFFSETS`. Returns the
-    solution and the number of sweeps run.
+    solution and the number of sweeps run; ``on_sweep(sweeps, largest)``, if given, is told
+    each sweep's largest change.
 
     The correction is held as four contiguous planes, one per colour, each with a border of
     zeros (the weight is 0 there), so that a neighbour of a colour is a shifted slice of
@@ -281,6 +334,8 @@ def _gauss_seidel(
                 np.subtract(total, cell[rows], out=term)
                 largest = max(largest, float(np.max(np.abs(term, out=term))))
                 cell[rows] = total
+        if on_sweep is not None:
+            on_sweep(sweeps, largest)
         if largest <= stop:
             break
     y = np.empty((H, W))

@@ -61,6 +61,7 @@ def belief_propagation(
     product: str = "max",
     damping: float = 0.0,
     return_messages: bool = False,
+    progress=None,
 ):
     """Synchronous loopy BP in the log domain (Eq. 9); returns beliefs (Eq. 8).
 
@@ -91,6 +92,11 @@ def belief_propagation(
         0 is the plain synchronous schedule.
     return_messages : bool
         Also return the final messages.
+    progress : callable, optional
+        ``progress(done, total)`` in sweeps of ``iterations``, after each chunk
+        of edges sent (a sweep's part: the edges sent so far of its edges).
+        The first sweep sends every edge and the later ones only those whose
+        inputs changed, so the sweeps left cost less than the first.
 
     Returns
     -------
@@ -205,6 +211,9 @@ def belief_propagation(
                 rows = idx = active[start : start + chunk]
             change.append(_sweep_block(messages, belief, log_psi, a, b, e, rows, idx, sends,
                                        (changed, unfinite), product=product, damping=damping))
+            if progress is not None:
+                part = min(start + chunk, total_edges) / max(total_edges, 1)
+                progress(done - 1 + part, iterations)
         change = float(np.max(np.array(change)))
         if change <= tolerance:
             break
