@@ -43,7 +43,12 @@ def synthesis_case(draw, method: str):
         image = g.integers(0, 4, (H, W, C)) / 3.0
     else:
         image = np.tile(np.linspace(0.0, 1.0, W)[None, :, None], (H, 1, C))
-    truth = np.round(1.0 + 4.0 * g.random((H, W)), draw(st.integers(0, 2)))
+    if draw(st.booleans()):  # range with 0 to 2 decimals: ties in Eq. 5 and BP's pooling
+        truth = np.round(1.0 + 4.0 * g.random((H, W)), draw(st.integers(0, 2)))
+    else:  # slanted planes with a depth step: where range_copy="offset" shifts the copies
+        rows, cols = np.mgrid[:H, :W]
+        truth = 1.0 + g.random() * rows + g.random() * cols + np.where(
+            cols > g.integers(W), 2.0 * g.random(), 0.0)
     known = g.random((H, W)) < draw(st.floats(0.2, 0.7))
     known[g.integers(H), g.integers(W)] = True
     if known.all():
@@ -60,7 +65,8 @@ def synthesis_case(draw, method: str):
                        use_isophotes=draw(st.booleans()),
                        ordering=draw(st.sampled_from(["priority", "priority", "onion"])),
                        confidence_update=draw(st.sampled_from(["product", "best"])),
-                       edges_last=draw(st.booleans()))
+                       edges_last=draw(st.booleans()),
+                       range_copy=draw(st.sampled_from(["value", "offset"])))
     else:
         options.update(candidates=draw(st.integers(1, 4)), iterations=draw(st.integers(0, 6)),
                        proximity=draw(st.sampled_from([0.0, 1.0])),
@@ -129,7 +135,8 @@ def test_bp_fast_messages_and_beliefs_equal_reference(case):
 def test_np_reference_keeps_measurements_and_copies_known_values(case, rule):
     intensity, partial, edges, options, seed = case
     out = ref.np_reference(normalise_intensity(intensity), partial, edges,
-                           np.random.default_rng(seed), **dict(options, confidence_update=rule))
+                           np.random.default_rng(seed),
+                           **dict(options, confidence_update=rule, range_copy="value"))
     known = np.isfinite(partial)
     np.testing.assert_array_equal(out.range[known], partial[known])
     assert set(out.range[~known]) <= set(partial[known])

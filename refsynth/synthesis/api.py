@@ -170,6 +170,7 @@ def synthesize(
     product: str | None = None,
     confidence_update: str | None = None,
     edges_last: bool | None = None,
+    range_copy: str | None = None,
     edge_rule: str | None = None,
     proposals: str | None = None,
     proposal_runs: int | None = None,
@@ -264,6 +265,12 @@ def synthesize(
         (the text after Eq. 11 read literally; chosen on the Motorcycle, see
         the README's audit), or ``"product"``, ``C(p) · C(N_best)`` (refsynth's
         reading before 0.2, which drives synthesized confidence towards 0).
+    range_copy : {"value", "offset"}, NP only, default "value"
+        What a pixel gets from the neighbourhood Eq. 5 drew: ``"value"``, its
+        centre range (the paper); ``"offset"``, **a departure**, that value
+        shifted by the consistent difference in range between the two
+        windows, so that a slanted surface fills as a surface, not a
+        staircase of copies (:mod:`refsynth.synthesis.range_copy`).
     edges_last : bool, NP only, default True
         With ``use_edges``: pixels on an edge form a second tier, filled only
         when no other pixel is left on the front. ``False`` keeps only Eq. 10's
@@ -378,6 +385,7 @@ def synthesize(
     ``ordering``             §3.2.4       —            ``"priority"``
     ``confidence_update``    Eq. 11       —            ``"best"``
     ``edges_last``           Eq. 10       —            True
+    ``range_copy``           Eq. 5        —            ``"value"``
     ``candidates``           —            ``k``        8
     ``proximity``            —            μ            0
     ``sigma_i``              —            Eq. 7        0.1
@@ -436,6 +444,7 @@ def synthesize(
         candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
         iterations=iterations, tolerance=tolerance, product=product,
         confidence_update=confidence_update, edges_last=edges_last, edge_rule=edge_rule,
+        range_copy=range_copy,
     ))
     proposal_options = check_proposals(method, proposals, proposal_runs)
     departures = check_bp_departures(method, observation, compatibility, training_radius)

@@ -78,11 +78,13 @@ from refsynth.numeric import (
     quantise_grey,
     quantise_intensity,
     quantise_range,
+    window_weights,
 )
 from refsynth.synthesis.filltable import FillTable
-from refsynth.synthesis.neighbourhood import disc_offsets
+from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
 from refsynth.synthesis.onion import onion_order
 from refsynth.synthesis.priority import FillFront
+from refsynth.synthesis.range_copy import offset_shift, shifted_value
 
 #: The readings of the confidence a synthesized voxel receives (Eq. 11).
 CONFIDENCE_UPDATES = ("product", "best")
@@ -141,6 +143,7 @@ def np_fill(
     colour: bool = True,
     edges_last: bool = True,
     channels: str = "sum",
+    range_copy: str = "value",
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fill the unknown range by NP sampling in the chosen order (§3.2.2, §3.2.4).
@@ -183,6 +186,10 @@ def np_fill(
     channels : {"sum", "mean"}, default "sum"
         Eq. 2's intensity term: the sum over the colour channels (the paper's)
         or their mean.
+    range_copy : {"value", "offset"}
+        What ``p`` gets from the drawn ``N_q``: its centre value (Eq. 5) or that value
+        shifted by the windows' consistent difference in range (a departure,
+        :mod:`refsynth.synthesis.range_copy`).
     progress : callable, optional
         Called as ``progress(done, total)`` every few thousand voxels and at the end.
 
@@ -209,7 +216,7 @@ def np_fill(
     n = neighbourhood
     known = np.isfinite(range_values)
     # the contract: intensity and range on the 2**-16 grids of their spans
-    rq = quantise_range(range_values)[0]
+    rq, _, span = quantise_range(range_values)
     range_norm = np.where(known, rq * 2.0**-RANGE_BITS, np.nan)
     levels = quantise_intensity(image)
     if not colour:
@@ -256,6 +263,12 @@ def np_fill(
     grid, unit = 2.0**CONFIDENCE_BITS, 2.0**-CONFIDENCE_BITS
     # p and Eq. 5's threshold as 0-d arrays: a ufunc takes a Python scalar by a slower path
     at, threshold = np.zeros((), dtype=np.int64), np.zeros(())
+    shifting = range_copy == "offset"  # the departure: the drawn value shifted (range_copy)
+    if shifting:
+        wr, wc = window_offsets(n)
+        window = (wr * Wp + wc).astype(np.int64)
+        weights = window_weights(n).ravel().astype(np.float64)
+        to_grid, span_unit = 2.0**RANGE_BITS, span * 2.0**-RANGE_BITS
     for step in range(total):
         p = int(schedule[step]) if not update else pop()
         at[()] = p
@@ -271,6 +284,15 @@ def np_fill(
         q = int(members[int(draws[step] * members.size)])
         value = values_at[q]
         original_at[p] = original_at[q]
+        if shifting:
+            wp, wq = window + p, window + q  # q_r of the windows: whole numbers
+            shift = offset_shift(values[wp] * to_grid, values[wq] * to_grid, filled[wp],
+                                 filled[wq], weights)
+            was = int(value * to_grid)
+            now = shifted_value(was, shift)
+            if now != was:
+                value = now * 2.0**-RANGE_BITS
+                original_at[p] = original_at[q] + (now - was) * span_unit
         confidence = confidence_of(int(candidates[best]))  # Eq. 11 of N_best
         if confidence_update == "product":
             confidence = confidence_of(p) * confidence

@@ -35,6 +35,7 @@ from refsynth.synthesis.bp_observation import OBSERVATIONS
 from refsynth.synthesis.bp_proposals import PROPOSALS
 from refsynth.synthesis.limits import PARAMETER_BOUNDS
 from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES
+from refsynth.synthesis.range_copy import RANGE_COPIES
 
 __all__ = [
     "METHODS", "PRODUCTS", "ORDERINGS", "NP_OPTIONS", "BP_OPTIONS", "OPTIONS", "BP_DEPARTURES",
@@ -53,6 +54,7 @@ NP_OPTIONS = MappingProxyType({
     "ordering": "priority",
     "confidence_update": "best",
     "edges_last": True,
+    "range_copy": "value",
 })
 #: The options only BP uses, with BP's defaults (§3.2.3); read-only.
 BP_OPTIONS = MappingProxyType({
@@ -97,6 +99,7 @@ OPTION_CHECKS = {
     "product": partial(check_choice, "product", choices=PRODUCTS),
     "confidence_update": partial(check_choice, "confidence_update", choices=CONFIDENCE_UPDATES),
     "edges_last": partial(check_bool, "edges_last"),
+    "range_copy": partial(check_choice, "range_copy", choices=RANGE_COPIES),
     "edge_rule": partial(check_choice, "edge_rule", choices=EDGE_RULES),
 }
 

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
@@ -73,7 +74,7 @@ __all__ = [
     "quantise_intensity", "quantise_grey", "quantise_range", "window_weights", "portable_exp",
     "portable_log", "combine_eq2", "on_confidence_grid", "eq2_distance", "confidence_term",
     "priority_terms", "disc_offsets", "overlap_mean_square", "gap_depth_reference",
-    "np_reference", "bp_reference", "NPReference", "BPReference",
+    "np_reference", "bp_reference", "NPReference", "BPReference", "offset_shift",
     "INTENSITY_BITS", "RANGE_BITS", "WINDOW_BITS", "CONFIDENCE_BITS", "SUPPORT_PRIOR",
     "NO_RANGE", "VALUE_TOLERANCE",
 ]
@@ -210,6 +211,28 @@ def priority_terms(r, c, filled, qr, conf, edge_count, n, *, use_isophotes=True)
     return confidence_term(conf, r, c, n), d_term, e_term
 
 
+def offset_shift(frame, p, q) -> int:
+    r"""Δ of :mod:`refsynth.synthesis.range_copy`: the windows' consistent range difference.
+
+    Over the offsets ``v`` where both windows have range, ``A = Σ G_v``, ``B = Σ G_v δ_v``
+    with ``δ_v = q_r(p + v) − q_r(q + v)``; 0 if there is none, or if some
+    ``|A δ_v − B| > 2**(16 − 7) A``; else ``B / A`` rounded half to even (Python integers).
+    """
+    (pr, pc), (qr_, qc), n = p, q, frame.n
+    a = b = 0
+    deltas = []
+    for i in range(n):
+        for j in range(n):
+            at_p, at_q = int(frame.qr[pr + i, pc + j]), int(frame.qr[qr_ + i, qc + j])
+            if at_p != NO_RANGE and at_q != NO_RANGE:
+                g = int(frame.window[i, j])
+                a, b = a + g, b + g * (at_p - at_q)
+                deltas.append(at_p - at_q)
+    if a == 0 or any(abs(a * d - b) > 2 ** (RANGE_BITS - 7) * a for d in deltas):
+        return 0
+    return round(Fraction(b, a))
+
+
 def _onion_schedule(known, rng):
     """Fig. 7: layer (chessboard distance to the known region) by layer, seeded within one."""
     H, W = known.shape
@@ -223,7 +246,8 @@ def _onion_schedule(known, rng):
 def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.0, epsilon=0.1,
                  use_edges=True, use_isophotes=True, ordering="priority", range_weight=1.0,
                  missing_range="mean", confidence_update="best", colour=True,
-                 edges_last=True, channels="sum", trace=False) -> NPReference:
+                 edges_last=True, channels="sum", range_copy="value",
+                 trace=False) -> NPReference:
     r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
 
     For the front voxel ``p`` of highest priority (Eq. 10; with ``edges_last``, edge voxels
@@ -240,7 +264,9 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
     ``floor(u |Γ'|)``). If ``A_p`` is empty the search widens to the filled voxels within
     ``d + r``, ``d`` the distance to the nearest. ``p`` then gets the confidence
     ``C(N_best)`` (``confidence_update="best"``, the default: Eq. 11 as the text reads) or
-    ``C(p) · C(N_best)`` (``"product"``), on the confidence grid.
+    ``C(p) · C(N_best)`` (``"product"``), on the confidence grid. With
+    ``range_copy="offset"`` (a departure, :mod:`refsynth.synthesis.range_copy`) the drawn
+    centre is shifted by the windows' consistent difference in range (:func:`offset_shift`).
 
     Parameters
     ----------
@@ -261,6 +287,8 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
         Eq. 2's intensity term: the sum over the colour channels (the paper's) or their mean.
     edges_last : bool
         With ``use_edges``: edge voxels form a second tier (True) or only count in ``E``.
+    range_copy : {"value", "offset"}
+        The drawn centre's value, or that value shifted (above).
     trace : bool
         Also record every step (pixel, priority, candidates, distances, Γ', draw, source).
 
@@ -320,7 +348,13 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
         source = candidates[members[int(draws[step] * len(members))]]
         c_best = confidence_term(conf, *candidates[best], n)
         new = c_best if confidence_update == "best" else confidence_term(conf, r, c, n) * c_best
-        filled[r, c], qr[r, c], out[r, c] = True, qr[source], out[source]
+        value, copied = qr[source], out[source]
+        if range_copy == "offset":
+            shifted = min(max(int(value) + offset_shift(frame, p, source), 0), 2**RANGE_BITS)
+            if shifted != value:
+                value, copied = shifted, copied + (shifted - int(qr[source])) * (
+                    frame.span * 2.0**-RANGE_BITS)
+        filled[r, c], qr[r, c], out[r, c] = True, value, copied
         conf[r, c] = on_confidence_grid(new)
         order.append(p)
         if trace:

@@ -1,0 +1,131 @@
+r"""What NP copies from the neighbourhood it drew (§3.2.2, Eq. 5): the value, or the value shifted.
+
+Eq. 5 draws a neighbourhood ``N_q`` from ``Γ'`` and gives ``p`` the centre range of ``N_q``
+(``range_copy="value"``, the paper's reading, Efros & Leung's). A copied value is a value
+measured elsewhere: on a slanted surface — a floor, a wall seen at an angle, the body of the
+Motorcycle — the value at ``q`` is not the value at ``p``, however well the two neighbourhoods
+match, and a gap fills with a staircase of copies.
+
+**A departure** (``range_copy="offset"``): when the range that ``N_p`` and ``N_q`` share
+differs by about the same amount ``Δ`` at every offset — the same surface, shifted in depth —
+``p`` gets ``R_q + Δ``. On the integer grids of the numeric contract (:mod:`refsynth.numeric`:
+the range ``q_r`` on ``2**-16`` of the measured span, Eq. 2's window ``G`` as integers), with
+``S`` the offsets ``v`` at which both windows have range (measured or synthesized; none off the
+image) and ``δ_v = q_r(p + v) − q_r(q + v)``,
+
+.. math::
+
+    A = \sum_{v \in S} G_v, \qquad B = \sum_{v \in S} G_v\, \delta_v, \qquad
+    \Delta = \operatorname{round}(B / A),
+
+the exact quotient rounded half to even, and the shift is taken only when every difference is
+within :data:`OFFSET_TOLERANCE` of the mean, ``|A δ_v − B| ≤ 2^{16 − 7} A`` for every
+``v ∈ S`` (``2**-7`` of the span, an integer test): a window that straddles a depth edge, whose
+differences disagree, copies the value as the paper does. ``q_r(p) = q_r(q) + Δ`` is clipped
+to the measured span ``[0, 2**16]``, and the range in the caller's unit is that of ``q`` plus
+``(q_r(p) − q_r(q)) · span / 2**16``. Where ``S`` is empty, the differences disagree or ``Δ``
+is 0, ``p`` gets ``q``'s value bit for bit, as with ``"value"``. The draw, the order and the
+confidence (Eqs. 4, 5, 10–12) are unchanged: only the value written differs.
+
+Measured (the Motorcycle's x-stripes, MAR in disparity px at 63 / 78 / 85 % unknown, NP
+mean ± sd over seeds 0–2; ``python benchmarks/audit_departures.py --split choose --variants
+np-value-copy,np``): see the README's audit and :data:`RANGE_COPIES`.
+
+References
+----------
+Torres-Méndez & Dudek (2008), §3.2.2, Eqs. 2–5, doi:10.1007/s11263-007-0108-2.
+A. A. Efros and T. K. Leung, "Texture synthesis by non-parametric sampling", ICCV 1999.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from refsynth.numeric import RANGE_BITS
+
+__all__ = ["RANGE_COPIES", "OFFSET_TOLERANCE", "OFFSET_BITS", "offset_shift", "shifted_value"]
+
+#: What :func:`refsynth.synthesize` (NP) copies from the drawn neighbourhood: ``"value"``, its
+#: centre range (Eq. 5 as printed); ``"offset"``, that value shifted by the two windows'
+#: consistent difference in range (the departure above).
+RANGE_COPIES = ("value", "offset")
+
+#: The agreement the shift needs: every difference within ``2**-OFFSET_BITS`` of the span.
+OFFSET_BITS = 7
+#: :data:`OFFSET_BITS` as a fraction of the measured range's span (about 0.8 %).
+OFFSET_TOLERANCE = 2.0**-OFFSET_BITS
+
+_FULL = 2**RANGE_BITS
+_SLACK = 2 ** (RANGE_BITS - OFFSET_BITS)
+
+
+def offset_shift(target: np.ndarray, source: np.ndarray, has_target: np.ndarray,
+                 has_source: np.ndarray, weights: np.ndarray) -> int:
+    """``Δ`` of the two windows (see above), or 0 when it is not taken.
+
+    Parameters
+    ----------
+    target, source : ndarray of float64, shape (n·n,)
+        ``q_r`` of the windows of ``p`` and ``q`` in the same order (any value where a window
+        has no range), whole numbers.
+    has_target, has_source : ndarray of bool, shape (n·n,)
+        Where each window has range.
+    weights : ndarray of float64, shape (n·n,)
+        Eq. 2's window :func:`~refsynth.numeric.window_weights`, whole numbers.
+
+    Returns
+    -------
+    int
+        The shift on the range's integer grid.
+
+    Notes
+    -----
+    Every product and sum is a whole number below ``2**53`` (weights below ``2**18``,
+    differences below ``2**17``, 25 or 49 terms), so the float64 sums are exact in any order;
+    the quotient is rounded by integer arithmetic.
+
+    Examples
+    --------
+    A plane one step deeper at every offset, and one with a depth edge:
+
+    >>> g = np.ones(4)
+    >>> both = np.ones(4, dtype=bool)
+    >>> offset_shift(np.array([10.0, 11, 12, 13]), np.array([9.0, 10, 11, 12]), both, both, g)
+    1
+    >>> offset_shift(np.array([10.0, 11, 9000, 13]), np.array([9.0, 10, 11, 12]), both, both, g)
+    0
+    """
+    shared = has_target & has_source
+    if not shared.any():
+        return 0
+    g = weights[shared]
+    delta = target[shared] - source[shared]
+    a = float(np.dot(g, np.ones_like(g)))
+    b = float(np.dot(g, delta))
+    if float(np.max(np.abs(delta * a - b))) > _SLACK * a:
+        return 0
+    return _round_half_even(int(b), int(a))
+
+
+def shifted_value(q_source: int, shift: int) -> int:
+    """``q_r(q) + Δ`` clipped to the measured span ``[0, 2**16]``.
+
+    Examples
+    --------
+    >>> shifted_value(65000, 1000), shifted_value(12, -20), shifted_value(7, 3)
+    (65536, 0, 10)
+    """
+    return min(max(int(q_source) + int(shift), 0), _FULL)
+
+
+def _round_half_even(numerator: int, denominator: int) -> int:
+    """``numerator / denominator`` (``denominator > 0``) rounded half to even, exactly.
+
+    >>> [_round_half_even(n, 2) for n in (-3, -1, 1, 3, 5)]
+    [-2, 0, 0, 2, 2]
+    """
+    quotient, remainder = divmod(numerator, denominator)
+    twice = 2 * remainder
+    if twice > denominator or (twice == denominator and quotient % 2):
+        quotient += 1
+    return quotient
