@@ -42,10 +42,14 @@ import numpy as np
 #: Fig. 6 as printed: the observations' measured range and the fixed training disc (BP's
 #: defaults since issue #10 complete the observations and widen the disc by the gap's depth).
 FIG6 = {"observation": "measured", "training_radius": "fixed"}
+#: Eq. 5's copy as printed: the drawn centre's value (NP's default since 0.5 shifts it by the
+#: windows' consistent range difference, ``range_copy="offset"``).
+VALUE_COPY = {"range_copy": "value"}
 
 #: The variants: keyword arguments of refsynth.synthesize. "np" and "bp" are the
 #: defaults, "bp-fig6" is Fig. 6 as printed; each other entry changes one reading — of
-#: Fig. 6 for the BP entries, unless it names the observation or the training disc.
+#: Fig. 6 for the BP entries, unless it names the observation or the training disc, and of
+#: Eq. 5's value copy for the NP entries, unless it names the copy.
 VARIANTS: dict[str, dict] = {
     "np": {"method": "np"},
     "np-product": {"method": "np", "confidence_update": "product"},
@@ -63,6 +67,8 @@ VARIANTS: dict[str, dict] = {
     "np-noedges": {"method": "np", "use_edges": False},
     "np-noisophotes": {"method": "np", "use_isophotes": False},
     "np-onion": {"method": "np", "ordering": "onion"},
+    "np-value-copy": {"method": "np", "range_copy": "value"},
+    "np-offset-copy": {"method": "np", "range_copy": "offset"},
     # the paper's literal readings together (Eq. 11: C(best); Eq. 2: equal weights on the
     # normalised intensity and range, the range term only where both have range), and each of
     # refsynth's departures from them on its own
@@ -146,8 +152,9 @@ VARIANTS: dict[str, dict] = {
         "method": "bp", "observation": "colorization-completed",
         "compatibility": "overlap-centres", "sigma_s": 0.1, "proposals": "np-completed"},
 }
-VARIANTS = {name: ({**FIG6, **kw} if kw["method"] == "bp" else kw)
+VARIANTS = {name: ({**FIG6, **kw} if kw["method"] == "bp" else {**VALUE_COPY, **kw})
             for name, kw in VARIANTS.items()}
+VARIANTS["np"] = {"method": "np"}          # the defaults: the offset copy (0.5)
 VARIANTS["bp"] = {"method": "bp"}          # the defaults: completed observations, gap radius
 VARIANTS["bp-fig6"] = {"method": "bp", **FIG6}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")

@@ -51,9 +51,9 @@ def _digest(result) -> str:
 
 
 GOLDEN = {
-    ("steps", "np"): "1eb29b548dae38f8b4218494",
+    ("steps", "np"): "27f7cd040b1f223cc74298c2",   # 0.5: NP's offset copy
     ("steps", "bp"): "7ce147a968fc672ca5e0f018",   # 0.4: issue #10's BP defaults
-    ("texture", "np"): "2cebdade5732edbd0564aa81",
+    ("texture", "np"): "a0078611859633f03f8c663a",
     ("texture", "bp"): "7b4f1ad4a4db7c38cbcda397",
 }
 #: BP as Fig. 6 prints it (the observations' measured range, the fixed training disc):
@@ -63,10 +63,17 @@ GOLDEN_FIG6 = {
     ("steps", "bp"): "da696a7a6b4edcc3d5f381ca",
     ("texture", "bp"): "e2699b75d7f964ac7ec9c282",
 }
+#: NP as Eq. 5 prints it (the drawn centre's value copied): 0.4's default NP, which the
+#: offset copy replaced in 0.5; its hashes are 0.4's.
+VALUE_COPY = dict(range_copy="value")
+GOLDEN_VALUE_COPY = {
+    ("steps", "np"): "1eb29b548dae38f8b4218494",
+    ("texture", "np"): "2cebdade5732edbd0564aa81",
+}
 #: 0.2's readings (Eq. 2's channel mean; BP's proximity prior μ = 1), which 0.3's defaults
 #: replaced (the README's audit): their hashes are 0.2's defaults' hashes, unchanged by
 #: 0.3's speed work.
-READINGS_02 = {"np": dict(channels="mean"),
+READINGS_02 = {"np": dict(channels="mean", range_copy="value"),
                "bp": dict(channels="mean", proximity=1.0, observation="measured",
                           training_radius="fixed")}
 GOLDEN_02 = {
@@ -92,6 +99,16 @@ def test_the_golden_hash_of_the_earlier_readings_holds(scene, method):
                                  **READINGS_02[method])
     assert _digest(result) == GOLDEN_02[scene, method], (
         f"{scene}/{method} (0.2's readings): the output changed; new hash {_digest(result)}")
+
+
+@pytest.mark.parametrize(("scene", "method"), list(GOLDEN_VALUE_COPY))
+def test_the_golden_hash_of_eq5s_value_copy_holds(scene, method):
+    intensity, partial = SCENES[scene]()
+    result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0,
+                                 **VALUE_COPY)
+    assert _digest(result) == GOLDEN_VALUE_COPY[scene, method], (
+        f"{scene}/{method} (Eq. 5's value copy): the output changed; new hash "
+        f"{_digest(result)}")
 
 
 @pytest.mark.parametrize(("scene", "method"), list(GOLDEN_FIG6))

@@ -38,6 +38,7 @@ from refsynth.synthesis.api import synthesize
 from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
 from refsynth.synthesis.bp_model import COMPATIBILITIES
 from refsynth.synthesis.bp_observation import OBSERVATIONS
+from refsynth.synthesis.range_copy import RANGE_COPIES
 
 __all__ = ["pixel_progress", "add_synth_parser"]
 
@@ -182,7 +183,7 @@ _METHOD_OPTIONS = {
     "--sigma-s": ("sigma_s", "bp"), "--iterations": ("iterations", "bp"),
     "--proposals": ("proposals", "bp"), "--proposal-runs": ("proposal_runs", "bp"),
     "--observation": ("observation", "bp"), "--training-radius": ("training_radius", "bp"),
-    "--compatibility": ("compatibility", "bp"),
+    "--compatibility": ("compatibility", "bp"), "--range-copy": ("range_copy", "np"),
 }
 #: Eq. 2's readings, for both methods: passed on only when given.
 _EQ2_OPTIONS = ("channels", "range_weight", "missing_range", "colour")
@@ -371,6 +372,11 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           "priority)")
     np_group.add_argument("--no-isophotes", dest="use_isophotes", action="store_const",
                           const=False, help="drop the isophote term of Eq. 12 (default: use it)")
+    np_group.add_argument("--range-copy", choices=list(RANGE_COPIES),
+                          help="what a pixel gets from the neighbourhood Eq. 5 drew: value "
+                          "(its centre range, the paper's) or offset (that value shifted by "
+                          "the two windows' consistent range difference: a departure, the "
+                          "default)")
     bp_group = synth.add_argument_group("BP only (--method bp)")
     bp_group.add_argument("--candidates", type=integer, metavar="K",
                           help="candidate labels per unknown pixel (default 8)")

@@ -30,7 +30,7 @@ from refsynth.oracle.runs import run_outputs
 __all__ = ["Case", "CASE_SET_VERSION", "build_cases", "expected_outputs", "select_cases"]
 
 #: The version of the case set (inputs and options); the format's is in export.py.
-CASE_SET_VERSION = 3  # 3: BP's defaults of issue #10 (completed observations, the gap's radius)
+CASE_SET_VERSION = 4  # 4: NP's offset copy (0.5); 3: BP's defaults of issue #10
 # 2: refsynth 0.3's defaults (Eq. 2's channel sum, BP without the prior)
 
 
@@ -101,6 +101,20 @@ def _scene(seed: int, shape, channels: int, kind: str, known_fraction: float):
     return dict(intensity=intensity, partial_range=np.where(known, truth, np.nan), edges=edges)
 
 
+def _planes_scene(seed: int, shape):
+    """Two slanted planes meeting at a depth step, textured intensity, x-stripes known."""
+    g = np.random.default_rng(seed)
+    H, W = shape
+    rows, cols = np.mgrid[:H, :W]
+    right = cols > W // 2 + rows // 4
+    image = np.where(right, 0.7, 0.2)[..., None] + 0.2 * g.random((H, W, 3))
+    truth = np.where(right, 5.0 - 0.07 * rows, 2.0 + 0.04 * cols + 0.02 * rows)
+    known = cols % 6 < 2
+    known[g.random((H, W)) < 0.1] = False
+    edges = g.random((H, W)) < 0.1
+    return dict(intensity=image, partial_range=np.where(known, truth, np.nan), edges=edges)
+
+
 def _run_cases(large: bool) -> list[Case]:
     cases = []
     shapes = [(8, 8), (12, 10), (16, 16)]
@@ -153,6 +167,15 @@ def _run_cases(large: bool) -> list[Case]:
         Case("bp-16x16-fig6-gap", "bp", sparse,
              dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=4, iterations=10,
                   observation="measured"), 13),
+    ]
+    # NP on slanted planes, where the offset copy (the default) shifts most values, and
+    # Eq. 5's value copy on the same scene
+    planes = _planes_scene(14, (14, 18))
+    cases += [
+        Case("np-14x18-planes", "np", planes,
+             dict(neighbourhood=5, radius=3.0, use_edges=True), 14),
+        Case("np-14x18-planes-value-copy", "np", planes,
+             dict(neighbourhood=5, radius=3.0, use_edges=True, range_copy="value"), 14),
     ]
     # larger: 32×32 with the priority order, 64×64 onion (the reference is slow beyond)
     big = _scene(32, (32, 32), 1, "noise", 0.75)

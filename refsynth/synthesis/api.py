@@ -265,12 +265,14 @@ def synthesize(
         (the text after Eq. 11 read literally; chosen on the Motorcycle, see
         the README's audit), or ``"product"``, ``C(p) · C(N_best)`` (refsynth's
         reading before 0.2, which drives synthesized confidence towards 0).
-    range_copy : {"value", "offset"}, NP only, default "value"
+    range_copy : {"offset", "value"}, NP only, default "offset"
         What a pixel gets from the neighbourhood Eq. 5 drew: ``"value"``, its
-        centre range (the paper); ``"offset"``, **a departure**, that value
-        shifted by the consistent difference in range between the two
-        windows, so that a slanted surface fills as a surface, not a
-        staircase of copies (:mod:`refsynth.synthesis.range_copy`).
+        centre range (the paper, Efros & Leung's copy); ``"offset"`` (**a
+        departure, the default since 0.5**: it won on the Motorcycle at every
+        fraction and size, see the README's audit), that value shifted by the
+        consistent difference in range between the two windows, so that a
+        slanted surface fills as a surface, not a staircase of copies
+        (:mod:`refsynth.synthesis.range_copy`).
     edges_last : bool, NP only, default True
         With ``use_edges``: pixels on an edge form a second tier, filled only
         when no other pixel is left on the front. ``False`` keeps only Eq. 10's
@@ -385,7 +387,7 @@ def synthesize(
     ``ordering``             §3.2.4       —            ``"priority"``
     ``confidence_update``    Eq. 11       —            ``"best"``
     ``edges_last``           Eq. 10       —            True
-    ``range_copy``           Eq. 5        —            ``"value"``
+    ``range_copy``           Eq. 5        —            ``"offset"`` (departure)
     ``candidates``           —            ``k``        8
     ``proximity``            —            μ            0
     ``sigma_i``              —            Eq. 7        0.1

@@ -143,7 +143,7 @@ def np_fill(
     colour: bool = True,
     edges_last: bool = True,
     channels: str = "sum",
-    range_copy: str = "value",
+    range_copy: str = "offset",
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fill the unknown range by NP sampling in the chosen order (§3.2.2, §3.2.4).
@@ -186,10 +186,10 @@ def np_fill(
     channels : {"sum", "mean"}, default "sum"
         Eq. 2's intensity term: the sum over the colour channels (the paper's)
         or their mean.
-    range_copy : {"value", "offset"}
-        What ``p`` gets from the drawn ``N_q``: its centre value (Eq. 5) or that value
-        shifted by the windows' consistent difference in range (a departure,
-        :mod:`refsynth.synthesis.range_copy`).
+    range_copy : {"offset", "value"}
+        What ``p`` gets from the drawn ``N_q``: its centre value (Eq. 5, ``"value"``) or
+        that value shifted by the windows' consistent difference in range (``"offset"``, a
+        departure and the default, :mod:`refsynth.synthesis.range_copy`).
     progress : callable, optional
         Called as ``progress(done, total)`` every few thousand voxels and at the end.
 

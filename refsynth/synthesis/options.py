@@ -54,7 +54,7 @@ NP_OPTIONS = MappingProxyType({
     "ordering": "priority",
     "confidence_update": "best",
     "edges_last": True,
-    "range_copy": "value",
+    "range_copy": "offset",
 })
 #: The options only BP uses, with BP's defaults (§3.2.3); read-only.
 BP_OPTIONS = MappingProxyType({

@@ -24,8 +24,11 @@ within :data:`OFFSET_TOLERANCE` of the mean, ``|A δ_v − B| ≤ 2^{16 − 7} A
 differences disagree, copies the value as the paper does. ``q_r(p) = q_r(q) + Δ`` is clipped
 to the measured span ``[0, 2**16]``, and the range in the caller's unit is that of ``q`` plus
 ``(q_r(p) − q_r(q)) · span / 2**16``. Where ``S`` is empty, the differences disagree or ``Δ``
-is 0, ``p`` gets ``q``'s value bit for bit, as with ``"value"``. The draw, the order and the
-confidence (Eqs. 4, 5, 10–12) are unchanged: only the value written differs.
+is 0, ``p`` gets ``q``'s value bit for bit, as with ``"value"``. Eqs. 2–5 and 10–12 are
+computed as before, on the range written so far: only the value written differs (and with it,
+through Eq. 2 and the isophotes of Eq. 12, the later matches and the order). The shifted value
+stays within the measured span, so a surface that recedes beyond the farthest measured depth is
+cut there (Eq. 2's integer sums stay below ``2**53``).
 
 Measured (the Motorcycle's x-stripes, MAR in disparity px at 63 / 78 / 85 % unknown, NP
 mean ± sd over seeds 0–2; ``python benchmarks/audit_departures.py --split choose --variants

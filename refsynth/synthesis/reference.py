@@ -246,7 +246,7 @@ def _onion_schedule(known, rng):
 def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.0, epsilon=0.1,
                  use_edges=True, use_isophotes=True, ordering="priority", range_weight=1.0,
                  missing_range="mean", confidence_update="best", colour=True,
-                 edges_last=True, channels="sum", range_copy="value",
+                 edges_last=True, channels="sum", range_copy="offset",
                  trace=False) -> NPReference:
     r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
 
