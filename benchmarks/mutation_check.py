@@ -39,6 +39,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 NP = "refsynth/synthesis/nonparametric.py"
+RANGE_COPY = "refsynth/synthesis/range_copy.py"
 BP = "refsynth/synthesis/bp.py"
 PRIORITY = "refsynth/synthesis/priority.py"
 FILLTABLE = "refsynth/synthesis/filltable.py"
@@ -54,7 +55,8 @@ TESTS = {
     "np": ["tests/test_np_sampling.py", "tests/test_priority.py", "tests/test_synthesis.py",
            ORACLE_FAST, "tests/test_reference.py", "tests/test_assembly.py",
            "tests/test_np_speed_table.py", "tests/test_np_speed_front.py",
-           "tests/test_mutation_gaps.py"],
+           "tests/test_mutation_gaps.py", "tests/test_range_copy.py",
+           "tests/test_golden_hashes.py"],
     "bp": ["tests/test_bp.py", "tests/test_synthesis.py", ORACLE_FAST,
            "tests/test_reference.py", "tests/test_assembly.py", "tests/test_bp_speed_memory.py",
            "tests/test_bp_speed_sends.py", "tests/test_mutation_gaps.py"],
@@ -131,6 +133,19 @@ MUTATIONS = [
     Mutation("np-copy-value", "np", NP, "original_at[p] = original_at[q]",
              "original_at[p] = original_at[p]",
              "the source's range not copied to the output"),
+    Mutation("np-offset-swapped", "np", NP,
+             "shift = offset_shift(values[wp] * to_grid, values[wq] * to_grid, filled[wp],",
+             "shift = offset_shift(values[wq] * to_grid, values[wp] * to_grid, filled[wp],",
+             "the offset copy's shift taken from q to p (its sign flipped)"),
+    Mutation("np-offset-unit", "np", NP,
+             "max((now - was) * span_unit + original_at[q], low)",
+             "max((now - was) * span + original_at[q], low)",
+             "the offset copy's shift not brought back to the caller's unit"),
+    Mutation("rc-slack", "np", RANGE_COPY, "> _SLACK * a:", "> 2 * _SLACK * a:",
+             "the offset copy's agreement test twice as loose"),
+    Mutation("rc-round", "np", RANGE_COPY,
+             "if twice > denominator or (twice == denominator and quotient % 2):",
+             "if twice > denominator:", "the shift rounded half down, not half to even"),
     Mutation("np-widened", "np", NP, "return flat[dist <= dist.min() + radius]",
              "return flat[dist <= dist.min()]", "the widened search loses its + r"),
     Mutation("np-onion-update", "np", NP,

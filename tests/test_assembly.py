@@ -23,9 +23,13 @@ from refsynth.synthesis.api import normalise_intensity
 
 
 def _one_hole(image, truth, hole, **options):
-    """NP on a scene where only ``hole`` is unknown: returns the value it received."""
+    """NP on a scene where only ``hole`` is unknown: returns the value it received.
+
+    With Eq. 5's value copy unless told otherwise, so that the value names its source.
+    """
     partial = truth.copy()
     partial[hole] = np.nan
+    options.setdefault("range_copy", "value")
     result = refsynth.synthesize(image, partial, use_edges=False, **options)
     return result.range[hole], result.confidence[hole]
 

@@ -46,13 +46,28 @@ def test_constant_range_scene_is_recovered_exactly(scene, level, ordering):
 
 @given(small_scene(), st.integers(0, 1000))
 def test_result_is_finite_keeps_measurements_and_copies_known_values(scene, seed):
-    """NP copies: every synthesized value is one of the measured values."""
+    """Eq. 5's value copy: every synthesized value is one of the measured values."""
+    image, truth, known = scene
+    partial = np.where(known, truth, np.nan)
+    result = refsynth.synthesize(image, partial, seed=seed, neighbourhood=3, radius=3,
+                                 range_copy="value")
+    assert np.all(np.isfinite(result.range))
+    np.testing.assert_array_equal(result.range[known], truth[known])
+    assert np.isin(result.range[~known], truth[known]).all()
+    assert np.all((result.confidence >= 0) & (result.confidence <= 1))
+    np.testing.assert_array_equal(result.confidence[known], 1.0)
+    assert result.order.shape == (int((~known).sum()), 2)
+
+
+@given(small_scene(), st.integers(0, 1000))
+def test_the_offset_copy_keeps_measurements_and_stays_in_the_measured_span(scene, seed):
+    """The default shifted copy: finite, measured pixels unchanged, within [min, max]."""
     image, truth, known = scene
     partial = np.where(known, truth, np.nan)
     result = refsynth.synthesize(image, partial, seed=seed, neighbourhood=3, radius=3)
     assert np.all(np.isfinite(result.range))
     np.testing.assert_array_equal(result.range[known], truth[known])
-    assert np.isin(result.range[~known], truth[known]).all()
+    assert truth[known].min() <= result.range.min() <= result.range.max() <= truth[known].max()
     assert np.all((result.confidence >= 0) & (result.confidence <= 1))
     np.testing.assert_array_equal(result.confidence[known], 1.0)
     assert result.order.shape == (int((~known).sum()), 2)

@@ -92,8 +92,8 @@ def test_a_slanted_plane_fills_as_a_plane_with_the_shift_and_as_steps_without():
     image, truth, partial = _ramp()
     unknown = np.isnan(partial)
     span = np.nanmax(partial) - np.nanmin(partial)
-    shifted = refsynth.synthesize(image, partial, seed=0, range_copy="offset")
-    copied = refsynth.synthesize(image, partial, seed=0)
+    shifted = refsynth.synthesize(image, partial, seed=0)  # the default since 0.5
+    copied = refsynth.synthesize(image, partial, seed=0, range_copy="value")
     error_shifted = np.abs(shifted.range - truth)[unknown]
     error_copied = np.abs(copied.range - truth)[unknown]
     assert error_shifted.max() <= 2 * span * 2.0**-RANGE_BITS  # the grid's rounding, twice
@@ -117,4 +117,4 @@ def test_bad_range_copy_is_refused_by_name_before_any_work():
     with pytest.raises(ValueError, match="`range_copy` must be one of"):
         refsynth.synthesize(image, partial, range_copy="shift")
     with pytest.raises(ValueError, match="`range_copy` applies to method='np'"):
-        refsynth.synthesize(image, partial, method="bp", range_copy="offset")
+        refsynth.synthesize(image, partial, method="bp", range_copy="value")

@@ -105,7 +105,7 @@ def test_integer_seed_types():
 # --------------------------------------------------------------------------- the options split
 
 NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion",
-           "confidence_update": "product", "edges_last": False}
+           "confidence_update": "product", "edges_last": False, "range_copy": "value"}
 BP_ONLY = {"candidates": 4, "proximity": 1.0, "sigma_i": 0.3, "sigma_s": 0.1,
            "iterations": 3, "tolerance": 0.0, "product": "sum", "edge_rule": "paper"}
 
@@ -146,7 +146,7 @@ def test_a_bad_value_is_reported_as_such_even_for_the_other_method():
 
 def test_the_other_methods_defaults_and_none_are_accepted_silently():
     np_defaults = {"epsilon": 0.1, "use_isophotes": True, "ordering": "priority",
-                   "confidence_update": "best", "edges_last": True}
+                   "confidence_update": "best", "edges_last": True, "range_copy": "offset"}
     bp_defaults = {"candidates": 8, "proximity": 0.0, "sigma_i": 0.1, "sigma_s": 0.2,
                    "iterations": 50, "tolerance": 1e-4, "product": "max", "edge_rule": "silent"}
     plain_np = refsynth.synthesize(IMAGE, PARTIAL, method="np", seed=0)

@@ -88,11 +88,11 @@ def claims_01(text: str) -> None:
     for other in ("onion order", "no edges", "no isophotes"):
         verdict = tie_or(*scores["priority order"], *scores[other])
         assert re.search(rf"against {other} \([^)]*\): {verdict}$", text, flags=re.M)
-        # the text, under 0.3's defaults: every verdict a tie (0.2's: the edge term and the
-        # priority order beyond the spread, the reason the case was chosen)
-        assert verdict == "a tie"
-    # ... the edge term still ahead on average
-    assert "under refsynth 0.3's defaults all three are ties" in text_source("01")
+        # the text, under 0.5's defaults: the edge term wins beyond the spread, the onion
+        # order and the isophotes tie (0.3's: all three ties; 0.2's: edges and order won)
+        assert verdict == ("better" if other == "no edges" else "a tie"), other
+    assert ("Under refsynth 0.5's defaults the edge term wins beyond the spread and the onion "
+            "order and the isophotes tie") in text_source("01")
     assert scores["no edges"][0] > scores["priority order"][0]
     small = {grid: (np_mar, nn) for grid, np_mar, nn in re.findall(
         r"64x64, grid (\d+/\d+) .*: NP MAR ([\d.]+) m \(3 seeds\), nearest ([\d.]+) m", text)}
@@ -141,35 +141,34 @@ def claims_02(text: str) -> None:
         assert bp["sweeps"] == 50  # "All four BP runs go to the cap of 50 sweeps"
         assert bp["top"] < bp["rest"]  # the confidence is the right way round, all four
     b, b6, bd = cases[bike], bps[bike, "fig6"], bps[bike, "default"]
-    # the Motorcycle: refsynth's BP beats NP by several times NP's spread, and the nearest
-    # and colorization fills; Fig. 6's BP ties with NP (about one NP sd apart) and beats the
-    # nearest fill narrowly; both ceilings far below every method's error, refsynth's not
-    # the lower one (what improved is the pick, not the candidates)
-    assert b["np"] - bd["mar"] > 3 * b["np_sd"]
+    # the Motorcycle: refsynth's BP ties with NP (0.5's NP, the offset copy) and beats the
+    # nearest and colorization fills; Fig. 6's BP loses to NP beyond its spread and beats
+    # the nearest fill narrowly; both ceilings far below every method's error, refsynth's
+    # not the lower one (what improved is the pick, not the candidates)
+    assert abs(bd["mar"] - b["np"]) <= 2 * b["np_sd"]
     assert bd["mar"] < b["nearest"] and bd["mar"] < b["colorization"]
-    assert abs(b6["mar"] - b["np"]) <= 2 * b["np_sd"]
+    assert b6["mar"] - b["np"] > 2 * b["np_sd"]
     assert b6["mar"] < b["nearest"] < b6["mar"] + 0.02
     errors = (b6["mar"], bd["mar"], b["np"], b["nearest"], b["colorization"])
     assert max(b6["ceiling"], bd["ceiling"]) < 0.5 * min(errors)
     assert bd["ceiling"] >= b6["ceiling"]
     r, r6, rd = cases[room], bps[room, "fig6"], bps[room, "default"]
-    # the room: refsynth's BP beats the nearest and colorization fills but loses to NP beyond
-    # its spread; Fig. 6's BP loses to NP and to the nearest fill; Fig. 6's ceiling is above
-    # NP's MAR (only just), refsynth's below it, with BP's labels well above that ceiling;
-    # refsynth's confident half better by a narrow margin
+    # the room: refsynth's BP beats the nearest and colorization fills but loses to NP far
+    # beyond its spread; Fig. 6's BP loses to NP and to the nearest fill; both ceilings are
+    # above NP's MAR, Fig. 6's the higher; BP's labels above its ceiling; refsynth's
+    # confident half better by a narrow margin
     assert rd["mar"] < r["nearest"] and rd["mar"] < r["colorization"]
-    assert rd["mar"] - r["np"] > 2 * r["np_sd"]
+    assert rd["mar"] - r["np"] > 10 * r["np_sd"]
     assert r6["mar"] > r["np"] and r6["mar"] > r["nearest"]
-    assert r["np"] < r6["ceiling"] < r["np"] + 0.03
-    assert rd["ceiling"] < r["np"] and rd["mar"] - rd["ceiling"] > 0.04
+    assert r["np"] < rd["ceiling"] < r6["ceiling"]
+    assert rd["mar"] - rd["ceiling"] > 0.04
     assert rd["rest"] - rd["top"] < r6["rest"] - r6["top"]
     source = text_source("02")
-    for phrase in ("On the Motorcycle's vertical stripes refsynth's BP beats NP",
-                   "Fig. 6's BP only ties with NP",
+    for phrase in ("On the Motorcycle's vertical stripes refsynth's BP ties with NP",
+                   "Fig. 6's BP loses to NP",
                    "but still loses to NP",
                    "Fig. 6's BP loses to NP and to the nearest fill too",
-                   "Fig. 6's is *above* NP's MAR (only just)",
-                   "refsynth's ceiling is *below* NP's MAR",
+                   "both are *above* NP's MAR",
                    "refsynth's ceiling is not the lower one",
                    "All four BP runs go to the cap of 50 sweeps"):
         assert phrase in source, phrase

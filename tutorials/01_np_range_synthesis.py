@@ -121,10 +121,11 @@ print(f"       intensity term alone {d_intensity_only:.4f} (= 0.05² = 0.0025: t
 # real data, and with refsynth 0.2's defaults the paper's main claims about
 # NP showed on it beyond NP's seed-to-seed spread — NP beats the simple
 # fills, and the edge term helps. Under 0.3's defaults (Eq. 2 sums the
-# colour channels) the first still holds by a wide margin; the edge term's
-# gain has shrunk to within the spread (section 4 says why; the test suite
-# checks both statements). On the synthetic rooms the edge term's effect is
-# within that spread too (exercise 1).
+# colour channels) the first still held by a wide margin and the edge term's
+# gain shrank to within the spread; under 0.5's (a copy shifted by the two
+# windows' range difference, below) both hold beyond the spread again
+# (section 4 says why; the test suite checks both statements). On the
+# synthetic rooms too the edge term now helps beyond the spread (exercise 1).
 
 # %%
 scene = motorcycle(128)
@@ -297,21 +298,22 @@ for other, claim in [("onion order", "Fig. 7"), ("no edges", "Table 3, Fig. 13")
 
 # %% [markdown]
 # The last three lines check the paper's three claims about the order on this
-# case, and under refsynth 0.3's defaults all three are ties. With 0.2's
-# defaults, which averaged Eq. 2's colour channels, the priority order scored
-# 0.463 ± 0.015 here and beat both the onion order (0.524 ± 0.007) and the
-# order without edges (0.529 ± 0.028) beyond the spread. Summing the
-# channels, 0.3's reading of Eq. 2 (chosen on the full-size Motorcycle,
-# issue #10), weighs the colour about three times as much against the range
-# already filled; on this small grid case that costs the priority order
-# (0.510 ± 0.032; the seed-0 run above went from 0.463 to 0.539), while the
-# onion order and the order without edges, already at 0.52–0.53, hardly
-# move. The edge term still helps on average (the "no edges" mean is the
-# higher one), but by less than the two spreads together. What each term
-# does, and so what to look for:
+# case. Under refsynth 0.5's defaults the edge term wins beyond the spread and
+# the onion order and the isophotes tie. With 0.2's defaults, which averaged
+# Eq. 2's colour channels, the priority order scored 0.463 ± 0.015 here and
+# beat both the onion order (0.524 ± 0.007) and the order without edges
+# (0.529 ± 0.028) beyond the spread. Summing the channels, 0.3's reading of
+# Eq. 2 (chosen on the full-size Motorcycle, issue #10), weighs the colour
+# about three times as much against the range already filled; on this small
+# grid case that cost the priority order (0.510 ± 0.032) and left all three
+# claims ties. 0.5 shifts the copied value by the range difference between
+# the two windows (`range_copy="offset"`, chosen on the full-size Motorcycle:
+# the README's audit): a slanted surface then fills as a surface, every
+# order gains, and the order that keeps each surface to its own side of an
+# edge gains most. What each term does, and so what to look for:
 #
-# * **Edges** (the claim this case was chosen for; under 0.3 a tie, in its
-#   favour on average, see above). Without `E`, nothing stops the fill from
+# * **Edges** (the claim this case was chosen for; under 0.5 a win beyond
+#   the spread, see above). Without `E`, nothing stops the fill from
 #   running across a depth edge: a pixel just past the bike's outline is
 #   filled from whichever side is more confident, so the floor's disparity
 #   leaks onto the bike or the other way round. With `E`, pixels near edges
@@ -320,7 +322,7 @@ for other, claim in [("onion order", "Fig. 7"), ("no edges", "Table 3, Fig. 13")
 # * **Onion order.** Peeling layer by layer fills every hole from all four
 #   sides at once, edges or not, so the surfaces meet wherever the layers
 #   meet; the priority order follows the intensity instead. Which wins
-#   depends on the case (here, under 0.3, it is a tie): the README's results
+#   depends on the case (here, under 0.5, it is a tie): the README's results
 #   find the priority order ahead on the coarser grids and onion peeling
 #   ahead on vertical stripes (exercise 3 shows why).
 # * **Isophotes.** `D` is close to 1 on most of the front (section 3), so it

@@ -226,36 +226,36 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 # runs go to the cap of 50 sweeps: no log message has settled to within the
 # tolerance (1e-4) by then, and the labels are those of the last sweep.
 #
-# * **On the Motorcycle's vertical stripes refsynth's BP beats NP**, by
-#   several times NP's seed-to-seed spread, and beats the nearest fill and the
-#   colorization fill it ranks against; **Fig. 6's BP only ties with NP**
-#   (about one NP standard deviation apart) and beats the nearest fill
-#   narrowly. The paper's Table 4 has BP ahead of NP: refsynth's defaults
-#   reproduce that here, Fig. 6 as printed does not. The gaps are narrow,
-#   so every unknown pixel has measured patches close by on both sides, and
-#   both ceilings are far below every method's error. refsynth's ceiling is
-#   not the lower one: its candidates are no better than Fig. 6's — what
-#   improved is which of them BP picks (exercise 2 takes this apart). Both
-#   BPs' confidence means something here: the most confident half has a
-#   lower error than the rest.
+# * **On the Motorcycle's vertical stripes refsynth's BP ties with NP**
+#   (within NP's seed-to-seed spread) and beats the nearest fill and the
+#   colorization fill it ranks against; **Fig. 6's BP loses to NP** and beats
+#   the nearest fill narrowly. The paper's Table 4 has BP ahead of NP; up to
+#   0.4 refsynth's defaults reproduced that, but 0.5's NP shifts each value it
+#   copies by the two windows' range difference (`range_copy="offset"`, the
+#   README's audit), which fills a slanted surface as a surface, and BP, which
+#   copies a measured pixel's value unshifted, no longer gains on it here. The
+#   gaps are narrow, so every unknown pixel has measured patches close by on
+#   both sides, and both ceilings are far below every method's error.
+#   refsynth's ceiling is not the lower one: its candidates are no better than
+#   Fig. 6's — what improved is which of them BP picks (exercise 2 takes this
+#   apart). Both BPs' confidence means something here: the most confident
+#   half has a lower error than the rest.
 # * **On the room's grid refsynth's BP beats the nearest fill and the
-#   colorization fill, but still loses to NP**, beyond NP's spread, unlike
+#   colorization fill, but still loses to NP**, far beyond NP's spread, unlike
 #   the paper's Tables 1 and 3. Fig. 6's BP loses to NP and to the nearest
-#   fill too. Look at the ceilings. Fig. 6's is *above* NP's MAR (only
-#   just), so even a perfect inference among its candidates could not catch
-#   NP: deep in a 25-pixel hole its observation holds no range, and the best
-#   intensity match may be a patch on another surface, at another depth —
-#   look at its residual in the figure, blocks of error in the holes that
-#   hold a box, and on the walls too. refsynth's ceiling is *below* NP's
-#   MAR: a perfect choice among its candidates would beat NP, and BP's
-#   labels sit well above that ceiling (its residual is mostly in the holes
-#   that hold a box's outline). So on the room it is no longer the
-#   candidates that lose to NP, but the choice among them: BP keeps Eq. 2's
-#   first-ranked candidate at most pixels (exercise 2), and ranking each
-#   pixel's candidates against a smooth fill does not carry a surface, from
-#   where a stripe crosses it, deep into the hole the way NP does, copying
-#   from the pixels it has synthesized itself. Both BPs' confidence is the
-#   right way round here too, refsynth's by a narrow margin.
+#   fill too. Look at the ceilings: both are *above* NP's MAR, so even a
+#   perfect inference among the candidates could not catch NP. A candidate is
+#   a measured pixel's patch, and its centre is a value measured elsewhere:
+#   on the room's slanted floor and walls no measured value within reach is
+#   the value at a pixel deep in a 25-pixel hole, while NP's shifted copy
+#   carries the surface into the hole. Fig. 6's BP has the higher ceiling:
+#   deep in the hole its observation holds no range, and the best intensity
+#   match may be a patch on another surface, at another depth — look at its
+#   residual in the figure, blocks of error in the holes that hold a box, and
+#   on the walls too. BP's labels sit above its ceiling as well: it keeps
+#   Eq. 2's first-ranked candidate at most pixels (exercise 2). Both BPs'
+#   confidence is the right way round here too, refsynth's by a narrow
+#   margin.
 #
 # The README's results section runs the full grid of the paper's cases and
 # gives the overall count; this tutorial's solutions check the two cases.

@@ -269,6 +269,7 @@ def np_fill(
         window = (wr * Wp + wc).astype(np.int64)
         weights = window_weights(n).ravel().astype(np.float64)
         to_grid, span_unit = 2.0**RANGE_BITS, span * 2.0**-RANGE_BITS
+        low, high = float(np.min(range_values[known])), float(np.max(range_values[known]))
     for step in range(total):
         p = int(schedule[step]) if not update else pop()
         at[()] = p
@@ -292,7 +293,8 @@ def np_fill(
             now = shifted_value(was, shift)
             if now != was:
                 value = now * 2.0**-RANGE_BITS
-                original_at[p] = original_at[q] + (now - was) * span_unit
+                # (+ commutes); in the measured span in the caller's unit too
+                original_at[p] = min(max((now - was) * span_unit + original_at[q], low), high)
         confidence = confidence_of(int(candidates[best]))  # Eq. 11 of N_best
         if confidence_update == "product":
             confidence = confidence_of(p) * confidence

@@ -23,7 +23,9 @@ within :data:`OFFSET_TOLERANCE` of the mean, ``|A δ_v − B| ≤ 2^{16 − 7} A
 ``v ∈ S`` (``2**-7`` of the span, an integer test): a window that straddles a depth edge, whose
 differences disagree, copies the value as the paper does. ``q_r(p) = q_r(q) + Δ`` is clipped
 to the measured span ``[0, 2**16]``, and the range in the caller's unit is that of ``q`` plus
-``(q_r(p) − q_r(q)) · span / 2**16``. Where ``S`` is empty, the differences disagree or ``Δ``
+``(q_r(p) − q_r(q)) · span / 2**16``, clipped to the measured minimum and maximum (``q``'s
+value is measured or derived from one, so it is off the grid by up to half a step). Where
+``S`` is empty, the differences disagree or ``Δ``
 is 0, ``p`` gets ``q``'s value bit for bit, as with ``"value"``. Eqs. 2–5 and 10–12 are
 computed as before, on the range written so far: only the value written differs (and with it,
 through Eq. 2 and the isophotes of Eq. 12, the later matches and the order). The shifted value

@@ -351,9 +351,10 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
         value, copied = qr[source], out[source]
         if range_copy == "offset":
             shifted = min(max(int(value) + offset_shift(frame, p, source), 0), 2**RANGE_BITS)
-            if shifted != value:
-                value, copied = shifted, copied + (shifted - int(qr[source])) * (
-                    frame.span * 2.0**-RANGE_BITS)
+            if shifted != value:   # the caller's unit, clipped to the measured span
+                low, high = np.nanmin(range_values), np.nanmax(range_values)
+                value, copied = shifted, min(max(float(copied + (shifted - int(qr[source])) * (
+                    frame.span * 2.0**-RANGE_BITS)), float(low)), float(high))
         filled[r, c], qr[r, c], out[r, c] = True, value, copied
         conf[r, c] = on_confidence_grid(new)
         order.append(p)

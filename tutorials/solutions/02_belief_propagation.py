@@ -116,9 +116,13 @@ def exercise_2b() -> None:
     hundredths, so there the candidates improve too — and changes little on
     the Motorcycle's 5-column gaps, which a disc of ``r = 10`` already spans.
 
-    On the room BP still loses to NP in every reading. With both departures
-    the ceiling is below NP's MAR, but BP's labels stay about 0.06 m above
-    it: the loss is in the choice, not only in the candidates.
+    On the room BP still loses to NP in every reading, and since 0.5 (NP's
+    copy shifted by the windows' range difference) even its candidate ceiling
+    is above NP's MAR: no choice among measured patches reaches NP there. With
+    both departures BP's labels stay about 0.06 m above that ceiling: the loss
+    is in the choice as well as in the candidates. On the Motorcycle BP with
+    both departures ties with 0.5's NP (it beat 0.4's NP, whose copies were
+    unshifted).
     """
     cases = [bike_case(), room_case()]
     for scene, known, partial in cases:
@@ -143,10 +147,10 @@ def exercise_2b() -> None:
         if scene.name.startswith("synthetic-room"):
             assert both[0] < done[0] - 0.015 and both[1] < done[1] - 0.015  # wide holes: helps
             assert min(s[0] for s in scores.values()) > np_mar  # BP still loses on the room
-            assert both[1] < np_mar < both[0] - 0.02  # the ceiling below NP, the labels above
+            assert np_mar < both[1] < both[0] - 0.04  # the ceiling above NP, the labels above
         else:
             assert abs(both[0] - done[0]) < 0.01  # narrow gaps: little change
-            assert both[0] < np_mar - 0.02  # the default BP beats NP on the Motorcycle
+            assert abs(both[0] - np_mar) < 0.01  # the default BP ties with 0.5's NP
 
 
 def exercise_3() -> None:
