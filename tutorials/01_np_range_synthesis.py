@@ -323,8 +323,11 @@ for other, claim in [("onion order", "Fig. 7"), ("no edges", "Table 3, Fig. 13")
 #   sides at once, edges or not, so the surfaces meet wherever the layers
 #   meet; the priority order follows the intensity instead. Which wins
 #   depends on the case (here, under 0.5, it is a tie): the README's results
-#   find the priority order ahead on the coarser grids and onion peeling
-#   ahead on vertical stripes (exercise 3 shows why).
+#   find the priority order ahead on the room's grids (or tied), and onion
+#   peeling ahead on its vertical stripes only at the widest gaps (85 %) and
+#   on the distance-driven columns — with Eq. 5's value copy it was ahead at
+#   every x-stripe fraction (exercise 3 shows why, and why the shifted copy
+#   closes the gap).
 # * **Isophotes.** `D` is close to 1 on most of the front (section 3), so it
 #   can only reorder the few pixels where a stripe crosses a depth edge; a
 #   tie here is no surprise. The paper reports a clear gain on real images

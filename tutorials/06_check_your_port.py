@@ -94,7 +94,10 @@ for role in ("input", "prepared", "output", "trace"):
 # The port below fills the unknown range the way §3.2 describes it: take the
 # front pixel of highest priority (Eq. 10; ties by the smallest `tie`), gather
 # the filled pixels within `r` (Eq. 3), compare neighbourhoods with Eq. 2 and
-# copy from the best match (Eq. 4). It returns its outputs and its step trace
+# copy from the best match (Eq. 4) — the value as Eq. 5 prints it: these small
+# cases ask for `range_copy="value"` and the product rule of Eq. 11, so that a
+# first port can leave out refsynth's offset copy (the default since 0.5;
+# exercise 4). It returns its outputs and its step trace
 # in the oracle's layout. It reuses refsynth's Eq. 2 and priority terms so that
 # it stays short; a real port would have its own (and check them on the `eq2`
 # and `eq10_12` cases). It has one deliberate flaw: it copies from the best
@@ -286,3 +289,9 @@ print(f"tutorial 6 ran in {time.perf_counter() - START:.0f} s")
 #    the max-product case `bp-8x8-noise` (export it first) and return its
 #    messages per sweep as `sweep_messages`. Which array and which sweep does
 #    the oracle name, and why not `unary`?
+# 4. **The offset copy** (`range_copy="offset"`, NP's default since 0.5, the
+#    cases `np-14x18-planes` and `np-14x18-planes-value-copy`): after the
+#    draw, shift the drawn value by the windows' consistent range difference
+#    — the rule is in the README's oracle section and in
+#    `refsynth.synthesis.range_copy`. Which array does the oracle name on
+#    `np-14x18-planes` before you add it?

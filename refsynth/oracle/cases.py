@@ -132,8 +132,10 @@ def _run_cases(large: bool) -> list[Case]:
             common = dict(neighbourhood=5 if min(shape) >= 12 else 3, radius=4.0,
                           use_edges=bool(j != 1))
             tag = f"{shape[0]}x{shape[1]}-{kind}"
-            # the product rule here, the paper's C(best) (the default) in the cases below
-            np_options = dict(common, confidence_update="product", **np_extra)
+            # the product rule and Eq. 5's value copy here (a port's first steps, tutorial 6),
+            # the paper's C(best) and the offset copy (the defaults) in the cases below
+            np_options = dict(common, confidence_update="product", range_copy="value",
+                              **np_extra)
             cases.append(Case(f"np-{tag}", "np", scene, np_options, seed))
             bp = dict(common, candidates=3, iterations=8, **bp_extra)
             cases.append(Case(f"bp-{tag}", "bp", scene, bp, seed))

@@ -6,6 +6,7 @@ refsynth that breaks an answer fails a test.
 """
 
 import tempfile
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -26,8 +27,25 @@ CASES = Path(tempfile.mkdtemp(prefix="refsynth-oracle-")) / "cases"
 export_cases(CASES, select_cases(build_cases(), ["np-8x8-*", "np-12x10-*", "bp-8x8-noise"]))
 
 
-def port(inputs, options, confidence_rule="product"):
-    """Tutorial 6's fixed port, with the onion order (exercise 1) and a confidence rule."""
+def offset_shift(q_pad, p, source, window):
+    """Exercise 4: the windows' consistent range difference Δ (0 when not taken)."""
+    (r, c), (a, b), n = p, source, window.shape[0]
+    total = weighted = 0
+    deltas = []
+    for i in range(n):
+        for j in range(n):
+            x, y = int(q_pad[r + i, c + j]), int(q_pad[a + i, b + j])
+            if x != NO_RANGE and y != NO_RANGE:
+                total, weighted = total + int(window[i, j]), weighted + int(window[i, j]) * (x - y)
+                deltas.append(x - y)
+    if total == 0 or any(abs(total * d - weighted) > 2**9 * total for d in deltas):
+        return 0
+    return round(Fraction(weighted, total))   # Fraction rounds half to even
+
+
+def port(inputs, options, confidence_rule="product", offset=False):
+    """Tutorial 6's fixed port, with the onion order (exercise 1), a confidence rule and the
+    offset copy (exercise 4)."""
     if options["method"] != "np":
         return None
     qi, q = inputs["q_intensity"], inputs["q_range"].copy()
@@ -37,6 +55,8 @@ def port(inputs, options, confidence_rule="product"):
     qi_pad = np.pad(qi, ((h, h), (h, h), (0, 0)), mode="symmetric")
     q_pad = np.pad(q, h, constant_values=NO_RANGE)
     filled, out = q != NO_RANGE, inputs["partial_range"].copy()
+    low, high = float(np.nanmin(out)), float(np.nanmax(out))
+    span = high - low if high > low else 1.0
     conf = filled.astype(float)
     onion = options.get("ordering", "priority") == "onion"
     if onion:   # exercise 1: layer by layer, ties by the prepared permutation
@@ -76,8 +96,16 @@ def port(inputs, options, confidence_rule="product"):
         source = cands[members[int(inputs["draws"][step] * len(members))]]
         c_best = confidence_term(conf, *cands[best], n)
         new = c_best if confidence_rule == "best" else confidence_term(conf, r, c, n) * c_best
-        filled[r, c], q[r, c], out[r, c] = True, q[source], out[source]
-        q_pad[r + h, c + h] = q[source]
+        value, copied = int(q[source]), out[source]
+        if offset:   # exercise 4: shift the drawn value, clip to the span (both units)
+            shifted = min(max(value + offset_shift(q_pad, (r, c), source, inputs["window"]),
+                              0), 2**16)
+            if shifted != value:
+                copied = min(max(float(copied + (shifted - value) * (span * 2.0**-16)), low),
+                             high)
+                value = shifted
+        filled[r, c], q[r, c], out[r, c] = True, value, copied
+        q_pad[r + h, c + h] = value
         conf[r, c] = on_confidence_grid(new)
         order.append((r, c))
         sources.append(source)
@@ -141,7 +169,30 @@ def exercise_3() -> None:
     assert report.mismatch.key == "sweep_messages" and report.mismatch.step == 1
 
 
+def exercise_4() -> None:
+    """The offset copy: after the draw, shift the value by the windows' range difference.
+
+    NP's default since 0.5 (``range_copy="offset"``) writes the drawn value shifted by the
+    weighted mean difference between the two windows' range where both have it, when every
+    difference agrees with that mean to within ``2**9`` grid steps (``2**-7`` of the span),
+    rounded half to even and clipped to the span. The port without it passes the value-copy
+    twin of the slanted-plane case and fails the default one; with it, both pass.
+    """
+    planes = Path(tempfile.mkdtemp(prefix="refsynth-oracle-")) / "planes"
+    export_cases(planes, select_cases(build_cases(), ["np-14x18-*"]))
+    copying = check_function(lambda i, o: port(i, o, "best"), planes)
+    print(f"exercise 4, the value copy: {copying}")
+    assert not copying.passed and copying.mismatch.case == "np-14x18-planes"
+    assert check_function(lambda i, o: port(i, o, "best"), planes,
+                          case="np-14x18-planes-value-copy").passed
+    shifting = check_function(lambda i, o: port(i, o, "best", offset=True), planes,
+                              case="np-14x18-planes")
+    print(f"exercise 4, the offset copy: {shifting}")
+    assert shifting.passed
+
+
 if __name__ == "__main__":
     exercise_1()
     exercise_2()
     exercise_3()
+    exercise_4()
