@@ -97,7 +97,7 @@ for role in ("input", "prepared", "output", "trace"):
 # copy from the best match (Eq. 4) — the value as Eq. 5 prints it: these small
 # cases ask for `range_copy="value"` and the product rule of Eq. 11, so that a
 # first port can leave out refsynth's offset copy (the default since 0.5;
-# exercise 4). It returns its outputs and its step trace
+# exercise 1). It returns its outputs and its step trace
 # in the oracle's layout. It reuses refsynth's Eq. 2 and priority terms so that
 # it stays short; a real port would have its own (and check them on the `eq2`
 # and `eq10_12` cases). It has one deliberate flaw: it copies from the best
@@ -279,6 +279,12 @@ print(f"tutorial 6 ran in {time.perf_counter() - START:.0f} s")
 #    `np-8x8-ramp`): the unknown pixels sorted by their chessboard distance to
 #    the known range, ties by the prepared `onion_tie` (a permutation of the
 #    unknown pixels in raster order). Check it until `np-8x8-ramp` passes.
+#    Then teach it **the offset copy** (`range_copy="offset"`, NP's default
+#    since 0.5, the cases `np-14x18-planes` and `np-14x18-planes-value-copy`):
+#    after the draw, shift the drawn value by the windows' consistent range
+#    difference — the rule is in the README's oracle section and in
+#    `refsynth.synthesis.range_copy`. Which array does the oracle name on
+#    `np-14x18-planes` before you add it?
 # 2. **Plant the dropped-factor bug of issue #11**: give a synthesized pixel
 #    the best match's confidence alone instead of `C(p) · C(best)`. Before you
 #    run the check, predict from the golden trace (`step_C`) the first step the
@@ -289,9 +295,3 @@ print(f"tutorial 6 ran in {time.perf_counter() - START:.0f} s")
 #    the max-product case `bp-8x8-noise` (export it first) and return its
 #    messages per sweep as `sweep_messages`. Which array and which sweep does
 #    the oracle name, and why not `unary`?
-# 4. **The offset copy** (`range_copy="offset"`, NP's default since 0.5, the
-#    cases `np-14x18-planes` and `np-14x18-planes-value-copy`): after the
-#    draw, shift the drawn value by the windows' consistent range difference
-#    — the rule is in the README's oracle section and in
-#    `refsynth.synthesis.range_copy`. Which array does the oracle name on
-#    `np-14x18-planes` before you add it?

@@ -28,7 +28,7 @@ export_cases(CASES, select_cases(build_cases(), ["np-8x8-*", "np-12x10-*", "bp-8
 
 
 def offset_shift(q_pad, p, source, window):
-    """Exercise 4: the windows' consistent range difference Δ (0 when not taken)."""
+    """Exercise 1b: the windows' consistent range difference Δ (0 when not taken)."""
     (r, c), (a, b), n = p, source, window.shape[0]
     total = weighted = 0
     deltas = []
@@ -45,7 +45,7 @@ def offset_shift(q_pad, p, source, window):
 
 def port(inputs, options, confidence_rule="product", offset=False):
     """Tutorial 6's fixed port, with the onion order (exercise 1), a confidence rule and the
-    offset copy (exercise 4)."""
+    offset copy (exercise 1b)."""
     if options["method"] != "np":
         return None
     qi, q = inputs["q_intensity"], inputs["q_range"].copy()
@@ -97,7 +97,7 @@ def port(inputs, options, confidence_rule="product", offset=False):
         c_best = confidence_term(conf, *cands[best], n)
         new = c_best if confidence_rule == "best" else confidence_term(conf, r, c, n) * c_best
         value, copied = int(q[source]), out[source]
-        if offset:   # exercise 4: shift the drawn value, clip to the span (both units)
+        if offset:   # exercise 1b: shift the drawn value, clip to the span (both units)
             shifted = min(max(value + offset_shift(q_pad, (r, c), source, inputs["window"]),
                               0), 2**16)
             if shifted != value:
@@ -169,7 +169,7 @@ def exercise_3() -> None:
     assert report.mismatch.key == "sweep_messages" and report.mismatch.step == 1
 
 
-def exercise_4() -> None:
+def exercise_1b() -> None:
     """The offset copy: after the draw, shift the value by the windows' range difference.
 
     NP's default since 0.5 (``range_copy="offset"``) writes the drawn value shifted by the
@@ -181,13 +181,13 @@ def exercise_4() -> None:
     planes = Path(tempfile.mkdtemp(prefix="refsynth-oracle-")) / "planes"
     export_cases(planes, select_cases(build_cases(), ["np-14x18-*"]))
     copying = check_function(lambda i, o: port(i, o, "best"), planes)
-    print(f"exercise 4, the value copy: {copying}")
+    print(f"exercise 1b, the value copy: {copying}")
     assert not copying.passed and copying.mismatch.case == "np-14x18-planes"
     assert check_function(lambda i, o: port(i, o, "best"), planes,
                           case="np-14x18-planes-value-copy").passed
     shifting = check_function(lambda i, o: port(i, o, "best", offset=True), planes,
                               case="np-14x18-planes")
-    print(f"exercise 4, the offset copy: {shifting}")
+    print(f"exercise 1b, the offset copy: {shifting}")
     assert shifting.passed
 
 
@@ -195,4 +195,4 @@ if __name__ == "__main__":
     exercise_1()
     exercise_2()
     exercise_3()
-    exercise_4()
+    exercise_1b()
