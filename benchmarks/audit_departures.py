@@ -39,9 +39,10 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-#: Fig. 6 as printed: the observations' measured range and the fixed training disc (BP's
-#: defaults since issue #10 complete the observations and widen the disc by the gap's depth).
-FIG6 = {"observation": "measured", "training_radius": "fixed"}
+#: Fig. 6 as printed: the observations' measured range, the fixed training disc and the labels'
+#: centre values (BP's defaults since issue #10 complete the observations, widen the disc by
+#: the gap's depth and, since 0.6, shift the labels: ``range_copy="offset"``).
+FIG6 = {"observation": "measured", "training_radius": "fixed", "range_copy": "value"}
 #: Eq. 5's copy as printed: the drawn centre's value (NP's default since 0.5 shifts it by the
 #: windows' consistent range difference, ``range_copy="offset"``).
 VALUE_COPY = {"range_copy": "value"}
@@ -157,6 +158,11 @@ VARIANTS = {name: ({**FIG6, **kw} if kw["method"] == "bp" else {**VALUE_COPY, **
 VARIANTS["np"] = {"method": "np"}          # the defaults: the offset copy (0.5)
 VARIANTS["bp"] = {"method": "bp"}          # the defaults: completed observations, gap radius
 VARIANTS["bp-fig6"] = {"method": "bp", **FIG6}
+# BP's copy, the other defaults kept: the labels' centre values (0.5's BP) or shifted (0.6)
+VARIANTS["bp-value-copy"] = {"method": "bp", "range_copy": "value"}
+VARIANTS["bp-offset-copy"] = {"method": "bp", "range_copy": "offset"}
+VARIANTS["bp-offset-copy-obs-colorization-completed"] = {
+    "method": "bp", "range_copy": "offset", "observation": "colorization-completed"}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},
           "report": {"phase": 0, "sizes": ("450x375", "741x500")},

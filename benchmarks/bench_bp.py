@@ -79,7 +79,8 @@ def _sampling(shape, spec, phase=0):
 
 METHODS = {
     "BP": {"method": "bp"},
-    "BP, Fig. 6": {"method": "bp", "observation": "measured", "training_radius": "fixed"},
+    "BP, Fig. 6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
+                   "range_copy": "value"},
     "BP, no edge rule": {"method": "bp", "use_edges": False},
     "NP": {"method": "np"},
 }

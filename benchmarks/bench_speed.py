@@ -88,7 +88,8 @@ def _fill(method: str):
         "np": lambda image, partial: refsynth.synthesize(image, partial, seed=0),
         "bp": lambda image, partial: refsynth.synthesize(image, partial, method="bp"),
         "bp-fig6": lambda image, partial: refsynth.synthesize(
-            image, partial, method="bp", observation="measured", training_radius="fixed"),
+            image, partial, method="bp", observation="measured", training_radius="fixed",
+            range_copy="value"),
         "colorization": baselines.colorization_fill,
         "nearest": baselines.nearest_fill,
         "joint-bilateral": baselines.joint_bilateral_fill,

@@ -222,15 +222,19 @@ def test_grid_edges_classify_pairs():
     assert edges["v_fixed"].tolist() == [[0, 2]]
 
 
-@given(small_scene(), st.sampled_from(["max", "sum"]))
-def test_bp_fill_keeps_measurements_and_copies_candidate_centres(scene, product):
+@given(small_scene(), st.sampled_from(["max", "sum"]), st.sampled_from(["value", "offset"]))
+def test_bp_fill_keeps_measurements_and_copies_candidate_centres(scene, product, copy):
     image, truth, known = scene
     partial = np.where(known, truth, np.nan)
     result = refsynth.synthesize(image, partial, method="bp", product=product,
-                                 neighbourhood=3, candidates=3, iterations=5)
+                                 neighbourhood=3, candidates=3, iterations=5, range_copy=copy)
     np.testing.assert_array_equal(result.range[known], truth[known])
     assert np.all(np.isfinite(result.range))
-    assert np.isin(result.range[~known], truth[known]).all()
+    if copy == "value":  # Fig. 6's labels: a measured value
+        assert np.isin(result.range[~known], truth[known]).all()
+    else:  # moved labels: within the measured span
+        low, high = truth[known].min(), truth[known].max()
+        assert np.all((result.range >= low) & (result.range <= high))
     assert np.all((result.confidence > 0) & (result.confidence <= 1))
     np.testing.assert_array_equal(result.confidence[known], 1.0)
     # the chosen value is one of the pixel's candidates

@@ -137,8 +137,12 @@ def test_np_proposals_are_nps_fills_from_the_same_seed():
 
 
 def test_completed_changes_only_the_training_patches():
-    a = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals="np", seed=0)
-    b = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals="np-completed", seed=0)
+    # with the labels' values copied (Fig. 6); the offset copy's shifts are read off the
+    # training patches, so with it the completed patches move the candidates' values too
+    a = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals="np", seed=0,
+                            range_copy="value")
+    b = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals="np-completed", seed=0,
+                            range_copy="value")
     np.testing.assert_array_equal(a.candidate_values, b.candidate_values)
     assert not np.array_equal(a.bp.unary, b.bp.unary)  # the measured neighbours' terms
 

@@ -52,30 +52,34 @@ def _digest(result) -> str:
 
 GOLDEN = {
     ("steps", "np"): "27f7cd040b1f223cc74298c2",   # 0.5: NP's offset copy
-    ("steps", "bp"): "7ce147a968fc672ca5e0f018",   # 0.4: issue #10's BP defaults
+    ("steps", "bp"): "207c5aede45dc5d1bac3b32c",   # 0.6: BP's offset copy
     ("texture", "np"): "f2f579904e60b638f8084138",
-    ("texture", "bp"): "7b4f1ad4a4db7c38cbcda397",
+    ("texture", "bp"): "d7a8bbc8b58ef66e5f6701ca",
 }
-#: BP as Fig. 6 prints it (the observations' measured range, the fixed training disc):
-#: 0.3's default BP, which issue #10's departures replaced; its hashes are 0.3's.
-FIG6 = dict(observation="measured", training_radius="fixed")
+#: BP as Fig. 6 prints it (the observations' measured range, the fixed training disc, the
+#: labels' centre values): 0.3's default BP, which issue #10's departures replaced; its hashes
+#: are 0.3's.
+FIG6 = dict(observation="measured", training_radius="fixed", range_copy="value")
 GOLDEN_FIG6 = {
     ("steps", "bp"): "da696a7a6b4edcc3d5f381ca",
     ("texture", "bp"): "e2699b75d7f964ac7ec9c282",
 }
-#: NP as Eq. 5 prints it (the drawn centre's value copied): 0.4's default NP, which the
-#: offset copy replaced in 0.5; its hashes are 0.4's.
+#: The centre's value copied (Eq. 5 as printed; Fig. 6's labels), the other defaults kept:
+#: NP's is 0.4's default NP, which the offset copy replaced in 0.5, BP's 0.5's default BP,
+#: which it replaced in 0.6; their hashes are those releases'.
 VALUE_COPY = dict(range_copy="value")
 GOLDEN_VALUE_COPY = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
+    ("steps", "bp"): "7ce147a968fc672ca5e0f018",
     ("texture", "np"): "2cebdade5732edbd0564aa81",
+    ("texture", "bp"): "7b4f1ad4a4db7c38cbcda397",
 }
 #: 0.2's readings (Eq. 2's channel mean; BP's proximity prior μ = 1), which 0.3's defaults
 #: replaced (the README's audit): their hashes are 0.2's defaults' hashes, unchanged by
 #: 0.3's speed work.
 READINGS_02 = {"np": dict(channels="mean", range_copy="value"),
                "bp": dict(channels="mean", proximity=1.0, observation="measured",
-                          training_radius="fixed")}
+                          training_radius="fixed", range_copy="value")}
 GOLDEN_02 = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
     ("steps", "bp"): "d8dab12d04faac1c1f7e756e",

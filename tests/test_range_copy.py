@@ -11,7 +11,13 @@ from hypothesis import strategies as st
 
 import refsynth
 from refsynth.numeric import RANGE_BITS, window_weights
-from refsynth.synthesis.range_copy import OFFSET_BITS, offset_shift, shifted_value
+from refsynth.synthesis.range_copy import (
+    OFFSET_BITS,
+    offset_shift,
+    offset_shifts,
+    shifted_value,
+    shifted_values,
+)
 
 G5 = window_weights(5).ravel().astype(np.float64)
 
@@ -114,7 +120,71 @@ def test_an_intensity_offset_changes_nothing_and_a_range_scale_scales_to_roundin
 
 def test_bad_range_copy_is_refused_by_name_before_any_work():
     image, _, partial = _ramp()
-    with pytest.raises(ValueError, match="`range_copy` must be one of"):
-        refsynth.synthesize(image, partial, range_copy="shift")
-    with pytest.raises(ValueError, match="`range_copy` applies to method='np'"):
-        refsynth.synthesize(image, partial, method="bp", range_copy="value")
+    for method in ("np", "bp"):
+        with pytest.raises(ValueError, match="`range_copy` must be one of"):
+            refsynth.synthesize(image, partial, method=method, range_copy="shift")
+
+
+# -- BP's labels (0.6) --------------------------------------------------------------------
+
+
+@given(windows, st.sampled_from([0, 3, 40, 600, 5000]))
+def test_the_shifts_of_many_windows_are_the_shift_of_each(g, spread):
+    rows = 30
+    source = g.integers(0, 2**16, (rows, 25))
+    target = source + g.integers(-3000, 3000, (rows, 1)) + g.integers(-spread, spread + 1,
+                                                                          (rows, 25))
+    target = np.maximum(target, 0)
+    has_t, has_s = g.random((rows, 25)) < 0.7, g.random((rows, 25)) < 0.8
+    got = offset_shifts(np.where(has_t, target, -1), np.where(has_s, source, -1), G5)
+    want = [_oracle(t, s_, a, b, G5) for t, s_, a, b in zip(target, source, has_t, has_s,
+                                                             strict=True)]
+    assert got.tolist() == want
+
+
+@given(windows)
+def test_the_shifted_values_are_nps_arithmetic(g):
+    q = g.integers(0, 2**16 + 1, 40)
+    shift = g.integers(-2**15, 2**15, 40) * (g.random(40) < 0.7)
+    low, span = 1.5, 3.25
+    source = low + q * span * 2.0**-RANGE_BITS
+    now, values = shifted_values(q, shift, source, span, low, low + span)
+    for i in range(40):
+        assert now[i] == shifted_value(int(q[i]), int(shift[i]))
+        if now[i] == q[i]:
+            assert values[i] == source[i]  # bit for bit: the value copy's
+        else:  # as nonparametric.np_fill writes it
+            step = span * 2.0**-RANGE_BITS
+            assert values[i] == min(max((int(now[i]) - int(q[i])) * step + source[i], low),
+                                    low + span)
+
+
+def test_bps_labels_fill_a_slanted_plane_as_a_plane_with_the_shift_and_as_steps_without():
+    # intensity that varies down the rows only: the colorization fill (BP's observations) is
+    # then the plane itself, to its solver's tolerance, and every label's shift is taken
+    rows, cols = np.mgrid[:20, :39]
+    image, truth = 0.3 + 0.02 * rows, 2.0 + 0.05 * cols
+    partial = np.where(cols % 9 < 3, truth, np.nan)
+    unknown = np.isnan(partial)
+    shifted = refsynth.synthesize(image, partial, method="bp")  # the default since 0.6
+    copied = refsynth.synthesize(image, partial, method="bp", range_copy="value")
+    error_shifted = np.abs(shifted.range - truth)[unknown]
+    error_copied = np.abs(copied.range - truth)[unknown]
+    assert set(copied.range[unknown]) <= set(partial[~unknown])
+    assert not set(shifted.range[unknown]) <= set(partial[~unknown])
+    assert error_shifted.max() < 0.002  # a few steps of the 2**-16 grid and the fill's tolerance
+    assert error_copied.mean() > 50 * error_shifted.mean()
+    # the chosen value is the chosen label's moved centre
+    chosen = shifted.bp.candidate_values[np.arange(len(shifted.bp.labels)), shifted.bp.labels]
+    np.testing.assert_array_equal(chosen, shifted.range[shifted.order[:, 0],
+                                                        shifted.order[:, 1]])
+
+
+def test_bps_shift_ignores_an_intensity_offset_and_scales_with_the_range():
+    image, _, partial = _ramp()
+    plain = refsynth.synthesize(image, partial, method="bp")
+    moved = refsynth.synthesize(image * 0.5 + 0.25, partial, method="bp")
+    np.testing.assert_array_equal(plain.range, moved.range)
+    scaled = refsynth.synthesize(image, partial * 3.7, method="bp")
+    np.testing.assert_array_equal(plain.bp.labels, scaled.bp.labels)
+    np.testing.assert_allclose(plain.range * 3.7, scaled.range, rtol=1e-12)

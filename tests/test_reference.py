@@ -75,7 +75,8 @@ def synthesis_case(draw, method: str):
                        edge_rule=draw(st.sampled_from(["silent", "paper"])),
                        observation=draw(st.sampled_from(
                            ["colorization", "measured", "colorization-completed"])),
-                       training_radius=draw(st.sampled_from(["gap", "fixed"])))
+                       training_radius=draw(st.sampled_from(["gap", "fixed"])),
+                       range_copy=draw(st.sampled_from(["value", "offset"])))
     intensity = image[:, :, 0] if C == 1 else image
     return intensity, np.where(known, truth, np.nan), edges & use_edges, options, seed
 

@@ -105,9 +105,11 @@ def test_integer_seed_types():
 # --------------------------------------------------------------------------- the options split
 
 NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion",
-           "confidence_update": "product", "edges_last": False, "range_copy": "value"}
+           "confidence_update": "product", "edges_last": False}
 BP_ONLY = {"candidates": 4, "proximity": 1.0, "sigma_i": 0.3, "sigma_s": 0.1,
            "iterations": 3, "tolerance": 0.0, "product": "sum", "edge_rule": "paper"}
+#: Both methods' options (in both tables, with the same default).
+SHARED = {"range_copy": "value"}
 
 
 def test_options_after_the_arrays_are_keyword_only():
@@ -175,5 +177,14 @@ def test_none_means_the_methods_default_and_params_hold_only_its_options():
 def test_the_options_tables_name_every_method_specific_option():
     from refsynth.synthesis import BP_OPTIONS, NP_OPTIONS
 
-    assert set(NP_OPTIONS) == set(NP_ONLY) and set(BP_OPTIONS) == set(BP_ONLY)
-    assert not set(NP_OPTIONS) & set(BP_OPTIONS)
+    assert set(NP_OPTIONS) == set(NP_ONLY) | set(SHARED)
+    assert set(BP_OPTIONS) == set(BP_ONLY) | set(SHARED)
+    assert set(NP_OPTIONS) & set(BP_OPTIONS) == set(SHARED)
+    assert all(NP_OPTIONS[name] == BP_OPTIONS[name] for name in SHARED)
+
+
+@pytest.mark.parametrize("method", ["np", "bp"])
+@pytest.mark.parametrize(("name", "value"), SHARED.items())
+def test_a_shared_option_is_taken_by_both_methods(method, name, value):
+    result = refsynth.synthesize(IMAGE, PARTIAL, method=method, **{name: value})
+    assert result.params[name] == value

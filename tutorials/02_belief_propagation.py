@@ -145,14 +145,15 @@ print(f"middle pixel on an edge: P(2 m) = {np.round(p[:, 0], 3).tolist()}")
 # inference: the **candidate ceiling** is the error BP would make if every
 # pixel picked its best candidate — no inference can do better.
 #
-# **Fig. 6 as printed** (`observation="measured", training_radius="fixed"`)
+# **Fig. 6 as printed** (`observation="measured", training_radius="fixed",
+# range_copy="value"`)
 # takes the observation `y_i` as measured — the intensity, and whatever range
 # was measured around the pixel — and the training disc of radius `r = 10`
 # about the pixel (refsynth doubles `r` only where fewer than `k` measured
-# patches lie within it). **refsynth's defaults depart from it** in these two
-# places of step 2, because the departures won on real data (the Motorcycle
-# at full size; the README's *Real data* section); the labels, Φ, Ψ and the
-# messages are the paper's:
+# patches lie within it). **refsynth's defaults depart from it** in two
+# places of step 2 and in what a label gives, because the departures won on
+# real data (the Motorcycle; the README's *Real data* section and audit); Φ,
+# the form of Ψ and the messages are the paper's:
 #
 # * `observation="colorization"`: deep in a gap the observation patch holds
 #   no range at all, so Fig. 6's Eq. 2 ranks the candidates by intensity
@@ -165,6 +166,13 @@ print(f"middle pixel on an edge: P(2 m) = {np.round(p[:, 0], 3).tolist()}")
 #   pixel searches a disc of radius `r + ⌊d⌋` instead of `r`, so a node deep
 #   in a gap reaches as far past its edge — on both sides — as a node beside
 #   it. It widens the search most where the gaps are wide.
+# * `range_copy="offset"` (since 0.6): a label is a measured patch, measured
+#   elsewhere — on a slanted surface at another depth. Where the label's
+#   range and the observation's differ by about the same amount `Δ` at every
+#   pixel they share (NP's offset copy, tutorial 1), the label is moved by
+#   `Δ`: Ψ compares the moved patches, and the MAP label gives its centre
+#   plus `Δ`. The candidates' values (`result.candidate_values`) are the
+#   moved ones.
 #
 # Two cases, to test the paper's claim that BP beats NP (Tables 1–4): the
 # Motorcycle at 128 × 128 with vertical stripes (63 % unknown, the setting
@@ -176,7 +184,8 @@ print(f"middle pixel on an edge: P(2 m) = {np.round(p[:, 0], 3).tolist()}")
 # fill, solved portably on the quantised images).
 
 # %%
-FIG6 = {"observation": "measured", "training_radius": "fixed"}  # Fig. 6 as printed
+FIG6 = {"observation": "measured", "training_radius": "fixed",  # Fig. 6 as printed
+        "range_copy": "value"}
 
 
 def report_bp(label, bp, scene, known):
@@ -232,8 +241,8 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 #   the nearest fill narrowly. The paper's Table 4 has BP ahead of NP; up to
 #   0.4 refsynth's defaults reproduced that, but 0.5's NP shifts each value it
 #   copies by the two windows' range difference (`range_copy="offset"`, the
-#   README's audit), which fills a slanted surface as a surface, and BP, which
-#   copies a measured pixel's value unshifted, no longer gains on it here. The
+#   README's audit), which fills a slanted surface as a surface; 0.6's BP
+#   shifts its labels the same way, and draws level with NP again. The
 #   gaps are narrow, so every unknown pixel has measured patches close by on
 #   both sides, and both ceilings are far below every method's error.
 #   refsynth's ceiling is not the lower one: its candidates are no better than
@@ -273,9 +282,10 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 #    (`refsynth.synthesize(..., method="bp", candidates=k)`). How do the
 #    candidate ceiling and BP's MAR move, and what does the gap between them
 #    tell you? Then, on both cases, start from Fig. 6's BP
-#    (`observation="measured", training_radius="fixed"`), add each departure
-#    alone (`observation="colorization"`, then `training_radius="gap"`
-#    instead), then both (refsynth's default), and compare BP's MAR, the
+#    (`observation="measured", training_radius="fixed", range_copy="value"`),
+#    add each departure alone (`observation="colorization"`, then
+#    `training_radius="gap"`, then `range_copy="offset"` instead), then all
+#    three (refsynth's default), and compare BP's MAR, the
 #    candidate ceiling and the error of each pixel's first-ranked candidate
 #    (`result.candidate_values[:, 0]`) with one another and with NP. What
 #    moved — the candidates, or their order?

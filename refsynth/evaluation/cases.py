@@ -87,7 +87,8 @@ SYNTHESIS_METHODS: dict[str, dict] = {
     "bp-noedges": {"method": "bp", "use_edges": False},
     # Fig. 6 as printed: BP's defaults complete the observations and widen the training
     # disc (issue #10's departures, refsynth.synthesis.bp_observation / bp_gap_radius)
-    "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed"},
+    "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
+                "range_copy": "value"},
 }
 
 #: Every sampling of the paper's experiments: Table 1's grids, Table 4's

@@ -13,8 +13,9 @@ must get right: ε, isophotes off, the onion order, ``missing_range="ignore"``, 
 search (``r = 1``: a front pixel whose filled neighbours are diagonal has an empty ``A_p``),
 both confidence updates, Eq. 2 on grey and with the channel mean, sum-product, both edge
 rules, the proximity prior on; BP's default observations (completed by the colorization
-fill, the prepared ``q_observation``) and training disc (widened by the gap's depth), and
-Fig. 6 as printed (``observation="measured"``, ``training_radius="fixed"``) beside them.
+fill, the prepared ``q_observation``), training disc (widened by the gap's depth) and
+shifted labels (``range_copy="offset"``), and Fig. 6 as printed (``observation="measured"``,
+``training_radius="fixed"``, ``range_copy="value"``) beside them.
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ from refsynth.oracle.runs import run_outputs
 __all__ = ["Case", "CASE_SET_VERSION", "build_cases", "expected_outputs", "select_cases"]
 
 #: The version of the case set (inputs and options); the format's is in export.py.
-CASE_SET_VERSION = 4  # 4: NP's offset copy (0.5); 3: BP's defaults of issue #10
+CASE_SET_VERSION = 5  # 5: BP's offset copy (0.6); 4: NP's offset copy (0.5); 3: BP's
+# defaults of issue #10
 # 2: refsynth 0.3's defaults (Eq. 2's channel sum, BP without the prior)
 
 
@@ -133,11 +135,12 @@ def _run_cases(large: bool) -> list[Case]:
                           use_edges=bool(j != 1))
             tag = f"{shape[0]}x{shape[1]}-{kind}"
             # the product rule and Eq. 5's value copy here (a port's first steps, tutorial 6),
-            # the paper's C(best) and the offset copy (the defaults) in the cases below
+            # the paper's C(best) and the offset copy (the defaults) in the cases below; BP's
+            # labels' values here too, shifted (the default) below
             np_options = dict(common, confidence_update="product", range_copy="value",
                               **np_extra)
             cases.append(Case(f"np-{tag}", "np", scene, np_options, seed))
-            bp = dict(common, candidates=3, iterations=8, **bp_extra)
+            bp = dict(common, candidates=3, iterations=8, range_copy="value", **bp_extra)
             cases.append(Case(f"bp-{tag}", "bp", scene, bp, seed))
     # the options a port must get right, one case each
     colour = _scene(11, (10, 12), 3, "noise", 0.5)
@@ -162,7 +165,7 @@ def _run_cases(large: bool) -> list[Case]:
     cases += [
         Case("bp-16x16-fig6", "bp", sparse,
              dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=4, iterations=10,
-                  observation="measured", training_radius="fixed"), 13),
+                  observation="measured", training_radius="fixed", range_copy="value"), 13),
         Case("bp-16x16-completed-prior", "bp", sparse,
              dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=4, iterations=10,
                   observation="colorization-completed", proximity=1.0), 13),
@@ -170,14 +173,20 @@ def _run_cases(large: bool) -> list[Case]:
              dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=4, iterations=10,
                   observation="measured"), 13),
     ]
-    # NP on slanted planes, where the offset copy (the default) shifts most values, and
-    # Eq. 5's value copy on the same scene
+    # NP and BP on slanted planes, where the offset copy (the default) shifts most values,
+    # and the value copy (Eq. 5, Fig. 6's labels) on the same scene
     planes = _planes_scene(14, (14, 18))
     cases += [
         Case("np-14x18-planes", "np", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True), 14),
         Case("np-14x18-planes-value-copy", "np", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True, range_copy="value"), 14),
+        Case("bp-14x18-planes", "bp", planes,
+             dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10),
+             14),
+        Case("bp-14x18-planes-value-copy", "bp", planes,
+             dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10,
+                  range_copy="value"), 14),
     ]
     # larger: 32×32 with the priority order, 64×64 onion (the reference is slow beyond)
     big = _scene(32, (32, 32), 1, "noise", 0.75)

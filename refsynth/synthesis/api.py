@@ -265,14 +265,17 @@ def synthesize(
         (the text after Eq. 11 read literally; chosen on the Motorcycle, see
         the README's audit), or ``"product"``, ``C(p) · C(N_best)`` (refsynth's
         reading before 0.2, which drives synthesized confidence towards 0).
-    range_copy : {"offset", "value"}, NP only, default "offset"
-        What a pixel gets from the neighbourhood Eq. 5 drew: ``"value"``, its
-        centre range (the paper, Efros & Leung's copy); ``"offset"`` (**a
-        departure, the default since 0.5**: it won on the Motorcycle at every
-        fraction and size, see the README's audit), that value shifted by the
-        consistent difference in range between the two windows, so that a
+    range_copy : {"offset", "value"}, default "offset"
+        What a pixel gets from the neighbourhood Eq. 5 drew (NP) or from its
+        MAP label (BP, Eq. 8): ``"value"``, its centre range (the paper, Efros
+        & Leung's copy; Fig. 6's labels); ``"offset"`` (**a departure, the
+        default since 0.5 for NP and 0.6 for BP**: it won on the Motorcycle at
+        every fraction and size, see the README's audit), that value shifted by
+        the consistent difference in range between the two windows, so that a
         slanted surface fills as a surface, not a staircase of copies
-        (:mod:`refsynth.synthesis.range_copy`).
+        (:mod:`refsynth.synthesis.range_copy`). BP shifts every label against
+        its node's observation (measured or completed range) and compares the
+        shifted patches in Eq. 6.
     edges_last : bool, NP only, default True
         With ``use_edges``: pixels on an edge form a second tier, filled only
         when no other pixel is left on the front. ``False`` keeps only Eq. 10's
@@ -347,7 +350,8 @@ def synthesize(
         node's distance to the nearest measured pixel (floored), so a node
         deep in a gap searches as far past its edge as one beside it.
         ``"fixed"``: the measured pixels within ``radius``, as printed.
-        ``observation="measured", training_radius="fixed"`` is Fig. 6's BP.
+        ``observation="measured", training_radius="fixed", range_copy="value"``
+        is Fig. 6's BP.
 
     Returns
     -------
@@ -387,7 +391,7 @@ def synthesize(
     ``ordering``             §3.2.4       —            ``"priority"``
     ``confidence_update``    Eq. 11       —            ``"best"``
     ``edges_last``           Eq. 10       —            True
-    ``range_copy``           Eq. 5        —            ``"offset"`` (departure)
+    ``range_copy``           Eq. 5        Eq. 8        ``"offset"`` (departure)
     ``candidates``           —            ``k``        8
     ``proximity``            —            μ            0
     ``sigma_i``              —            Eq. 7        0.1

@@ -63,6 +63,12 @@ limit is refused then (:mod:`refsynth.synthesis.bp_memory`).
 
 Φ, Ψ and the grid of pairs (steps 3–4) are :mod:`refsynth.synthesis.bp_model`.
 
+**A departure, the default since 0.6** (``range_copy="offset"``,
+:mod:`refsynth.synthesis.range_copy`): each label is moved by the consistent difference in
+range between its node's observation and its patch (NP's offset copy), in Ψ, in the measured
+neighbours' terms and in the value step 6 gives. ``range_copy="value"`` keeps Fig. 6's
+labels.
+
 **A departure, off by default** (issue #10 item 4): with ``proposals``, dense
 fills of the range (NP's, from :func:`refsynth.synthesize` with
 ``proposals="np"``) give every node more labels after its ``k`` training
@@ -103,17 +109,20 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import (
+    NO_RANGE,
     RANGE_BITS,
     left_to_right_sum,
     portable_exp,
     quantise_grey,
     quantise_intensity,
     quantise_range,
+    window_weights,
 )
 from refsynth.synthesis.bp_gap_radius import TRAINING_RADII, gap_radius_candidates
 from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate, check_bp_memory
 from refsynth.synthesis.bp_model import (
     COMPATIBILITIES,
+    SHIFT_LIFT,
     Compatibilities,
     fixed_neighbour_terms,
     grid_edges,
@@ -126,6 +135,7 @@ from refsynth.synthesis.bp_proposals import proposal_frame
 from refsynth.synthesis.bp_search import candidates, search_candidates
 from refsynth.synthesis.messages import belief_propagation
 from refsynth.synthesis.progress import StagedProgress
+from refsynth.synthesis.range_copy import RANGE_COPIES, offset_shifts, shifted_values
 
 __all__ = ["BPResult", "BP_STAGES", "bp_fill", "bp_memory_estimate", "BP_MEMORY_LIMIT",
            "candidates", "phi", "psi", "pair_compatibilities", "fixed_neighbour_terms",
@@ -170,7 +180,8 @@ class BPResult:
         The message-passing sweeps BP ran (at most ``iterations`` of
         :func:`bp_fill`; fewer when the messages settled within ``tolerance``).
     candidate_values : ndarray of shape (N, k)
-        The centre range of every candidate (label), in the caller's unit.
+        The centre range of every candidate (label), in the caller's unit
+        (moved by its shift with ``range_copy="offset"``).
     labels : ndarray of shape (N,), int64
         The MAP label of each node (Eq. 8, the first maximum).
     candidates : ndarray of shape (N, k, 2), int64
@@ -259,6 +270,7 @@ def bp_fill(
     observation_completed: bool = False,
     compatibility: str = "overlap",
     training_radius: str = "fixed",
+    range_copy: str = "offset",
 ) -> BPResult:
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
 
@@ -356,6 +368,11 @@ def bp_fill(
         A node's training disc: radius ``r`` (Fig. 6), or ``r`` plus the
         node's distance to the nearest measured pixel, floored (**a
         departure**, :mod:`refsynth.synthesis.bp_gap_radius`).
+    range_copy : {"offset", "value"}, default "offset"
+        Move every label by its offset-copy shift against the node's
+        observation (``observation`` where given, else the measured range) in
+        Ψ, the measured neighbours' terms and step 6 (**a departure**,
+        :mod:`refsynth.synthesis.range_copy`), or ``"value"``: Fig. 6's labels.
 
     Returns
     -------
@@ -392,6 +409,9 @@ def bp_fill(
         raise ValueError(f"The parameter `compatibility` must be one of {COMPATIBILITIES}, "
                          f"got {compatibility!r}")
     centres = compatibility == "overlap-centres"
+    if range_copy not in RANGE_COPIES:
+        raise ValueError(f"The parameter `range_copy` must be one of {RANGE_COPIES}, "
+                         f"got {range_copy!r}")
     known = np.isfinite(range_values)
     unknown = ~known
     # up front: the memory this call needs, against the limit
@@ -432,6 +452,10 @@ def bp_fill(
                           proximity=proximity, range_weight=range_weight,
                           missing_range=missing_range, pad=pad, channels=channels,
                           observed=observed, training=training, progress=stages.stage(0))
+    target_pad = None
+    if range_copy == "offset":  # the departure: each label shifted to the observation's level
+        target = observed if observed is not None else rq
+        target_pad = np.pad(np.asarray(target, dtype=np.int64), h, constant_values=NO_RANGE)
     del observed, training
     del levels
     frame = None
@@ -453,6 +477,11 @@ def bp_fill(
         qpad, centre_q, centre = frame.plane, frame.centre_q, frame.centre
     del rq
     patches = sliding_window_view(qpad, (n, n))  # (H, W, n, n)
+    label_shifts = measured_span = None
+    if target_pad is not None:
+        measured_span = (float(np.min(range_values[known])), float(np.max(range_values[known])))
+        label_shifts = _label_shifts(target_pad, patches, rows, cols, labels, W, n)
+        del target_pad
 
     node_of = np.full(H * W, -1, dtype=np.int64)
     node_of[flat] = np.arange(flat.size)
@@ -480,6 +509,10 @@ def bp_fill(
                 cr, cc = np.divmod(labels[node[s]], W)
                 cp = patches[cr, cc]
                 fp = patches[fr[s], fc[s]][:, None]
+                if label_shifts is not None:
+                    lift = (label_shifts[node[s]] + SHIFT_LIFT)[:, :, None, None]
+                    cp = np.where(cp >= 0, cp + lift, -1.0)
+                    fp = np.where(fp >= 0, fp + SHIFT_LIFT, -1.0)
                 ms = fixed_neighbour_terms(cp, fp, direction, side, quantised=True,
                                            centres=centres)
                 # each node has one such neighbour per direction and side
@@ -490,7 +523,7 @@ def bp_fill(
     del node_of, pairs_all
     pairs = np.concatenate([pair_h, pair_v]).reshape(-1, 2).astype(np.int64)
     compatibilities = Compatibilities(qpad, n, labels, W, pairs, pair_h.shape[0], sigma_s,
-                                      centres=centres)
+                                      centres=centres, shifts=label_shifts)
     del pair_h, pair_v
     stages.complete(2)
     # step 5: messages; the edge-constraint rule silences (and deafens) edge nodes
@@ -512,8 +545,12 @@ def bp_fill(
         sl = slice(start, start + _NODE_BLOCK)
         cand_rows, cand_cols = np.divmod(labels[sl], W)
         cand_values[sl] = centre[cand_rows, cand_cols]
+        cand_q = centre_q[cand_rows, cand_cols]
+        if label_shifts is not None:  # the offset copy: the shifted centres
+            cand_q, cand_values[sl] = shifted_values(cand_q, label_shifts[sl], cand_values[sl],
+                                                     span, *measured_span)
         best[sl], chosen_all[sl], pooled_all[sl] = _map_and_belief(
-            belief[sl], cand_values[sl], centre_q[cand_rows, cand_cols])
+            belief[sl], cand_values[sl], cand_q)
     out[unknown] = chosen_all
     confidence[unknown] = np.minimum(pooled_all, 1.0)
     del chosen_all, pooled_all
@@ -529,6 +566,25 @@ def bp_fill(
                     candidate_values=cand_values, labels=best, candidates=cand, unary=unary,
                     pairs=pairs, messages=messages, beliefs=belief,
                     compatibilities=compatibilities.all)
+
+
+def _label_shifts(target_pad, patches, rows, cols, labels, width, n):
+    """Every label's shift Δ (:mod:`refsynth.synthesis.range_copy`) against its node's
+    observation, (N, k) int64: the node's window of ``target_pad`` against the label's
+    patch, block by block."""
+    out = np.empty(labels.shape, dtype=np.int64)
+    weights = window_weights(n).ravel()
+    windows = sliding_window_view(target_pad, (n, n))
+    step = max(1, _NODE_BLOCK // 8)
+    for start in range(0, labels.shape[0], step):
+        sl = slice(start, start + step)
+        m, k = labels[sl].shape
+        target = windows[rows[sl], cols[sl]].reshape(m, 1, -1)
+        cr, cc = np.divmod(labels[sl], width)
+        source = patches[cr, cc].reshape(m, k, -1).astype(np.int64)
+        out[sl] = offset_shifts(np.broadcast_to(target, source.shape).reshape(m * k, -1),
+                                source.reshape(m * k, -1), weights).reshape(m, k)
+    return out
 
 
 def _map_and_belief(belief: np.ndarray, cand_values: np.ndarray, cand_q: np.ndarray):

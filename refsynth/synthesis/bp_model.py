@@ -281,6 +281,11 @@ def grid_edges(unknown: np.ndarray) -> dict[str, np.ndarray]:
 # -- Ψ on demand ---------------------------------------------------------------------------
 
 
+#: Added to every range value of a shifted label's patch (and of a fixed neighbour's) before
+#: Eq. 6, so that a value moved below 0 does not read as missing (−1).
+SHIFT_LIFT = 2**18
+
+
 class Compatibilities:
     """``log Ψ`` (Eq. 6) of any pairs, from their candidates' range patches.
 
@@ -323,8 +328,9 @@ class Compatibilities:
     ([[[-0.0]]], (1, 1, 1))
     """
 
-    def __init__(self, plane, n, labels, width, pairs, n_h, sigma_s, centres=False):
-        self.plane, self.n = plane, n
+    def __init__(self, plane, n, labels, width, pairs, n_h, sigma_s, centres=False,
+                 shifts=None):
+        self.plane, self.n, self.shifts = plane, n, shifts
         self.labels, self.width, self.pairs = labels, width, pairs
         self.n_h, self.sigma_s, self.centres = n_h, sigma_s, centres
         self.k = labels.shape[1]
@@ -352,7 +358,13 @@ class Compatibilities:
         """The shared pixels of the candidates' patches of ``nodes``: (m, k, n(n − 1))."""
         rows, cols = np.divmod(self.labels[nodes], self.width)
         corner = rows * self.plane.shape[1] + cols
-        return self._flat[corner[:, :, None] + offsets]
+        values = self._flat[corner[:, :, None] + offsets]
+        if self.shifts is None:
+            return values
+        # the offset copy's labels: each patch moved by its shift, all lifted by SHIFT_LIFT
+        # so that a moved value stays >= 0 (Eq. 6 compares differences: the lift cancels)
+        lifted = values + (self.shifts[nodes] + SHIFT_LIFT)[:, :, None]
+        return np.where(values >= 0, lifted, -1.0)
 
     def __call__(self, edges: np.ndarray) -> np.ndarray:
         """``log Ψ`` of the pairs ``edges`` (indices into ``pairs``), (m, k, k)."""

@@ -47,7 +47,8 @@ METHODS = ("np", "bp")
 PRODUCTS = ("max", "sum")
 ORDERINGS = ("priority", "onion")
 
-#: The options only NP uses, with NP's defaults (§3.2.2, §3.2.4); read-only.
+#: NP's options, with NP's defaults (§3.2.2, §3.2.4); read-only. ``range_copy`` is both
+#: methods' (what a pixel gets from its drawn neighbourhood or its MAP label).
 NP_OPTIONS = MappingProxyType({
     "epsilon": 0.1,
     "use_isophotes": True,
@@ -56,7 +57,7 @@ NP_OPTIONS = MappingProxyType({
     "edges_last": True,
     "range_copy": "offset",
 })
-#: The options only BP uses, with BP's defaults (§3.2.3); read-only.
+#: BP's options, with BP's defaults (§3.2.3); read-only.
 BP_OPTIONS = MappingProxyType({
     "candidates": 8,
     "proximity": 0.0,
@@ -66,6 +67,7 @@ BP_OPTIONS = MappingProxyType({
     "tolerance": 1e-4,
     "product": "max",
     "edge_rule": "silent",
+    "range_copy": "offset",
 })
 OPTIONS = {"np": NP_OPTIONS, "bp": BP_OPTIONS}
 
@@ -114,7 +116,8 @@ def check_method_options(method: str, given: dict) -> dict:
                if value is not None}
     for other, defaults in OPTIONS.items():
         for name, default in defaults.items():
-            if other != method and name in checked and checked[name] != default:
+            if (other != method and name in checked and name not in OPTIONS[method]
+                    and checked[name] != default):
                 raise ValueError(
                     f"The parameter `{name}` applies to method={other!r} only; "
                     f"method={method!r} does not use it"

@@ -48,6 +48,36 @@ report, 741×500    0.373 / 0.599 / 0.799                    0.243 / 0.485 / 0.7
 (``--split report``; on the synthetic room's grids 10/20 and 5/25, 0.114 / 0.153 m against
 0.069 / 0.091 m.) Without the agreement test a first trial won at 63 % and lost at 85 %.
 
+**BP's labels** (``method="bp"``, the default since 0.6): a label of Fig. 6 is a measured
+patch, and its centre is a value measured elsewhere, as Eq. 5's copy is. Each label ``l`` of
+node ``i`` gets the shift ``Δ_il`` above, between ``i``'s observation (the measured range
+around ``i`` or, with BP's default ``observation="colorization"``, that range completed by
+the colorization fill) and ``l``'s measured patch (:func:`offset_shifts`, all labels at
+once). Eq. 6 compares the two labels' patches each moved by its shift (Ψ sees differences
+only, so the shifts are added with a common lift that keeps every moved value ``≥ 0``:
+:data:`refsynth.synthesis.bp_model.SHIFT_LIFT`), a measured neighbour's term compares the
+moved patch with the measured one, and the MAP label (Eq. 8) gives its centre plus its shift
+(:func:`shifted_values`, NP's arithmetic and clipping); the pooled confidence and
+``candidate_values`` use the moved centres. Eq. 2's ranking and Φ are unchanged. Measured
+(BP is deterministic: one run; NP mean over seeds 0–2 in brackets)::
+
+    python benchmarks/audit_departures.py --split choose --variants bp-value-copy,bp-offset-copy \
+        --seeds 0
+    python benchmarks/audit_departures.py --split choose --sizes 741x500 \
+        --variants bp-value-copy,bp-offset-copy --seeds 0
+
+=================  =====================  =====================  ===========================
+split, size        ``"value"`` (0.5)      ``"offset"`` (0.6)     NP
+=================  =====================  =====================  ===========================
+choose, 450×375    0.314 / 0.511 / 0.689  0.283 / 0.491 / 0.663  (0.289 / 0.511 / 0.656)
+choose, 741×500    0.309 / 0.521 / 0.725  0.258 / 0.487 / 0.708  (0.252 / 0.474 / 0.638)
+=================  =====================  =====================  ===========================
+
+Lower at every fraction and both sizes (by 3–16 %), so it is BP's default; it does not make BP
+beat NP at 85 %. ``observation="colorization-completed"`` with it gave 0.277 / 0.489 / 0.651
+and 0.248 / 0.472 / 0.696: lower again by 0.4–4 %, not made the default (it still loses to NP
+at 85 % on the larger size). The README's audit has the report split.
+
 References
 ----------
 Torres-Méndez & Dudek (2008), §3.2.2, Eqs. 2–5, doi:10.1007/s11263-007-0108-2.
@@ -60,7 +90,8 @@ import numpy as np
 
 from refsynth.numeric import RANGE_BITS
 
-__all__ = ["RANGE_COPIES", "OFFSET_TOLERANCE", "OFFSET_BITS", "offset_shift", "shifted_value"]
+__all__ = ["RANGE_COPIES", "OFFSET_TOLERANCE", "OFFSET_BITS", "offset_shift", "offset_shifts",
+           "shifted_value", "shifted_values"]
 
 #: What :func:`refsynth.synthesize` (NP) copies from the drawn neighbourhood: ``"value"``, its
 #: centre range (Eq. 5 as printed); ``"offset"``, that value shifted by the two windows'
@@ -124,6 +155,45 @@ def offset_shift(target: np.ndarray, source: np.ndarray, has_target: np.ndarray,
     return _round_half_even(int(b), int(a))
 
 
+def offset_shifts(target: np.ndarray, source: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """:func:`offset_shift` of many pairs of windows at once.
+
+    Parameters
+    ----------
+    target, source : ndarray of int64, shape (N, n·n)
+        ``q_r`` of the windows, ``< 0`` where a window has no range.
+    weights : ndarray, shape (n·n,)
+        Eq. 2's window :func:`~refsynth.numeric.window_weights`, whole numbers.
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+        Each pair's shift, 0 where it is not taken (exactly :func:`offset_shift`'s).
+
+    Examples
+    --------
+    >>> t = np.array([[10, 11, 12, 13], [10, 11, 9000, 13], [-1, -1, 5, 6]])
+    >>> s = np.array([[9, 10, 11, 12], [9, 10, 11, 12], [1, 2, -1, -1]])
+    >>> offset_shifts(t, s, np.ones(4)).tolist()
+    [1, 0, 0]
+    """
+    target = np.asarray(target, dtype=np.int64)
+    source = np.asarray(source, dtype=np.int64)
+    g = np.asarray(weights).astype(np.int64)
+    shared = (target >= 0) & (source >= 0)
+    gs = np.where(shared, g, 0)
+    delta = np.where(shared, target - source, 0)
+    a = gs.sum(axis=1)
+    b = (gs * delta).sum(axis=1)
+    spread = np.where(shared, np.abs(delta * a[:, None] - b[:, None]), 0).max(axis=1, initial=0)
+    taken = (a > 0) & (spread <= _SLACK * a)
+    safe = np.where(a > 0, a, 1)
+    quotient, remainder = np.divmod(b, safe)
+    twice = 2 * remainder
+    quotient = quotient + ((twice > safe) | ((twice == safe) & (quotient % 2 == 1)))
+    return np.where(taken, quotient, 0).astype(np.int64)
+
+
 def shifted_value(q_source: int, shift: int) -> int:
     """``q_r(q) + Δ`` clipped to the measured span ``[0, 2**16]``.
 
@@ -133,6 +203,45 @@ def shifted_value(q_source: int, shift: int) -> int:
     (65536, 0, 10)
     """
     return min(max(int(q_source) + int(shift), 0), _FULL)
+
+
+def shifted_values(q_source: np.ndarray, shift: np.ndarray, source: np.ndarray, span: float,
+                   low: float, high: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`shifted_value` of many values, on the grid and in the caller's unit.
+
+    Parameters
+    ----------
+    q_source : ndarray of int
+        ``q_r`` of the copied centres.
+    shift : ndarray of int, the same shape
+        Their shifts (:func:`offset_shifts`).
+    source : ndarray of float64, the same shape
+        The copied centres' range in the caller's unit.
+    span, low, high : float
+        The measured range's span, minimum and maximum.
+
+    Returns
+    -------
+    q : ndarray of int64
+        ``q_r(q) + Δ`` clipped to ``[0, 2**16]``.
+    values : ndarray of float64
+        ``source + (q − q_source) · span / 2**16`` clipped to ``[low, high]`` where the value
+        moved; ``source`` bit for bit where it did not (NP's arithmetic, in the same order).
+
+    Examples
+    --------
+    >>> q, v = shifted_values(np.array([100, 65000]), np.array([0, 1000]),
+    ...                       np.array([1.0, 2.0]), 1.0, 1.0, 2.0)
+    >>> q.tolist(), v.tolist()
+    ([100, 65536], [1.0, 2.0])
+    """
+    was = np.asarray(q_source).astype(np.int64)
+    now = np.clip(was + np.asarray(shift, dtype=np.int64), 0, _FULL)
+    moved = now != was
+    values = np.array(source, dtype=np.float64, copy=True)
+    step = span * 2.0**-RANGE_BITS
+    values[moved] = np.clip((now - was)[moved] * step + values[moved], low, high)
+    return now, values
 
 
 def _round_half_even(numerator: int, denominator: int) -> int:

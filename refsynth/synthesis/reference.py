@@ -211,19 +211,22 @@ def priority_terms(r, c, filled, qr, conf, edge_count, n, *, use_isophotes=True)
     return confidence_term(conf, r, c, n), d_term, e_term
 
 
-def offset_shift(frame, p, q) -> int:
+def offset_shift(frame, p, q, source=None) -> int:
     r"""Δ of :mod:`refsynth.synthesis.range_copy`: the windows' consistent range difference.
 
     Over the offsets ``v`` where both windows have range, ``A = Σ G_v``, ``B = Σ G_v δ_v``
     with ``δ_v = q_r(p + v) − q_r(q + v)``; 0 if there is none, or if some
     ``|A δ_v − B| > 2**(16 − 7) A``; else ``B / A`` rounded half to even (Python integers).
+    ``q``'s window is read from ``source`` (BP: the measured frame, ``p``'s from the
+    observations') when given, else from ``frame``.
     """
     (pr, pc), (qr_, qc), n = p, q, frame.n
+    source = frame if source is None else source
     a = b = 0
     deltas = []
     for i in range(n):
         for j in range(n):
-            at_p, at_q = int(frame.qr[pr + i, pc + j]), int(frame.qr[qr_ + i, qc + j])
+            at_p, at_q = int(frame.qr[pr + i, pc + j]), int(source.qr[qr_ + i, qc + j])
             if at_p != NO_RANGE and at_q != NO_RANGE:
                 g = int(frame.window[i, j])
                 a, b = a + g, b + g * (at_p - at_q)
@@ -401,10 +404,11 @@ class BPReference:
     observed: np.ndarray | None = None
 
 
-def overlap_mean_square(first, second, direction):
+def overlap_mean_square(first, second, direction, shifts=(0, 0)):
     r"""Eq. 6's ``|d_jk^l − d_kj^m|²``: the mean squared difference of two range patches over
     the pixels they share (``first`` left of / above ``second``) where both have range; 0 if
-    there is none (Ψ = 1). The integer sum is exact; one division makes the mean."""
+    there is none (Ψ = 1). The integer sum is exact; one division makes the mean. With the
+    offset copy each patch's range is moved by its label's shift, ``shifts = (Δ_l, Δ_m)``."""
     if direction == "h":
         a, b = first[:, 1:], second[:, :-1]
     else:
@@ -413,7 +417,7 @@ def overlap_mean_square(first, second, direction):
     count = int(both.sum())
     if count == 0:
         return 0.0
-    d = np.where(both, a - b, 0)
+    d = np.where(both, (a + int(shifts[0])) - (b + int(shifts[1])), 0)
     return (int(np.sum(d * d)) * 2.0 ** (-2 * RANGE_BITS)) / count
 
 
@@ -506,7 +510,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                  sigma_i=0.1, sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=0.0, colour=True, edge_rule="silent", channels="sum",
-                 observation="colorization", training_radius="gap",
+                 observation="colorization", training_radius="gap", range_copy="offset",
                  trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
@@ -519,7 +523,8 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
        (:func:`_observed_frame`; ``"colorization-completed"``: the training patches' too, in
        Eq. 2 only), and with ``training_radius="gap"`` the disc's radius is
        ``r + ⌊d_i⌋`` (:func:`gap_depth_reference`; the prior μ then divides by that radius
-       squared). ``observation="measured"``, ``training_radius="fixed"`` is Fig. 6 as printed.
+       squared). ``observation="measured"``, ``training_radius="fixed"`` and
+       ``range_copy="value"`` (below) is Fig. 6 as printed.
     3. Eq. 7, ``log Φ(x_i^l, y_i) = −d_l / 2σ_i²`` with ``d_l`` the ranking distance.
     4. Eq. 6, ``log Ψ = −|d^l − d^m|² / 2σ_s²`` (:func:`overlap_mean_square`) for each pair
        of unknown 4-neighbours; a measured neighbour adds ``log Ψ`` against its own patch to
@@ -534,6 +539,13 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     6. Eq. 8, ``x_i = argmax b_i`` (the first maximum); its centre range is the result, its
        belief pooled over labels proposing the same range (within 1 % of the span) the
        confidence.
+
+    With ``range_copy="offset"`` (refsynth's default since 0.6, a departure:
+    :mod:`refsynth.synthesis.range_copy`) every label ``l`` of node ``i`` carries the shift
+    ``Δ_il`` of NP's offset copy between ``y_i``'s range (the observations: measured or
+    completed) and the label's measured patch (:func:`offset_shift`); its patch's range is
+    moved by ``Δ_il`` in every term of step 4, and its centre in step 6 (clipped to the
+    measured span, as NP's). ``"value"`` is Fig. 6's labels as printed.
 
     Parameters are :func:`refsynth.synthesize`'s (``k`` is ``candidates``); ``image``,
     ``range_values``, ``edges`` and ``colour`` as in :func:`np_reference`; ``edge_rule`` is
@@ -552,6 +564,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     node_of = {p: i for i, p in enumerate(nodes)}
     N = len(nodes)
     cands, unary = np.zeros((N, k, 2), np.int64), np.zeros((N, k))
+    shifts = np.zeros((N, k), np.int64)       # Δ of each label (0: Fig. 6's value copy)
     for i, (r, c) in enumerate(nodes):                                  # steps 2 and 3
         wide = radius + (gap_depth_reference(known, r, c) if training_radius == "gap" else 0)
         cand, dist = _bp_candidates(observed, training, known, r, c, k, wide, proximity,
@@ -559,6 +572,8 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                                     max(H, W) + 2 * max(pad, math.ceil(wide)), channels)
         cands[i] = cand
         unary[i] = [-d / (2.0 * sigma_i * sigma_i) for d in dist]
+        if range_copy == "offset":
+            shifts[i] = [offset_shift(observed, (r, c), q, source=frame) for q in cand]
         patches = [frame.patch(a, b)[1] for a, b in cand]
         for dr, dc, direction, node_first in ((0, 1, "h", True), (0, -1, "h", False),
                                               (1, 0, "v", True), (-1, 0, "v", False)):
@@ -568,8 +583,9 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                 continue   # no fixed node there, or the edge rule stops its term
             fixed = frame.patch(a, b)[1]
             for label, patch in enumerate(patches):                     # step 4, fixed
+                moved = (int(shifts[i, label]), 0) if node_first else (0, int(shifts[i, label]))
                 ms = overlap_mean_square(*((patch, fixed) if node_first else (fixed, patch)),
-                                         direction)
+                                         direction, moved)
                 unary[i, label] = unary[i, label] + (-ms / (2.0 * sigma_s * sigma_s))
     pairs = [(node_of[(r, c)], node_of[(r, c + 1)], "h") for r in range(H) for c in range(W - 1)
              if (r, c) in node_of and (r, c + 1) in node_of]
@@ -582,7 +598,8 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
         pb = [frame.patch(*cands[b, label])[1] for label in range(k)]
         for la in range(k):
             for lb in range(k):
-                ms = overlap_mean_square(pa[la], pb[lb], direction)
+                ms = overlap_mean_square(pa[la], pb[lb], direction,
+                                         (shifts[a, la], shifts[b, lb]))
                 log_psi[e, la, lb] = -ms / (2.0 * sigma_s * sigma_s)
     incoming = [[] for _ in range(N)]     # message rows into each node: left, up, right, down
     for e, pair in enumerate(pairs):
@@ -623,6 +640,15 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     belief = beliefs(messages)                                          # step 6
     values = np.where(known, range_values, 0.0)[cands[..., 0], cands[..., 1]]
     qvalues = frame.qr[cands[..., 0] + frame.h, cands[..., 1] + frame.h]   # integers
+    low, high = float(np.nanmin(range_values)), float(np.nanmax(range_values))
+    for i in range(N):                     # the offset copy's centres (NP's arithmetic)
+        for label in range(k):
+            q = int(qvalues[i, label])
+            moved = min(max(q + int(shifts[i, label]), 0), 2**RANGE_BITS)
+            if moved != q:
+                qvalues[i, label] = moved
+                values[i, label] = min(max(float(values[i, label] + (moved - q) * (
+                    frame.span * 2.0**-RANGE_BITS)), low), high)
     labels = np.zeros(N, np.int64)
     out, confidence = range_values.copy(), known.astype(np.float64)
     for i, (r, c) in enumerate(nodes):

@@ -87,16 +87,18 @@ def room_case():
     return room, known, np.where(known, room.range, np.nan)
 
 
-READINGS = {  # Fig. 6 as printed, each departure alone, both (refsynth's default)
-    "Fig. 6": {"observation": "measured", "training_radius": "fixed"},
-    "completed": {"observation": "colorization", "training_radius": "fixed"},
-    "gap": {"observation": "measured", "training_radius": "gap"},
-    "completed + gap (default)": {},
+READINGS = {  # Fig. 6 as printed, each departure alone, all three (refsynth's default)
+    "Fig. 6": {"observation": "measured", "training_radius": "fixed", "range_copy": "value"},
+    "completed": {"observation": "colorization", "training_radius": "fixed",
+                  "range_copy": "value"},
+    "gap": {"observation": "measured", "training_radius": "gap", "range_copy": "value"},
+    "offset copy": {"observation": "measured", "training_radius": "fixed"},
+    "completed + gap + offset (default)": {},
 }
 
 
 def exercise_2b() -> None:
-    """The candidates' order: Fig. 6's BP, each departure alone, and both.
+    """The candidates' order: Fig. 6's BP, each departure alone, and all three.
 
     What moved is the order. With the observations completed
     (``observation="colorization"``) BP's MAR drops by more than a tenth on
@@ -119,10 +121,11 @@ def exercise_2b() -> None:
     On the room BP still loses to NP in every reading, and since 0.5 (NP's
     copy shifted by the windows' range difference) even its candidate ceiling
     is above NP's MAR: no choice among measured patches reaches NP there. With
-    both departures BP's labels stay about 0.06 m above that ceiling: the loss
-    is in the choice as well as in the candidates. On the Motorcycle BP with
-    both departures ties with 0.5's NP (it beat 0.4's NP, whose copies were
-    unshifted).
+    all three departures BP's labels stay about 0.06 m above that ceiling: the
+    loss is in the choice as well as in the candidates. The offset copy alone
+    (0.6, the labels shifted by their windows' range difference) helps on both
+    cases; on the Motorcycle BP with all three ties with 0.5's NP (it beat
+    0.4's NP, whose copies were unshifted).
     """
     cases = [bike_case(), room_case()]
     for scene, known, partial in cases:
@@ -139,11 +142,12 @@ def exercise_2b() -> None:
         np_mar = np.mean([mar(refsynth.synthesize(scene.intensity, partial, seed=s).range,
                               scene.range, known) for s in range(3)])
         print(f"2b. {scene.name}: NP MAR {np_mar:.3f} (3 seeds)")
-        fig6, done, gap, both = (scores[name] for name in READINGS)
+        fig6, done, gap, offset, both = (scores[name] for name in READINGS)
         assert done[0] < 0.9 * fig6[0]  # BP's MAR drops by more than a tenth
         assert abs(done[1] - fig6[1]) < 0.5 * (fig6[0] - done[0])  # the ceiling: far less
         assert fig6[2] - done[2] > fig6[0] - done[0]  # the first-ranked candidate leads the drop
         assert gap[0] > fig6[0] and gap[2] > fig6[2]  # the gap radius alone is worse
+        assert offset[0] < fig6[0]  # the offset copy alone helps
         if scene.name.startswith("synthetic-room"):
             assert both[0] < done[0] - 0.015 and both[1] < done[1] - 0.015  # wide holes: helps
             assert min(s[0] for s in scores.values()) > np_mar  # BP still loses on the room
