@@ -81,6 +81,19 @@ def test_synth_with_bp(files):
     assert np.all(np.isfinite(np.load(out)))
 
 
+@pytest.mark.parametrize("method", ["np", "bp"])
+def test_synth_range_copy_reaches_both_methods(files, method):
+    import refsynth
+
+    image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
+    for copy in ("value", "offset"):
+        out = files / f"{method}-{copy}.npy"
+        assert main(["synth", str(files / "image.npy"), str(files / "partial.npy"), "--out",
+                     str(out), "--method", method, "--range-copy", copy]) == 0
+        want = refsynth.synthesize(image, partial, method=method, range_copy=copy).range
+        np.testing.assert_array_equal(np.load(out), want)
+
+
 def test_synth_is_deterministic(files):
     a, b = files / "a.npy", files / "b.npy"
     for out in (a, b):

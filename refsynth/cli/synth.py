@@ -183,8 +183,10 @@ _METHOD_OPTIONS = {
     "--sigma-s": ("sigma_s", "bp"), "--iterations": ("iterations", "bp"),
     "--proposals": ("proposals", "bp"), "--proposal-runs": ("proposal_runs", "bp"),
     "--observation": ("observation", "bp"), "--training-radius": ("training_radius", "bp"),
-    "--compatibility": ("compatibility", "bp"), "--range-copy": ("range_copy", "np"),
+    "--compatibility": ("compatibility", "bp"),
 }
+#: Options of both methods that are not Eq. 2's: passed on only when given.
+_BOTH_OPTIONS = ("range_copy",)
 #: Eq. 2's readings, for both methods: passed on only when given.
 _EQ2_OPTIONS = ("channels", "range_weight", "missing_range", "colour")
 _DEFAULT_RADIUS = 10.0
@@ -276,7 +278,7 @@ def _cmd_synth(args) -> int:
     if out.suffix.lower() == ".png":
         _check_png_out(out, partial, args.png_scale)
     options = {name: getattr(args, name) for name, _ in _METHOD_OPTIONS.values()}
-    options.update({name: getattr(args, name) for name in _EQ2_OPTIONS
+    options.update({name: getattr(args, name) for name in _EQ2_OPTIONS + _BOTH_OPTIONS
                     if getattr(args, name) is not None})
     report = pixel_progress("synthesizing", rate="px")
     if args.method == "bp":  # BP reports per mille of its work: shown as pixels' worth of it
@@ -364,6 +366,12 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                      "(default) or left out")
     eq2.add_argument("--grey", dest="colour", action="store_const", const=False,
                      help="compare the BT.709 grey level instead of the colour channels")
+    both = synth.add_argument_group("what a pixel is given (both methods)")
+    both.add_argument("--range-copy", choices=list(RANGE_COPIES),
+                      help="what a pixel gets from the neighbourhood Eq. 5 drew (NP) or its "
+                      "MAP label (BP): value (the centre range, the paper's) or offset (that "
+                      "value shifted by the two windows' consistent range difference: a "
+                      "departure, the default)")
     np_group = synth.add_argument_group("NP only (--method np)")
     np_group.add_argument("--epsilon", type=real, metavar="E",
                           help="tolerance of Eq. 5 (default 0.1)")
@@ -372,11 +380,6 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           "priority)")
     np_group.add_argument("--no-isophotes", dest="use_isophotes", action="store_const",
                           const=False, help="drop the isophote term of Eq. 12 (default: use it)")
-    np_group.add_argument("--range-copy", choices=list(RANGE_COPIES),
-                          help="what a pixel gets from the neighbourhood Eq. 5 drew: value "
-                          "(its centre range, the paper's) or offset (that value shifted by "
-                          "the two windows' consistent range difference: a departure, the "
-                          "default)")
     bp_group = synth.add_argument_group("BP only (--method bp)")
     bp_group.add_argument("--candidates", type=integer, metavar="K",
                           help="candidate labels per unknown pixel (default 8)")
