@@ -575,7 +575,7 @@ def _label_shifts(target_pad, patches, rows, cols, labels, width, n):
     out = np.empty(labels.shape, dtype=np.int64)
     weights = window_weights(n).ravel()
     windows = sliding_window_view(target_pad, (n, n))
-    step = max(1, _NODE_BLOCK // 8)
+    step = max(1, _NODE_BLOCK // labels.shape[1])  # about _NODE_BLOCK labels per block
     for start in range(0, labels.shape[0], step):
         sl = slice(start, start + step)
         m, k = labels[sl].shape
