@@ -75,9 +75,10 @@ choose, 741×500    0.309 / 0.521 / 0.725  0.258 / 0.487 / 0.708  (0.252 / 0.474
 
 Lower at every fraction and both sizes (by 10 / 4 / 4 % on the choosing split, beyond the
 README's 3 % tie band for BP; by 16 / 7 / 2 % at 741×500), so it is BP's default; it does
-not make BP beat NP at 85 %. ``observation="colorization-completed"`` with it gave 0.277 / 0.489 / 0.651
-and 0.248 / 0.472 / 0.696: lower again by 0.4–4 %, not made the default (it still loses to NP
-at 85 % on the larger size). The README's audit has the report split.
+not make BP beat NP at 85 %. ``observation="colorization-completed"`` with it gave
+0.277 / 0.489 / 0.651 and 0.248 / 0.472 / 0.696: lower again by 0.4–4 %, not made the
+default (it still loses to NP at 85 % on the larger size). The README's audit has the report
+split.
 
 References
 ----------
