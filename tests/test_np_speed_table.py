@@ -97,3 +97,55 @@ def test_distances_are_the_same_with_either_matrix_vector_product(product, monke
     inside = ((np.arange(9)[:, None] + 3) * 15 + np.arange(9)[None, :] + 3).ravel()
     for p in inside:
         assert np.array_equal(fast.distances(int(p), inside), wide.distances(int(p), inside))
+
+
+@given(
+    st.integers(3, 9),
+    st.integers(3, 9),
+    st.sampled_from([1, 3, 5, 7]),
+    st.sampled_from([0.0, 0.5, 1.0]),
+    st.integers(0, 2**32 - 1),
+)
+def test_offset_shift_from_the_gathered_rows_is_range_copys(h, w, n, known_share, seed):
+    """FillTable.offset_shift (NP's hot path, from the rows distances() gathered) gives
+    range_copy.offset_shift's integer for every candidate: planes at any depth (the shift
+    taken), differences on both sides of the agreement test's bound (2**9 steps), ties of
+    the rounding (half-integer means), windows off the image and empty shared supports,
+    and after set_range has written synthesized pixels."""
+    from refsynth.numeric import window_weights
+    from refsynth.synthesis.neighbourhood import window_offsets
+    from refsynth.synthesis.range_copy import offset_shift
+
+    rng = np.random.default_rng(seed)
+    image = rng.integers(0, 2**16 + 1, (h, w, 1)) * 2.0**-16
+    rows, cols = np.mgrid[:h, :w]
+    plane = 2000 + 37 * rows + int(rng.integers(-300, 300)) * cols
+    bump = rng.choice([0, 0, 1, 511, 512, 513, -512, 20000], (h, w))
+    q = np.clip(plane + bump * (rng.random((h, w)) < 0.3), 0, 2**16)
+    known = rng.random((h, w)) < known_share if known_share < 1 else np.ones((h, w), bool)
+    known.flat[int(rng.integers(h * w))] = False  # one target at least
+    pad = max(n // 2 + 1, 2)
+    table = FillTable(image, np.where(known, q * 2.0**-16, np.nan), n, pad, 1.0)
+    wp = w + 2 * pad
+    frame = np.full((h + 2 * pad, wp), -1.0)
+    frame[pad:-pad, pad:-pad] = np.where(known, q, -1.0)
+    # a few synthesized pixels, written as NP writes them
+    for flat in rng.permutation(np.flatnonzero(~known.ravel()))[1:3]:
+        r, c = divmod(int(flat), w)
+        table.set_range((r + pad) * wp + c + pad, float(q[r, c]) * 2.0**-16)
+        frame[r + pad, c + pad] = q[r, c]
+    wr, wc = window_offsets(n)
+    window = wr * wp + wc
+    g = window_weights(n).ravel().astype(np.float64)
+    flat_frame = frame.ravel()
+    inside = ((rows + pad) * wp + cols + pad).ravel()
+    targets = inside[flat_frame[inside] < 0]
+    for p in rng.choice(targets, min(3, targets.size), replace=False):
+        candidates = inside[flat_frame[inside] >= 0]
+        if candidates.size == 0:
+            continue
+        table.distances(int(p), candidates)
+        for j, cand in enumerate(candidates):
+            tp, tq = flat_frame[window + p], flat_frame[window + cand]
+            want = offset_shift(np.maximum(tp, 0), np.maximum(tq, 0), tp >= 0, tq >= 0, g)
+            assert table.offset_shift(j) == want, (int(p), int(cand))

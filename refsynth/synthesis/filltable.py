@@ -60,9 +60,11 @@ from refsynth.numeric import (
     RANGE_BITS,
     SUPPORT_PRIOR,
     WEIGHT_UNIT,
+    WINDOW_BITS,
     window_weights,
 )
 from refsynth.synthesis.neighbourhood import intensity_patches
+from refsynth.synthesis.range_copy import OFFSET_BITS, round_half_even
 
 __all__ = ["FillTable"]
 
@@ -73,6 +75,11 @@ _matvec = getattr(np, "matvec", np.matmul)
 
 #: Rows of the frame built at a time (bounds the float64 temporaries).
 _CHUNK_ROWS = 64
+
+#: The offset copy's agreement on the range grid (range_copy.OFFSET_BITS), and the factor that
+#: takes a weight sum back from WEIGHT_UNIT to integers (a power of two: exact).
+_SLACK = 2.0 ** (RANGE_BITS - OFFSET_BITS)
+_TO_WINDOW = 2.0**WINDOW_BITS
 
 
 class FillTable:
@@ -189,6 +196,12 @@ class FillTable:
         self.w_si, self.w_sr = self.weights[:r0], self.weights[r0:width]
         self.g_v = self.weights[width:]  # G V_p w_unit
         self.ones = np.ones(nn)
+        # offset_shift's operands: p's R and V (from the product above, float64, exact), the
+        # last gathered rows, and buffers for the window's terms
+        self._rp, self._vp = self.product[r0:v0], self.product[h0:l0]
+        self.rows = np.zeros((0, width))
+        self._gs, self._delta, self._spread, self._support = (np.empty(nn) for _ in range(4))
+        self._a, self._b = np.zeros(()), np.zeros(())
         self.channels = C
         self.lam = float(range_weight)
         self.missing_range = missing_range
@@ -251,7 +264,7 @@ class FillTable:
                         dtype=np.float64)  # I_p, 1, R_p, R_p², V_p: exact
         np.multiply(w, self.coef, out=self.weights)
         self._weights_mv[self.one] = self._self_mv[p]  # s_p u, exact
-        rows = self.table.take(candidates, axis=0).astype(np.float64)
+        rows = self.rows = self.table.take(candidates, axis=0).astype(np.float64)
         # exact: every product and partial sum is an integer below 2**53 times the
         # power of two its weights carry, so these are the integer sums times their units.
         # s_i's terms: the positive ones (s_q's parts and s_p) add up to at most
@@ -270,6 +283,61 @@ class FillTable:
         wa = np.dot(g_v, self.ones, out=self._wa)  # w_a w_unit, exact
         return _combine(si, sr, ws, wa, self.divisor, self.lam, self.missing_range,
                         self._scalars)
+
+    def offset_shift(self, j: int) -> int:
+        """The offset copy's ``Δ`` between ``N_p`` and the last :meth:`distances`' candidate ``j``.
+
+        :func:`refsynth.synthesis.range_copy.offset_shift` (the same integer) on the rows
+        :meth:`distances` has just gathered: ``p``'s ``R`` and ``V`` are in its weights, the
+        candidate's in its row, so the shift costs a few products on the window and no gather.
+
+        Parameters
+        ----------
+        j : int
+            Index of the drawn candidate in the ``candidates`` of the last :meth:`distances`
+            call (whose ``p`` is the target).
+
+        Returns
+        -------
+        int
+            ``Δ`` on the range's integer grid, 0 where the shift is not taken.
+
+        Notes
+        -----
+        With ``G`` the integer window and ``u`` :data:`~refsynth.numeric.WEIGHT_UNIT` (a
+        power of two): ``g = G V_p V_q u``, ``a u = Σ g``, ``b u = Σ g δ`` with
+        ``δ = R_p − R_q``, and the agreement test ``|δ (a u) − b u| ≤ 2^{16−7} (a u)`` on
+        the shared support (``V_p V_q = 1``; the term is multiplied by 0 elsewhere). Every
+        product and sum is an integer below ``2**53`` times ``u``: exact in any order, the
+        integers of ``range_copy.offset_shift``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> image = np.zeros((4, 6, 1))
+        >>> ramp = np.tile(np.arange(6.0), (4, 1)) / 8
+        >>> known = np.where(np.arange(6) != 3, ramp, np.nan)
+        >>> table = FillTable(image, known, 3, 2, 1.0)
+        >>> p, q = 3 * 10 + 5, 3 * 10 + 3     # (1, 3), unknown, and (1, 1): two columns left
+        >>> _ = table.distances(p, np.array([q]))
+        >>> table.offset_shift(0) == 2 * 2**16 // 8   # R_p - R_q: two steps of the ramp
+        True
+        """
+        row = self.rows[j]
+        gs = np.multiply(self.g_v, row[self.v0 : self.h0], out=self._gs)  # G V_p V_q u
+        a = np.dot(gs, self.ones, out=self._a)  # a u
+        if a == 0.0:  # no shared support
+            return 0
+        delta = np.subtract(self._rp, row[self.r0 : self.v0], out=self._delta)
+        b = np.dot(gs, delta, out=self._b)  # b u
+        spread = np.multiply(delta, a, out=self._spread)
+        np.subtract(spread, b, out=spread)
+        np.multiply(spread, np.multiply(self._vp, row[self.v0 : self.h0], out=self._support),
+                    out=spread)  # 0 off the shared support
+        np.abs(spread, out=spread)
+        if float(spread[spread.argmax()]) > _SLACK * float(a):
+            return 0
+        return round_half_even(int(float(b) * _TO_WINDOW), int(float(a) * _TO_WINDOW))
 
     def set_range(self, p: int, value: float) -> None:
         """Record normalised range ``value`` (a multiple of ``2**-16``) at padded index ``p``.

@@ -78,13 +78,12 @@ from refsynth.numeric import (
     quantise_grey,
     quantise_intensity,
     quantise_range,
-    window_weights,
 )
 from refsynth.synthesis.filltable import FillTable
-from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
+from refsynth.synthesis.neighbourhood import disc_offsets
 from refsynth.synthesis.onion import onion_order
 from refsynth.synthesis.priority import FillFront
-from refsynth.synthesis.range_copy import offset_shift, shifted_value
+from refsynth.synthesis.range_copy import shifted_value
 
 #: The readings of the confidence a synthesized voxel receives (Eq. 11).
 CONFIDENCE_UPDATES = ("product", "best")
@@ -265,9 +264,7 @@ def np_fill(
     at, threshold = np.zeros((), dtype=np.int64), np.zeros(())
     shifting = range_copy == "offset"  # the departure: the drawn value shifted (range_copy)
     if shifting:
-        wr, wc = window_offsets(n)
-        window = (wr * Wp + wc).astype(np.int64)
-        weights = window_weights(n).ravel().astype(np.float64)
+        offset_shift = table.offset_shift
         to_grid, span_unit = 2.0**RANGE_BITS, span * 2.0**-RANGE_BITS
         low, high = float(np.min(range_values[known])), float(np.max(range_values[known]))
     for step in range(total):
@@ -281,14 +278,13 @@ def np_fill(
         best = int(d.argmin())
         # Eq. 5 (eq5_set): the members within (1 + epsilon) of the best, in candidate order
         threshold[()] = scale * d[best]
-        members = candidates.compress(np.less_equal(d, threshold))
-        q = int(members[int(draws[step] * members.size)])
+        members = np.less_equal(d, threshold).nonzero()[0]  # indices into candidates
+        j = int(members[int(draws[step] * members.size)])
+        q = int(candidates[j])
         value = values_at[q]
         original_at[p] = original_at[q]
         if shifting:
-            wp, wq = window + p, window + q  # q_r of the windows: whole numbers
-            shift = offset_shift(values[wp] * to_grid, values[wq] * to_grid, filled[wp],
-                                 filled[wq], weights)
+            shift = offset_shift(j)  # range_copy.offset_shift on the rows just gathered
             was = int(value * to_grid)
             now = shifted_value(was, shift)
             if now != was:

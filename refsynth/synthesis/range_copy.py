@@ -93,7 +93,7 @@ import numpy as np
 from refsynth.numeric import RANGE_BITS
 
 __all__ = ["RANGE_COPIES", "OFFSET_TOLERANCE", "OFFSET_BITS", "offset_shift", "offset_shifts",
-           "shifted_value", "shifted_values"]
+           "shifted_value", "shifted_values", "round_half_even"]
 
 #: What :func:`refsynth.synthesize` (NP) copies from the drawn neighbourhood: ``"value"``, its
 #: centre range (Eq. 5 as printed); ``"offset"``, that value shifted by the two windows'
@@ -154,7 +154,7 @@ def offset_shift(target: np.ndarray, source: np.ndarray, has_target: np.ndarray,
     b = float(np.dot(g, delta))
     if float(np.max(np.abs(delta * a - b))) > _SLACK * a:
         return 0
-    return _round_half_even(int(b), int(a))
+    return round_half_even(int(b), int(a))
 
 
 def offset_shifts(target: np.ndarray, source: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -246,10 +246,10 @@ def shifted_values(q_source: np.ndarray, shift: np.ndarray, source: np.ndarray, 
     return now, values
 
 
-def _round_half_even(numerator: int, denominator: int) -> int:
+def round_half_even(numerator: int, denominator: int) -> int:
     """``numerator / denominator`` (``denominator > 0``) rounded half to even, exactly.
 
-    >>> [_round_half_even(n, 2) for n in (-3, -1, 1, 3, 5)]
+    >>> [round_half_even(n, 2) for n in (-3, -1, 1, 3, 5)]
     [-2, 0, 0, 2, 2]
     """
     quotient, remainder = divmod(numerator, denominator)
