@@ -83,7 +83,6 @@ from refsynth.synthesis.filltable import FillTable
 from refsynth.synthesis.neighbourhood import disc_offsets
 from refsynth.synthesis.onion import onion_order
 from refsynth.synthesis.priority import FillFront
-from refsynth.synthesis.range_copy import shifted_value
 
 #: The readings of the confidence a synthesized voxel receives (Eq. 11).
 CONFIDENCE_UPDATES = ("product", "best")
@@ -265,7 +264,7 @@ def np_fill(
     shifting = range_copy == "offset"  # the departure: the drawn value shifted (range_copy)
     if shifting:
         offset_shift = table.offset_shift
-        to_grid, span_unit = 2.0**RANGE_BITS, span * 2.0**-RANGE_BITS
+        to_grid, span_unit, full = 2.0**RANGE_BITS, span * 2.0**-RANGE_BITS, 2**RANGE_BITS
         low, high = float(np.min(range_values[known])), float(np.max(range_values[known]))
     for step in range(total):
         p = int(schedule[step]) if not update else pop()
@@ -286,7 +285,7 @@ def np_fill(
         if shifting:
             shift = offset_shift(j)  # range_copy.offset_shift on the rows just gathered
             was = int(value * to_grid)
-            now = shifted_value(was, shift)
+            now = min(max(was + shift, 0), full) if shift else was  # range_copy.shifted_value
             if now != was:
                 value = now * 2.0**-RANGE_BITS
                 # (+ commutes); in the measured span in the caller's unit too
