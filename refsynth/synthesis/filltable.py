@@ -73,8 +73,10 @@ __all__ = ["FillTable"]
 #: the same bits.
 _matvec = getattr(np, "matvec", np.matmul)
 
-#: Rows of the frame built at a time (bounds the float64 temporaries).
-_CHUNK_ROWS = 64
+#: Pixels of the frame built at a time, in whole rows: the float64 temporaries (about 2 MB)
+#: stay in cache. (Blocks of 64 rows took 4.4-4.8 µs per unknown pixel at 450×375 and
+#: 900×750, against 1.2-1.3.)
+_CHUNK_PIXELS = 1 << 12
 
 #: The offset copy's agreement on the range grid (range_copy.OFFSET_BITS), and the factor that
 #: takes a weight sum back from WEIGHT_UNIT to integers (a power of two: exact).
@@ -155,8 +157,9 @@ class FillTable:
         rq = np.rint(np.asarray(range_norm, dtype=np.float64) * 2.0**RANGE_BITS)
         rpad = np.pad(rq, h, mode="constant", constant_values=np.nan)
         rp = sliding_window_view(rpad, (n, n))  # (H, W, n, n)
-        for top in range(0, H, _CHUNK_ROWS):
-            rows = slice(top, min(H, top + _CHUNK_ROWS))
+        chunk = max(1, _CHUNK_PIXELS // W)
+        for top in range(0, H, chunk):
+            rows = slice(top, min(H, top + chunk))
             out = frame[pad + rows.start : pad + rows.stop, pad : pad + W]
             ints = np.ascontiguousarray(patches[rows]).reshape(-1, W, base)
             out[:, :, :base] = ints
