@@ -352,3 +352,23 @@ def test_the_papers_edge_rule_isolates_edge_nodes(seed):
     assert np.any(bp.unary[with_fixed] != silent.bp.unary[with_fixed])
     # the default rule: an edge node still listens
     assert e and np.any(silent.bp.beliefs[node_on_edge] != silent.bp.unary[node_on_edge])
+
+
+@given(small_scene(), st.sampled_from([1, 3, 7]))
+def test_the_labels_shifts_do_not_depend_on_their_block_size(scene, block):
+    """_label_shifts works in blocks of about bp._SHIFT_BLOCK labels (cache-sized
+    temporaries): any block size gives the same shifts, so the same fill, bit for bit."""
+    import refsynth.synthesis.bp as bp
+
+    image, truth, known = scene
+    partial = np.where(known, truth, np.nan)
+    kwargs = dict(method="bp", neighbourhood=3, candidates=3, iterations=3)
+    saved = bp._SHIFT_BLOCK
+    try:
+        whole = refsynth.synthesize(image, partial, **kwargs)
+        bp._SHIFT_BLOCK = block
+        small = refsynth.synthesize(image, partial, **kwargs)
+    finally:
+        bp._SHIFT_BLOCK = saved
+    np.testing.assert_array_equal(small.range, whole.range)
+    np.testing.assert_array_equal(small.candidate_values, whole.candidate_values)

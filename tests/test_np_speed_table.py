@@ -149,3 +149,21 @@ def test_offset_shift_from_the_gathered_rows_is_range_copys(h, w, n, known_share
             tp, tq = flat_frame[window + p], flat_frame[window + cand]
             want = offset_shift(np.maximum(tp, 0), np.maximum(tq, 0), tp >= 0, tq >= 0, g)
             assert table.offset_shift(j) == want, (int(p), int(cand))
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 1 << 20])
+def test_the_table_does_not_depend_on_its_build_blocks(chunk, monkeypatch):
+    """FillTable is built in blocks of about _CHUNK_PIXELS pixels (whole rows, temporaries
+    that stay in cache): one row at a time, a few rows, or the whole image at once give
+    the same table, bit for bit."""
+    from refsynth.synthesis import filltable
+
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 2**16 + 1, (11, 13, 3)) * 2.0**-16
+    values = rng.integers(0, 2**16 + 1, (11, 13)) * 2.0**-16
+    range_norm = np.where(rng.random((11, 13)) < 0.5, values, np.nan)
+    want = FillTable(image, range_norm, 5, 3, 1.0)
+    monkeypatch.setattr(filltable, "_CHUNK_PIXELS", chunk)
+    got = FillTable(image, range_norm, 5, 3, 1.0)
+    assert np.array_equal(got.table, want.table)
+    assert np.array_equal(got.self_unit, want.self_unit)
