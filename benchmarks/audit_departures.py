@@ -163,6 +163,12 @@ VARIANTS["bp-value-copy"] = {"method": "bp", "range_copy": "value"}
 VARIANTS["bp-offset-copy"] = {"method": "bp", "range_copy": "offset"}
 VARIANTS["bp-offset-copy-obs-colorization-completed"] = {
     "method": "bp", "range_copy": "offset", "observation": "colorization-completed"}
+# BP's defaults with one parameter changed (the entries above change Fig. 6's): how much the
+# messages can move the MAP away from Eq. 2's first-ranked label (bench_bp.py --proposals)
+for _name, _kw in {"sigma-i0.4": {"sigma_i": 0.4}, "sigma-i1.5": {"sigma_i": 1.5},
+                   "sigma-s0.05": {"sigma_s": 0.05}, "lambda0.25": {"range_weight": 0.25},
+                   "lambda4": {"range_weight": 4.0}, "lambda16": {"range_weight": 16.0}}.items():
+    VARIANTS[f"bp-with-{_name}"] = {"method": "bp", **_kw}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},
           "report": {"phase": 0, "sizes": ("450x375", "741x500")},

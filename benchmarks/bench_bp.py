@@ -29,9 +29,11 @@ Prints, as Markdown tables:
    :mod:`refsynth.synthesis.bp_proposals`) on the Motorcycle's x-stripes
    63/78/85 % at a stripe phase (1: the choosing split of
    ``audit_departures.py``; 0: its report split), over seeds: each variant's
-   MAR (mean ± sd), its candidate ceiling, its seconds, beside NP and the
-   classical fills (the same calls as ``audit_departures.py``, so the same
-   numbers); ``--room`` does the same on the room's grids 10/20 and 5/25.
+   MAR (mean ± sd), its candidate ceiling, the MAR of its first-ranked labels
+   (each node's largest Φ, Eq. 2's best match) and the share of nodes whose MAP
+   value is that label's, its seconds, beside NP and the classical fills (the
+   same calls as ``audit_departures.py``, so the same numbers); ``--room`` does
+   the same on the room's grids 10/20 and 5/25.
 
 Every case runs in a fresh process, so that its peak resident memory
 (``ru_maxrss``) is its own. Needs scikit-image for the Motorcycle pair.
@@ -125,12 +127,12 @@ def _case(args):
 
 
 #: Section 3's variants: keyword arguments of refsynth.synthesize, by the names of
-#: audit_departures.py's table (one table for both scripts): NP, Fig. 6's BP and BP's
-#: departures for issue #10 (NP's proposals, the completed observations, Eq. 6 with the
-#: centres, the gap-sized training disc, and their combinations).
+#: audit_departures.py's table (one table for both scripts): NP and every BP variant there
+#: (Fig. 6's BP, BP's departures for issue #10 — NP's proposals, the completed observations,
+#: Eq. 6 with the centres, the gap-sized training disc, the labels' copy — and the
+#: parameters' readings: λ, σ_i, σ_s, μ, k).
 PROPOSAL_VARIANTS = {name: kw for name, kw in VARIANTS.items()
-                     if name in ("np", "bp", "bp-fig6") or name.startswith(
-                         ("bp-proposals-", "bp-obs-", "bp-centres", "bp-gap-"))}
+                     if name == "np" or kw["method"] == "bp"}
 #: Section 3's variants that make no random choice: one seed is enough.
 DETERMINISTIC = {name for name, kw in PROPOSAL_VARIANTS.items()
                  if kw["method"] == "bp" and "proposals" not in kw}
@@ -148,7 +150,7 @@ def _proposal_case(args):
     known = _sampling(scene.range.shape, spec, phase) & scene.has_truth
     partial = np.where(known, scene.range, np.nan)
     start = time.perf_counter()
-    ceiling = float("nan")
+    ceiling = top = kept = float("nan")
     if name in CLASSICAL:
         estimate = BASELINES[name](scene.intensity, partial)
     else:
@@ -156,13 +158,19 @@ def _proposal_case(args):
                                      **PROPOSAL_VARIANTS[name])
         estimate = result.range
         if result.method == "bp":  # the candidate ceiling: each node's best candidate
-            truth = scene.range[result.order[:, 0], result.order[:, 1]]
+            rows, cols = result.order[:, 0], result.order[:, 1]
+            truth = scene.range[rows, cols]
             ok = np.isfinite(truth)
-            ceiling = float(np.abs(result.candidate_values[ok] - truth[ok, None])
-                            .min(axis=1).mean())
+            values = result.candidate_values[ok]
+            ceiling = float(np.abs(values - truth[ok, None]).min(axis=1).mean())
+            # the first-ranked label (Eq. 2's best, the largest Φ): its error, and the share
+            # of nodes whose MAP value is its value
+            top = float(np.abs(values[:, 0] - truth[ok]).mean())
+            kept = float(np.mean(estimate[rows, cols][ok] == values[:, 0]))
     seconds = time.perf_counter() - start
-    return dict(name=name, case=f"{scene.name} {spec}", seed=seed, ceiling=ceiling,
-                mar=float(evaluate(estimate, scene.range, known)["mar"]), seconds=seconds)
+    return dict(name=name, case=f"{scene.name} {spec}", seed=seed, ceiling=ceiling, top=top,
+                kept=kept, mar=float(evaluate(estimate, scene.range, known)["mar"]),
+                seconds=seconds)
 
 
 def _proposal_table(pool, args):
@@ -184,8 +192,9 @@ def _proposal_table(pool, args):
               flush=True)
     where = "the room's grids" if args.room else f"stripe phase {args.phase}"
     print(f"\n## 3. BP's proposals ({where})\n")
-    print("| case | variant | MAR mean ± sd | / best classical | candidate ceiling | s |")
-    print("|---|---|---|---|---|---|")
+    print("| case | variant | MAR mean ± sd | / best classical | candidate ceiling "
+          "| first-ranked label's MAR | MAP = first-ranked | s |")
+    print("|---|---|---|---|---|---|---|---|")
     for case in dict.fromkeys(r["case"] for r in rows):
         here = [r for r in rows if r["case"] == case]
         best = min(r["mar"] for r in here if r["name"] in CLASSICAL)
@@ -195,6 +204,8 @@ def _proposal_table(pool, args):
             sd = f" ± {mar.std(ddof=1):.3f}" if mar.size > 1 else ""
             print(f"| {case} | {name} | {mar.mean():.3f}{sd} | {mar.mean() / best:.2f} | "
                   f"{_fmt(float(np.mean([r['ceiling'] for r in mine])))} | "
+                  f"{_fmt(float(np.mean([r['top'] for r in mine])))} | "
+                  f"{_percent(float(np.mean([r['kept'] for r in mine])))} | "
                   f"{np.mean([r['seconds'] for r in mine]):.1f} |", flush=True)
 
 
@@ -267,6 +278,11 @@ def _run(cases, pool):
 def _fmt(value, spec=".3f"):
     return "–" if value is None or (isinstance(value, float) and np.isnan(value)) else \
         format(value, spec)
+
+
+def _percent(value):
+    """A share as a percentage, or "–" where there is none (a classical fill, NP)."""
+    return "–" if np.isnan(value) else f"{100 * value:.1f} %"
 
 
 def _accuracy_table(rows):

@@ -22,7 +22,9 @@ The Eq. 2 distances of the whole candidate set ``A_p`` are one gather and
 three matrix–vector products of :class:`refsynth.synthesis.filltable.FillTable`
 (Eq. 2 with its squares expanded, on narrow float32 rows holding the
 contract's integers), whose rows are updated in place on the n×n windows
-around each newly filled voxel; the fill order is kept up to date the same
+around each newly filled voxel (the offset copy's shift, :meth:`FillTable.offset_shift
+<refsynth.synthesis.filltable.FillTable.offset_shift>`, comes from the drawn candidate's
+row of the same gather); the fill order is kept up to date the same
 way by :class:`refsynth.synthesis.priority.FillFront`, whose
 :class:`~refsynth.synthesis.frontqueue.FrontQueue` pops the next voxel with two
 ``argmax`` over short arrays. Every step makes the decisions of the literal
