@@ -188,8 +188,8 @@ MUTATIONS = [
              "Eq. 11 of the pixel's own window assigned in place of N_best's"),
     # -- NP's Eq. 2 table (filltable.py) ----------------------------------------------
     Mutation("ft-self-term", "np", FILLTABLE,
-             "self._weights_mv[self.one] = self._self_mv[p]",
-             "self._weights_mv[self.one] = 0.0",
+             "self._w_si_mv[self.one] = self._self_mv[p]",
+             "self._w_si_mv[self.one] = 0.0",
              "Eq. 2's expanded square without the target's self term s_p"),
     Mutation("ft-r2-low", "np", FILLTABLE, "values[3] = q * q - values[2]",
              "values[3] = 0.0",

@@ -167,3 +167,42 @@ def test_the_table_does_not_depend_on_its_build_blocks(chunk, monkeypatch):
     got = FillTable(image, range_norm, 5, 3, 1.0)
     assert np.array_equal(got.table, want.table)
     assert np.array_equal(got.self_unit, want.self_unit)
+
+
+@given(
+    st.integers(3, 9),
+    st.integers(3, 9),
+    st.sampled_from([1, 3]),
+    st.sampled_from([1, 3, 5]),
+    st.sampled_from(["mean", "ignore"]),
+    st.sampled_from([0.0, 1.0, 16.0, 0.3]),
+    st.sampled_from([1.0, 1.1, 2.0]),
+    st.integers(0, 2**32 - 1),
+)
+def test_shortlist_keeps_eq4_and_eq5_with_the_same_distances(h, w, channels, n, missing, lam,
+                                                             scale, seed):
+    """FillTable.shortlist (NP's hot path) keeps, in order, every candidate whose Eq. 2 is
+    within ``scale`` of the best (the best included), with distances bit for bit those of
+    distances(); and offset_shift reads the kept candidates' rows. Coarse intensity levels
+    make ties and equal intensity terms common."""
+    rng = np.random.default_rng(seed)
+    image = rng.choice([0, 1, 2**15, 2**16], (h, w, channels)) * 2.0**-16
+    known = rng.random((h, w)) < 0.5
+    known.flat[0] = True
+    values = rng.choice([0, 1, 2**15 + 1, 2**16], (h, w)) * 2.0**-16
+    pad = n // 2 + 1
+    table = FillTable(image, np.where(known, values, np.nan), n, pad, lam, missing)
+    wp = w + 2 * pad
+    inside = ((np.arange(h)[:, None] + pad) * wp + np.arange(w)[None, :] + pad).ravel()
+    for p in rng.choice(inside, min(4, inside.size), replace=False):
+        candidates = rng.permutation(inside)[: max(1, inside.size // 2)]
+        every = table.distances(int(p), candidates)
+        shifts = [table.offset_shift(j) for j in range(candidates.size)]
+        members = np.flatnonzero(every <= scale * every[int(every.argmin())])
+        kept, d = table.shortlist(int(p), candidates, scale)
+        position = np.flatnonzero(np.isin(candidates, kept))
+        assert np.array_equal(candidates[position], kept)  # in the candidates' order
+        assert np.array_equal(d, every[position])
+        assert set(members) <= set(position.tolist())
+        assert int(position[int(d.argmin())]) == int(every.argmin())
+        assert [table.offset_shift(j) for j in range(kept.size)] == [shifts[i] for i in position]

@@ -1,4 +1,4 @@
-r"""Eq. 2 for NP's sequential fill: one narrow row per voxel, one gather per step (§3.2.2).
+r"""Eq. 2 for NP's sequential fill: narrow rows per voxel, a pruned gather per step (§3.2.2).
 
 NP (:mod:`refsynth.synthesis.nonparametric`) evaluates Eq. 2 between the
 voxel ``p`` it fills and every candidate ``q`` of ``A_p`` (Eq. 3), one voxel
@@ -7,7 +7,9 @@ at a time. :class:`FillTable` holds, per voxel of the padded frame, the row
 .. math:: [\, I_{v,c} \mid s_q \mid 1 \mid R_v \mid V_v \mid R_v^2 \,]_{v \in N_q}
 
 (intensity; the self term ``s_q = Σ_v G_v Σ_c I²``; the constant 1; range, stored as 0
-where unknown; has-range indicator; squared range) in float32. The integers of the
+where unknown; has-range indicator; squared range) in float32, held as two arrays: the
+intensity rows ``[I | s | 1]`` (fixed) and the range rows ``[R | V | R² | 1]`` (written as
+the fill goes). The integers of the
 numeric contract (:mod:`refsynth.numeric`) up to ``2**16`` are exact in
 float32; ``s_q`` (below ``2**52``) is stored as three float32 parts and
 ``R²`` (up to ``2**32``) as two, each part exact and their sum exactly the
@@ -38,11 +40,15 @@ combined by the rest of the IEEE operations of
 :func:`refsynth.numeric.combine_eq2`, give the same distances bit for bit
 (``tests/test_np_speed_table.py``).
 
-Per step the cost is a few numpy calls: the products use ``numpy.matvec`` where numpy has it
-(2.2 and later), whose loop stays in this thread (``@`` hands products this size to
-OpenBLAS's threads, whose hand-offs cost more than the products on a shared machine), and a
-synthesized range is written into the 25 rows that hold it through one strided view
-(:meth:`FillTable.set_range`).
+Per step, :meth:`FillTable.shortlist` gathers the intensity rows of every candidate but the
+range rows only of those whose intensity term alone does not already exceed ``1 + ε`` times
+one candidate's whole distance (Eq. 2's range term is never negative, so the others can be
+neither Eq. 4's best match nor in Eq. 5's set): on the Motorcycle about 12 of 190 candidates,
+the same decisions and distances bit for bit. The cost is a few numpy calls: the products use
+``numpy.matvec`` where numpy has it (2.2 and later), whose loop stays in this thread (``@``
+hands products this size to OpenBLAS's threads, whose hand-offs cost more than the products
+on a shared machine), and a synthesized range is written into the 25 rows that hold it
+through one strided view (:meth:`FillTable.set_range`).
 
 References
 ----------
@@ -130,24 +136,28 @@ class FillTable:
     ) -> None:
         H, W, C = image.shape
         self.shape = (H + 2 * pad, W + 2 * pad)
+        pixels = self.shape[0] * self.shape[1]
         self.channels = C
         self.divisor = C if channels == "mean" else 1  # Eq. 2's channel sum, or their mean
         nn = n * n
         base = nn * C
         self.nn, self.base = nn, base
-        # column blocks: I, the self term in three parts, the constant 1, R, V, R² high and
-        # low parts
+        # the intensity rows: I, the self term in three parts, the constant 1
         s0, one = base, base + 3
-        r0 = one + 1
-        v0, h0, l0 = r0 + nn, r0 + 2 * nn, r0 + 3 * nn
-        width = l0 + nn
-        self.one, self.r0, self.v0, self.h0, self.l0, self.width = one, r0, v0, h0, l0, width
-        table = np.zeros((self.shape[0] * self.shape[1], width), dtype=np.float32)
-        table[:, one] = 1.0
-        frame = table.reshape(self.shape + (width,))
+        self.one, self.intensity_width = one, base + 4
+        # the range rows: R, V, R² high and low parts, the constant 1 (read by p's weights)
+        r0, v0, h0, l0 = 0, nn, 2 * nn, 3 * nn
+        width = 4 * nn + 1
+        self.r0, self.v0, self.h0, self.l0, self.range_width = r0, v0, h0, l0, width
+        self.intensity = np.zeros((pixels, base + 4), dtype=np.float32)
+        self.intensity[:, one] = 1.0
+        self.ranges = np.zeros((pixels, width), dtype=np.float32)
+        self.ranges[:, -1] = 1.0
+        frame_i = self.intensity.reshape(self.shape + (base + 4,))
+        frame_r = self.ranges.reshape(self.shape + (width,))
         # Σ G Σ_c I² (exact), then times EQ2_UNIT below: s_p u, the weight of the
         # candidates' constant 1 (a power-of-two scaling: exact)
-        self.self_unit = np.zeros(self.shape[0] * self.shape[1])
+        self.self_unit = np.zeros(pixels)
         self_frame = self.self_unit.reshape(self.shape)
         g = window_weights(n).ravel().astype(np.float64)
         g_int = np.repeat(g, C)  # intensity columns are (offset, channel) raveled
@@ -160,68 +170,69 @@ class FillTable:
         chunk = max(1, _CHUNK_PIXELS // W)
         for top in range(0, H, chunk):
             rows = slice(top, min(H, top + chunk))
-            out = frame[pad + rows.start : pad + rows.stop, pad : pad + W]
+            out = frame_i[pad + rows.start : pad + rows.stop, pad : pad + W]
             ints = np.ascontiguousarray(patches[rows]).reshape(-1, W, base)
             out[:, :, :base] = ints
             s = (ints**2) @ g_int
             self_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = s
             out[:, :, s0:one] = _split(s, 3)
+            out = frame_r[pad + rows.start : pad + rows.stop, pad : pad + W]
             r = rp[rows].reshape(-1, W, nn)
             has = np.isfinite(r)
             r = np.where(has, r, 0.0)
             out[:, :, r0:v0] = r
             out[:, :, v0:h0] = has
-            out[:, :, h0:] = np.concatenate(np.moveaxis(_split(r * r, 2), -1, 0), axis=-1)
-        self.table = table
+            out[:, :, h0:-1] = np.concatenate(np.moveaxis(_split(r * r, 2), -1, 0), axis=-1)
         self.self_unit *= EQ2_UNIT
-        # p's weights, over the columns [I | S | 1 | R | V | R²_hi | R²_lo] and then Eq. 2's
-        # support weights G V_p: w = (row_p[perm] · row_p[square]) · coef, every factor and
-        # product an exact integer times a power of two (the units of the sums, folded into
-        # coef), so every product and partial sum of the mat-vec products stays exact.
-        # `square` reads R_p for the V block (the weight G R_p² u) and the 1 elsewhere; the
-        # weight of the constant 1 is s_p u, written per step.
-        ones = np.full(nn, one)
-        self.perm = np.concatenate([np.arange(base), np.full(4, one), np.arange(r0, v0),
-                                    np.arange(r0, v0), np.arange(v0, h0), np.arange(v0, h0),
-                                    np.arange(v0, h0)])
-        self.square = np.concatenate([np.full(base + 4, one), ones, np.arange(r0, v0), ones,
-                                      ones, ones])
-        self.coef = np.concatenate([-2.0 * g_int, np.ones(4), -2.0 * g, g, g, g]) * EQ2_UNIT
-        self.coef = np.concatenate([self.coef, g * WEIGHT_UNIT])
-        self.weights = np.zeros(width + nn)
-        self.product = np.zeros(width + nn)
+        # p's weights. Intensity, over [I | S | 1]: G I_p (-2 u) on I, u on the self term's
+        # parts, s_p u on the constant 1 (written per step). Range, over [R | V | R²_hi |
+        # R²_lo] and then Eq. 2's support weights G V_p: w = (row_p[perm] · row_p[square]) ·
+        # coef, every factor and product an exact integer times a power of two (the units
+        # of the sums, folded into coef), so every product and partial sum of the mat-vec
+        # products stays exact. `square` reads R_p for the V block (the weight G R_p² u) and
+        # the range row's constant 1 elsewhere.
+        self.coef_i = -2.0 * g_int * EQ2_UNIT
+        self.w_si = np.full(base + 4, EQ2_UNIT)
+        self._w_i = self.w_si[:base]
+        last = np.full(nn, width - 1)
+        self.perm = np.concatenate([np.arange(r0, v0), np.arange(r0, v0), np.arange(v0, h0),
+                                    np.arange(v0, h0), np.arange(v0, h0)])
+        self.square = np.concatenate([last, np.arange(r0, v0), last, last, last])
+        self.coef = np.concatenate([-2.0 * g * EQ2_UNIT, g * EQ2_UNIT, g * EQ2_UNIT,
+                                    g * EQ2_UNIT, g * WEIGHT_UNIT])
+        self.weights = np.zeros(5 * nn)
+        self.product = np.zeros(5 * nn)
         # row_p[perm] and row_p[square] by one take into a buffer (mode "clip": the indices
         # are valid, and "raise" with out= would take into a temporary first)
         self._both = np.concatenate([self.perm, self.square])
-        self._taken = np.empty(2 * (width + nn), dtype=np.float32)
-        self._by_perm, self._by_square = self._taken[: width + nn], self._taken[width + nn :]
-        # views of the weights, made once: intensity and self terms, range, support
-        self.w_si, self.w_sr = self.weights[:r0], self.weights[r0:width]
-        self.g_v = self.weights[width:]  # G V_p w_unit
+        self._taken = np.empty(10 * nn, dtype=np.float32)
+        self._by_perm, self._by_square = self._taken[: 5 * nn], self._taken[5 * nn :]
+        # views of the weights, made once: range, support
+        self.w_sr, self.g_v = self.weights[: 4 * nn], self.weights[4 * nn :]  # g_v: G V_p w
         self.ones = np.ones(nn)
         # offset_shift's operands: p's R and V (from the product above, float64, exact), the
-        # last gathered rows, and buffers for the window's terms
+        # last gathered range rows, and buffers for the window's terms
         self._rp, self._vp = self.product[r0:v0], self.product[h0:l0]
         self.rows = np.zeros((0, width))
         self._gs, self._delta, self._spread, self._support = (np.empty(nn) for _ in range(4))
         self._a, self._b = np.zeros(()), np.zeros(())
-        self.channels = C
         self.lam = float(range_weight)
         self.missing_range = missing_range
         # _combine's scalar operands as 0-d arrays, made once: a ufunc takes a Python scalar
         # by a slower path (about 0.3 µs a call); the same float64 values, the same bits
         self._scalars = (np.array(float(self.divisor)), np.array(self.lam),
                          np.array(self.lam * SUPPORT_PRIOR), np.array(SUPPORT_PRIOR))
+        self._bound = np.zeros(())  # the shortlist's bound, written per step
         self._wa = np.zeros(())  # w_a w_unit, written per step
         # set_range writes p's range into the rows p - o (o an offset of the window, k its
         # raster index) at the columns R, V, R²_hi, R²_lo + k: with o = (a - h) Wp + (b - h)
         # for k = a n + b, one strided view per p, shape (4, n, n), whose element (blk, a, b)
-        # is table[p - o, r0 + blk nn + k]: its flat index is p width + h (Wp + 1) width + r0
+        # is ranges[p - o, r0 + blk nn + k]: its flat index is p width + h (Wp + 1) width + r0
         # + blk nn + a (n - Wp width) + b (1 - width). self._p0 = h (Wp + 1) is the smallest
         # p whose window rows all lie in the frame (every pixel of the image, pad > h).
         wp = self.shape[1]
         self._p0 = p0 = h * (wp + 1)
-        self.flat = flat = table.reshape(-1)
+        self.flat = flat = self.ranges.reshape(-1)
         item = flat.itemsize
         strides = (width * item, nn * item, (n - wp * width) * item, (1 - width) * item)
         start = (p0 + h * (wp + 1)) * width + r0  # the element (p0, 0, 0, 0)
@@ -232,7 +243,22 @@ class FillTable:
         # single values through memoryviews (cheaper than numpy's scalar indexing); a
         # float32 item is set by C's conversion, rounding to nearest as numpy's
         self._values_mv = memoryview(self._values)
-        self._weights_mv, self._self_mv = memoryview(self.weights), memoryview(self.self_unit)
+        self._w_si_mv, self._self_mv = memoryview(self.w_si), memoryview(self.self_unit)
+
+    @property
+    def table(self) -> np.ndarray:
+        """Every voxel's whole row ``[I | s | 1 | R | V | R² | 1]`` (a copy, for inspection)."""
+        return np.concatenate([self.intensity, self.ranges], axis=1)
+
+    def _target(self, p: int) -> None:
+        """Write ``p``'s weights (intensity, range, support) and ``w_a``."""
+        np.multiply(self.intensity[p, : self.base], self.coef_i, out=self._w_i)  # -2 G I_p u
+        self._w_si_mv[self.one] = self._self_mv[p]  # s_p u, exact
+        self.ranges[p].take(self._both, out=self._taken, mode="clip")
+        w = np.multiply(self._by_perm, self._by_square, out=self.product,
+                        dtype=np.float64)  # R_p, R_p², V_p: exact
+        np.multiply(w, self.coef, out=self.weights)
+        np.dot(self.g_v, self.ones, out=self._wa)  # w_a w_unit, exact
 
     def distances(self, p: int, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2 between ``N_p`` and each candidate, as ``PatchTable.distances``.
@@ -261,31 +287,108 @@ class FillTable:
         >>> bool(np.array_equal(fast.distances(33, q), wide.distances(33, q)))
         True
         """
-        row = self.table[p]
-        row.take(self._both, out=self._taken, mode="clip")
-        w = np.multiply(self._by_perm, self._by_square, out=self.product,
-                        dtype=np.float64)  # I_p, 1, R_p, R_p², V_p: exact
-        np.multiply(w, self.coef, out=self.weights)
-        self._weights_mv[self.one] = self._self_mv[p]  # s_p u, exact
-        rows = self.rows = self.table.take(candidates, axis=0).astype(np.float64)
+        self._target(p)
+        si = self._intensity_term(candidates)
+        self.rows = self.ranges.take(candidates, axis=0).astype(np.float64)
+        return self._finish(si)
+
+    def shortlist(self, p: int, candidates: np.ndarray, scale: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """The candidates that can be Eq. 4's best match or in Eq. 5's set, and their Eq. 2.
+
+        Eq. 2 is the intensity term plus a range term ``>= 0``, so a candidate whose
+        intensity term alone exceeds ``scale`` times some candidate's distance is neither
+        the best match nor within ``scale`` of it. The range term is evaluated for the rest
+        only (on the Motorcycle about one candidate in sixteen): the candidate with the
+        smallest intensity term gives the bound.
+
+        Parameters
+        ----------
+        p : int
+            Padded flat index of the target.
+        candidates : ndarray of int, shape (M,), M >= 1
+            Padded flat indices of the candidates, in Eq. 4's tie order.
+        scale : float
+            ``1 + ε`` of Eq. 5 (>= 1).
+
+        Returns
+        -------
+        kept : ndarray of int
+            The candidates that may be within ``scale`` of the best, in their order; the
+            best match and every member of Eq. 5's set among them.
+        distances : ndarray of shape (len(kept),), float64
+            Their Eq. 2 distances, bit for bit those of :meth:`distances`.
+
+        Notes
+        -----
+        Every step is exact or monotone: the intensity term ``t_q`` (the same float as in
+        :meth:`distances`) and ``D_q = fl(t_q + r_q)`` with ``r_q >= 0`` give ``D_q >= t_q``;
+        with ``k`` the candidate of the smallest ``t`` and ``D_min <= D_k``, every ``q``
+        with ``D_q <= fl(scale D_min)`` has ``t_q <= fl(scale D_k)`` and is kept. The
+        kept candidates keep their order, so the first minimum among them is the first
+        overall. :meth:`offset_shift` then reads the kept candidates' rows.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> rng = np.random.default_rng(0)
+        >>> image = rng.integers(0, 2**16, (6, 6, 3)) / 2**16
+        >>> known = np.where(rng.random((6, 6)) < 0.5, rng.random((6, 6)), np.nan)
+        >>> table = FillTable(image, known, 3, 2, 1.0)
+        >>> q = np.arange(2 * 10 + 2, 3 * 10 + 8)
+        >>> every = table.distances(33, q)
+        >>> kept, d = table.shortlist(33, q, 1.1)
+        >>> bool(np.array_equal(d, every[np.isin(q, kept)]))
+        True
+        >>> bool(set(q[every <= 1.1 * every.min()]) <= set(kept))
+        True
+        """
+        self._target(p)
+        si = self._intensity_term(candidates)
+        k = int(si.argmin())
+        bound = self._bound
+        bound[()] = scale * self._distance_of(int(candidates[k]), float(si[k]))
+        keep = np.less_equal(si, bound).nonzero()[0]
+        kept = candidates.take(keep)
+        self.rows = self.ranges.take(kept, axis=0).astype(np.float64)
+        return kept, self._finish(si.take(keep))
+
+    def _intensity_term(self, candidates: np.ndarray) -> np.ndarray:
+        """Eq. 2's intensity term of each candidate (p's weights written)."""
+        rows = self.intensity.take(candidates, axis=0).astype(np.float64)
         # exact: every product and partial sum is an integer below 2**53 times the
-        # power of two its weights carry, so these are the integer sums times their units.
-        # s_i's terms: the positive ones (s_q's parts and s_p) add up to at most
+        # power of two its weights carry, so this is the integer sum times its unit.
+        # The positive terms (s_q's parts and s_p) add up to at most
         # s_p + s_q <= 2 C ΣG 2**32, the negative ones (-2 G I_p I_q) to at least
         # -2 sqrt(s_p s_q) >= -2 C ΣG 2**32 (Cauchy–Schwarz), so every partial sum, in any
-        # order, lies within ±2 C ΣG 2**32 < 1.6 2**52 (C <= 3, ΣG <= 262151 < 1.01 2**18),
-        # the bound the expanded square had before s_p joined the product
-        r0, width = self.r0, self.width
-        si = _matvec(rows[:, :r0], self.w_si)  # (s_p + s_q - 2 Σ G Σ_c I_p I_q) u
-        sr = _matvec(rows[:, r0:width], self.w_sr)  # s_r u
+        # order, lies within ±2 C ΣG 2**32 < 1.6 2**52 (C <= 3, ΣG <= 262151 < 1.01 2**18)
+        si = _matvec(rows, self.w_si)  # (s_p + s_q - 2 Σ G Σ_c I_p I_q) u
+        if self.divisor != 1:  # x / 1 is x exactly: skipped
+            np.divide(si, self._scalars[0], out=si)
+        return si
+
+    def _finish(self, si: np.ndarray) -> np.ndarray:
+        """Eq. 2 from the intensity terms ``si`` and the gathered range rows (in place)."""
+        rows = self.rows
+        sr = _matvec(rows[:, : self.l0 + self.nn], self.w_sr)  # s_r u, exact
         if self.missing_range != "mean":
-            return _combine(si, sr, None, None, self.divisor, self.lam, self.missing_range,
+            return _combine(si, sr, None, None, 1, self.lam, self.missing_range,
                             self._scalars)
-        g_v = self.g_v  # G V_p w_unit
-        ws = _matvec(rows[:, self.v0 : self.h0], g_v)  # w_s w_unit
-        wa = np.dot(g_v, self.ones, out=self._wa)  # w_a w_unit, exact
-        return _combine(si, sr, ws, wa, self.divisor, self.lam, self.missing_range,
+        ws = _matvec(rows[:, self.v0 : self.h0], self.g_v)  # w_s w_unit, exact
+        return _combine(si, sr, ws, self._wa, 1, self.lam, self.missing_range,
                         self._scalars)
+
+    def _distance_of(self, q: int, si: float) -> float:
+        """Eq. 2 of one candidate ``q`` with intensity term ``si``: :func:`_combine`'s
+        operations on Python floats (the same IEEE operations, so the same bits)."""
+        row = self.ranges[q].astype(np.float64)
+        sr = float(np.dot(row[: self.l0 + self.nn], self.w_sr))  # exact
+        if self.lam != 1.0:
+            sr = sr * self.lam
+        if self.missing_range != "mean":
+            return si + sr
+        ws = float(np.dot(row[self.v0 : self.h0], self.g_v)) + SUPPORT_PRIOR
+        return si + (sr + self.lam * SUPPORT_PRIOR) * (float(self._wa) / ws)
 
     def offset_shift(self, j: int) -> int:
         """The offset copy's ``Δ`` between ``N_p`` and the last :meth:`distances`' candidate ``j``.
@@ -357,7 +460,7 @@ class FillTable:
         >>> import numpy as np
         >>> table = FillTable(np.zeros((3, 3, 1)), np.full((3, 3), np.nan), 3, 1, 1.0)
         >>> table.set_range(12, 0.5)
-        >>> float(table.table[12, table.r0 + 4]) == 2.0**15   # the centre's R column
+        >>> float(table.ranges[12, table.r0 + 4]) == 2.0**15   # the centre's R column
         True
         """
         values = self._values_mv

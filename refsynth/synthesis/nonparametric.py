@@ -18,8 +18,10 @@ that the set always holds the best match, even when its distance is 0.
 
 How each step stays a few numpy calls
 -------------------------------------
-The Eq. 2 distances of the whole candidate set ``A_p`` are one gather and
-three matrix–vector products of :class:`refsynth.synthesis.filltable.FillTable`
+The Eq. 2 distances of the candidate set ``A_p`` that can matter to Eqs. 4–5 are two
+gathers and three matrix–vector products of :class:`refsynth.synthesis.filltable.FillTable`
+(:meth:`~refsynth.synthesis.filltable.FillTable.shortlist`: the range term only where the
+intensity term leaves a candidate within ``1 + ε`` of one candidate's distance)
 (Eq. 2 with its squares expanded, on narrow float32 rows holding the
 contract's integers), whose rows are updated in place on the n×n windows
 around each newly filled voxel (the offset copy's shift, :meth:`FillTable.offset_shift
@@ -256,7 +258,7 @@ def np_fill(
     draws = draws.tolist()
     scale = 1.0 + epsilon
     update = ordering != "onion"
-    pop, fill, distances, set_range = front.queue.pop, front.fill, table.distances, table.set_range
+    pop, fill, shortlist, set_range = front.queue.pop, front.fill, table.shortlist, table.set_range
     # single values through memoryviews (Python scalars, cheaper than numpy's indexing)
     values_at, original_at, order_at = memoryview(values), memoryview(original), memoryview(order)
     confidence_of = front.confidence_of
@@ -275,7 +277,8 @@ def np_fill(
         candidates = candidates.compress(filled[candidates])
         if candidates.size == 0:
             candidates = _widened_candidates(p, filled, Wp, radius)
-        d = distances(p, candidates)
+        # Eq. 2 of the candidates that can be the best match or in Eq. 5's set (in order)
+        candidates, d = shortlist(p, candidates, scale)
         best = int(d.argmin())
         # Eq. 5 (eq5_set): the members within (1 + epsilon) of the best, in candidate order
         threshold[()] = scale * d[best]
