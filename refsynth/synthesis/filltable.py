@@ -13,7 +13,7 @@ the fill goes). The integers of the
 numeric contract (:mod:`refsynth.numeric`) up to ``2**16`` are exact in
 float32; ``s_q`` (below ``2**52``) is stored as three float32 parts and
 ``R²`` (up to ``2**32``) as two, each part exact and their sum exactly the
-integer. A row is 716 bytes for a colour 5×5 window, against 1200 for
+integer. A row is 720 bytes (316 + 404) for a colour 5×5 window, against 1200 for
 :class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]``
 (BP's table): the table of a 900×750 image takes about 500 MB instead of 850,
 and each step gathers 40 % fewer bytes.
@@ -144,7 +144,7 @@ class FillTable:
         self.nn, self.base = nn, base
         # the intensity rows: I, the self term in three parts, the constant 1
         s0, one = base, base + 3
-        self.one, self.intensity_width = one, base + 4
+        self.one = one
         # the range rows: R, V, R² high and low parts, the constant 1 (read by p's weights)
         r0, v0, h0, l0 = 0, nn, 2 * nn, 3 * nn
         width = 4 * nn + 1
