@@ -209,3 +209,58 @@ def test_shortlist_keeps_eq4_and_eq5_with_the_same_distances(h, w, channels, n, 
         assert set(members) <= set(position.tolist())
         assert int(position[int(d.argmin())]) == int(every.argmin())
         assert [table.offset_shift(j) for j in range(kept.size)] == [shifts[i] for i in position]
+
+
+@given(
+    st.integers(4, 9),
+    st.integers(4, 9),
+    st.sampled_from([1, 3]),
+    st.sampled_from([3, 5]),
+    st.sampled_from(["mean", "ignore"]),
+    st.sampled_from([1.0, 16.0, 0.3]),
+    st.integers(0, 2**32 - 1),
+)
+def test_shortlist_of_one_returns_the_bounds_distance_and_its_shift(h, w, channels, n, missing,
+                                                                    lam, seed):
+    """Fine random levels make a lone survivor common (about half of NP's steps on real
+    images): the shortlist then returns the distance it computed for the bound, without
+    the batched product, and offset_shift reads that candidate's row and sums. Both must be
+    distances()'s and the shift from distances()'s rows, bit for bit; and after a lone
+    survivor a longer shortlist must not read stale sums."""
+    rng = np.random.default_rng(seed)
+    image = rng.integers(0, 2**16 + 1, (h, w, channels)) * 2.0**-16
+    known = rng.random((h, w)) < 0.6
+    known.flat[0] = True
+    values = rng.integers(0, 2**16 + 1, (h, w)) * 2.0**-16
+    pad = n // 2 + 1
+    table = FillTable(image, np.where(known, values, np.nan), n, pad, lam, missing)
+    wp = w + 2 * pad
+    inside = ((np.arange(h)[:, None] + pad) * wp + np.arange(w)[None, :] + pad).ravel()
+    for p in rng.choice(inside, min(6, inside.size), replace=False):
+        for scale in (1.0 + 2.0**-30, 1.5):  # a lone survivor, then (often) several
+            candidates = rng.permutation(inside)[: max(2, inside.size // 2)]
+            every = table.distances(int(p), candidates)
+            shifts = [table.offset_shift(j) for j in range(candidates.size)]
+            kept, d = table.shortlist(int(p), candidates, scale)
+            position = np.flatnonzero(np.isin(candidates, kept))
+            assert np.array_equal(d, every[position])
+            assert [table.offset_shift(j) for j in range(kept.size)] == [shifts[i]
+                                                                         for i in position]
+
+
+def test_a_lone_survivor_happens_and_is_the_best_match():
+    """The one-candidate path is taken (not only the general one) on a textured image."""
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 2**16 + 1, (9, 9, 3)) * 2.0**-16
+    known = rng.random((9, 9)) < 0.6
+    table = FillTable(image, np.where(known, rng.random((9, 9)), np.nan), 5, 3, 1.0)
+    inside = ((np.arange(9)[:, None] + 3) * 15 + np.arange(9)[None, :] + 3).ravel()
+    lone = 0
+    for p in inside:
+        kept, d = table.shortlist(int(p), inside, 1.01)
+        every = table.distances(int(p), inside)
+        if kept.size == 1:
+            lone += 1
+            assert int(kept[0]) == int(inside[int(every.argmin())])
+            assert d[0] == every.min()
+    assert lone >= 10

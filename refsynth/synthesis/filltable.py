@@ -27,9 +27,10 @@ The gathered rows are widened to float64 and the four sums of Eq. 2
 
     w_s = \sum_v G_v V_p V_q, \qquad w_a = \sum_v G_v V_p
 
-come from three matrix–vector products with weights built from ``p``'s row
-(``s_i`` over ``[I | s_q | 1]``, the constant 1 weighted by ``s_p``; ``s_r`` over
-``[R | V | R²]``; ``w_s`` over ``V``; ``w_a`` is the sum of ``w_s``'s weights). The
+come from two matrix–vector products with weights built from ``p``'s row
+(``s_i`` over ``[I | s_q | 1]``, the constant 1 weighted by ``s_p``; then one product of
+the range rows with three weight rows: ``s_r`` over ``[R | V | R²]``, ``w_s`` over ``V``,
+and the offset copy's ``b``; ``w_a`` is the sum of ``w_s``'s weights). The
 weights carry the sums' units, :data:`~refsynth.numeric.EQ2_UNIT` for ``s_i`` and ``s_r``
 and :data:`~refsynth.numeric.WEIGHT_UNIT` for ``w_s`` and ``w_a`` (powers of two,
 so scaling is exact). Every product and partial sum is an integer below
@@ -44,7 +45,10 @@ Per step, :meth:`FillTable.shortlist` gathers the intensity rows of every candid
 range rows only of those whose intensity term alone does not already exceed ``1 + ε`` times
 one candidate's whole distance (Eq. 2's range term is never negative, so the others can be
 neither Eq. 4's best match nor in Eq. 5's set): on the Motorcycle about 12 of 190 candidates,
-the same decisions and distances bit for bit. The cost is a few numpy calls: the products use
+the same decisions and distances bit for bit. At 43 % of the steps (the Motorcycle at 450×375)
+only the candidate that set the bound is left: its distance, computed for the bound, is
+returned as it is, and NP takes it without Eq. 5's draw (a set of one). The cost is a few
+numpy calls: the products use
 ``numpy.matvec`` where numpy has it (2.2 and later), whose loop stays in this thread (``@``
 hands products this size to OpenBLAS's threads, whose hand-offs cost more than the products
 on a shared machine), and a synthesized range is written into the 25 rows that hold it
@@ -78,6 +82,15 @@ __all__ = ["FillTable"]
 #: never hands these small products to BLAS threads; the sums are exact, so either gives
 #: the same bits.
 _matvec = getattr(np, "matvec", np.matmul)
+
+
+def _by_rows(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``weights @ rows.T``: each row of ``weights`` (``(J, K)``) times the rows ``(M, K)``,
+    shape ``(J, M)``; one matrix-vector product per weight row, by :data:`_matvec`'s loop
+    where numpy has it. The sums are exact, so the same bits either way."""
+    if _matvec is np.matmul:
+        return np.matmul(weights, rows.T)
+    return _matvec(rows, weights)
 
 #: Pixels of the frame built at a time, in whole rows: the float64 temporaries (about 2 MB)
 #: stay in cache. (Blocks of 64 rows took 4.4-4.8 µs per unknown pixel at 450×375 and
@@ -194,34 +207,58 @@ class FillTable:
         self.coef_i = -2.0 * g_int * EQ2_UNIT
         self.w_si = np.full(base + 4, EQ2_UNIT)
         self._w_i = self.w_si[:base]
-        last = np.full(nn, width - 1)
-        self.perm = np.concatenate([np.arange(r0, v0), np.arange(r0, v0), np.arange(v0, h0),
-                                    np.arange(v0, h0), np.arange(v0, h0)])
-        self.square = np.concatenate([last, np.arange(r0, v0), last, last, last])
+        # the range weights as three rows over the range row, so that one product gives
+        # s_r, w_s and the offset copy's b: row 0 is s_r's weights over [R | V | R²_hi |
+        # R²_lo] (0 on the constant), row 1 w_s's, G V_p w over V (0 elsewhere), row 2 b's,
+        # -G V_p w over R and G V_p R_p w over V (b = Σ G V_p V_q (R_p - R_q) w, as R_q = 0
+        # where V_q = 0). An unused entry reads the constant 1 twice and has the
+        # coefficient 0.
+        last, zeros = np.full(nn, width - 1), np.zeros(nn)
+        r_cols, v_cols = np.arange(r0, v0), np.arange(v0, h0)
+        self.perm = np.concatenate([r_cols, r_cols, v_cols, v_cols, [width - 1],
+                                    last, v_cols, last, last, [width - 1],
+                                    v_cols, v_cols, last, last, [width - 1]])
+        self.square = np.concatenate([last, r_cols, last, last, [width - 1],
+                                      last, last, last, last, [width - 1],
+                                      last, r_cols, last, last, [width - 1]])
         self.coef = np.concatenate([-2.0 * g * EQ2_UNIT, g * EQ2_UNIT, g * EQ2_UNIT,
-                                    g * EQ2_UNIT, g * WEIGHT_UNIT])
-        self.weights = np.zeros(5 * nn)
-        self.product = np.zeros(5 * nn)
+                                    g * EQ2_UNIT, [0.0],
+                                    zeros, g * WEIGHT_UNIT, zeros, zeros, [0.0],
+                                    -g * WEIGHT_UNIT, g * WEIGHT_UNIT, zeros, zeros, [0.0]])
+        self.range_weights = np.zeros((3, width))
+        self.weights = self.range_weights.reshape(-1)
+        self.product = np.zeros(3 * width)
         # row_p[perm] and row_p[square] by one take into a buffer (mode "clip": the indices
         # are valid, and "raise" with out= would take into a temporary first)
         self._both = np.concatenate([self.perm, self.square])
-        self._taken = np.empty(10 * nn, dtype=np.float32)
-        self._by_perm, self._by_square = self._taken[: 5 * nn], self._taken[5 * nn :]
+        self._taken = np.empty(6 * width, dtype=np.float32)
+        self._by_perm, self._by_square = self._taken[: 3 * width], self._taken[3 * width :]
         # views of the weights, made once: range, support
-        self.w_sr, self.g_v = self.weights[: 4 * nn], self.weights[4 * nn :]  # g_v: G V_p w
+        self.w_sr = self.range_weights[0, : l0 + nn]
+        self.g_v = self.range_weights[1, v0:h0]  # G V_p w
         self.ones = np.ones(nn)
         # offset_shift's operands: p's R and V (from the product above, float64, exact), the
-        # last gathered range rows, and buffers for the window's terms
+        # last gathered range rows and their [a w; b w] (rows 1 and 2 of the products), and
+        # buffers for the window's terms
         self._rp, self._vp = self.product[r0:v0], self.product[h0:l0]
         self.rows = np.zeros((0, width))
-        self._gs, self._delta, self._spread, self._support = (np.empty(nn) for _ in range(4))
-        self._a, self._b = np.zeros(()), np.zeros(())
+        self._row = np.zeros((1, width))  # one candidate's range row (_distance_of)
+        self._single = np.zeros(1)  # the shortlist's distances when it keeps one candidate
+        self._single_mv = memoryview(self._single)
+        self._ab_single = np.zeros((2, 1))  # _distance_of's [a w; b w]
+        self._ab_single_mv = memoryview(self._ab_single.reshape(-1))
+        self._ab_rows = self._ab_single
+        self._delta, self._spread, self._support = (np.empty(nn) for _ in range(3))
+        self._ab = np.zeros(2)
+        self._a, self._b = self._ab[0:1], self._ab[1:2]
+        self._ab_mv = memoryview(self._ab)
         self.lam = float(range_weight)
         self.missing_range = missing_range
         # _combine's scalar operands as 0-d arrays, made once: a ufunc takes a Python scalar
         # by a slower path (about 0.3 µs a call); the same float64 values, the same bits
         self._scalars = (np.array(float(self.divisor)), np.array(self.lam),
-                         np.array(self.lam * SUPPORT_PRIOR), np.array(SUPPORT_PRIOR))
+                         np.array(self.lam * SUPPORT_PRIOR), np.array(SUPPORT_PRIOR),
+                         np.array([[self.lam * SUPPORT_PRIOR], [SUPPORT_PRIOR]]))
         self._bound = np.zeros(())  # the shortlist's bound, written per step
         self._wa = np.zeros(())  # w_a w_unit, written per step
         # set_range writes p's range into the rows p - o (o an offset of the window, k its
@@ -347,15 +384,20 @@ class FillTable:
         si = self._intensity_term(candidates)
         k = int(si.argmin())
         bound = self._bound
-        bound[()] = scale * self._distance_of(int(candidates[k]), float(si[k]))
-        keep = np.less_equal(si, bound).nonzero()[0]
-        kept = candidates.take(keep)
+        bound[()] = scale * (best := self._distance_of(int(candidates[k]), float(si[k])))
+        keep = np.less_equal(si, bound)
+        kept = candidates.compress(keep)
+        if kept.size == 1:  # k alone (D_k <= scale D_k keeps it): its distance is known
+            self.rows = self._row  # _distance_of's copy of k's row, for offset_shift
+            self._ab_rows = self._ab_single
+            self._single_mv[0] = best
+            return kept, self._single
         self.rows = self.ranges.take(kept, axis=0).astype(np.float64)
-        return kept, self._finish(si.take(keep))
+        return kept, self._finish(si.compress(keep))
 
     def _intensity_term(self, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2's intensity term of each candidate (p's weights written)."""
-        rows = self.intensity.take(candidates, axis=0).astype(np.float64)
+        rows = self.intensity.take(candidates, axis=0)  # widened to float64 by the product
         # exact: every product and partial sum is an integer below 2**53 times the
         # power of two its weights carry, so this is the integer sum times its unit.
         # The positive terms (s_q's parts and s_p) add up to at most
@@ -369,33 +411,38 @@ class FillTable:
 
     def _finish(self, si: np.ndarray) -> np.ndarray:
         """Eq. 2 from the intensity terms ``si`` and the gathered range rows (in place)."""
-        rows = self.rows
-        sr = _matvec(rows[:, : self.l0 + self.nn], self.w_sr)  # s_r u, exact
+        sums = _by_rows(self.range_weights, self.rows)  # [s_r u; w_s w; b w], exact
+        self._ab_rows = sums[1:]  # the offset copy's a and b (w_s is a)
+        sr, ws, _ = sums
         if self.missing_range != "mean":
             return _combine(si, sr, None, None, 1, self.lam, self.missing_range,
                             self._scalars)
-        ws = _matvec(rows[:, self.v0 : self.h0], self.g_v)  # w_s w_unit, exact
         return _combine(si, sr, ws, self._wa, 1, self.lam, self.missing_range,
-                        self._scalars)
+                        self._scalars, both=sums[:2])
 
     def _distance_of(self, q: int, si: float) -> float:
         """Eq. 2 of one candidate ``q`` with intensity term ``si``: :func:`_combine`'s
-        operations on Python floats (the same IEEE operations, so the same bits)."""
-        row = self.ranges[q].astype(np.float64)
-        sr = float(np.dot(row[: self.l0 + self.nn], self.w_sr))  # exact
+        operations on Python floats (the same IEEE operations, so the same bits). Leaves
+        ``q``'s range row in ``self._row`` (float64)."""
+        row = self._row
+        np.copyto(row[0], self.ranges[q])  # widened, exact
+        sr, ws, b = np.dot(self.range_weights, row[0]).tolist()  # exact
+        self._ab_single_mv[0], self._ab_single_mv[1] = ws, b  # offset_shift's a w, b w
         if self.lam != 1.0:
             sr = sr * self.lam
         if self.missing_range != "mean":
             return si + sr
-        ws = float(np.dot(row[self.v0 : self.h0], self.g_v)) + SUPPORT_PRIOR
+        ws = ws + SUPPORT_PRIOR
         return si + (sr + self.lam * SUPPORT_PRIOR) * (float(self._wa) / ws)
 
     def offset_shift(self, j: int) -> int:
         """The offset copy's ``Δ`` between ``N_p`` and the last :meth:`distances`' candidate ``j``.
 
         :func:`refsynth.synthesis.range_copy.offset_shift` (the same integer) on the rows
-        :meth:`distances` has just gathered: ``p``'s ``R`` and ``V`` are in its weights, the
-        candidate's in its row, so the shift costs a few products on the window and no gather.
+        :meth:`distances` (or :meth:`shortlist`) has just gathered: ``a`` and ``b`` are two
+        of the sums Eq. 2's product has just formed, ``p``'s ``R`` and ``V`` are in its
+        weights and the candidate's in its row, so the shift costs a few operations on the
+        window and no gather.
 
         Parameters
         ----------
@@ -411,11 +458,13 @@ class FillTable:
         Notes
         -----
         With ``G`` the integer window and ``u`` :data:`~refsynth.numeric.WEIGHT_UNIT` (a
-        power of two): ``g = G V_p V_q u``, ``a u = Σ g``, ``b u = Σ g δ`` with
-        ``δ = R_p − R_q``, and the agreement test ``|δ (a u) − b u| ≤ 2^{16−7} (a u)`` on
-        the shared support (``V_p V_q = 1``; the term is multiplied by 0 elsewhere). Every
-        product and sum is an integer below ``2**53`` times ``u``: exact in any order, the
-        integers of ``range_copy.offset_shift``.
+        power of two): ``a u = Σ G V_p V_q u`` (Eq. 2's ``w_s``) and ``b u = Σ G V_p V_q δ u``
+        with ``δ = R_p − R_q``, formed as ``Σ (G V_p R_p u) V_q − (G V_p u) R_q`` (``R_q = 0``
+        where ``V_q = 0``) by the third row of the range weights, and the agreement test
+        ``|δ (a u) − b u| ≤ 2^{16−7} (a u)`` on the shared support (``V_p V_q = 1``; the
+        term is multiplied by 0 elsewhere). Every product and sum is an integer below
+        ``2**53`` times ``u``: exact in any order, the integers of
+        ``range_copy.offset_shift``.
 
         Examples
         --------
@@ -429,21 +478,20 @@ class FillTable:
         >>> table.offset_shift(0) == 2 * 2**16 // 8   # R_p - R_q: two steps of the ramp
         True
         """
-        row = self.rows[j]
-        gs = np.multiply(self.g_v, row[self.v0 : self.h0], out=self._gs)  # G V_p V_q u
-        a = np.dot(gs, self.ones, out=self._a)  # a u
+        a, b = self._ab_rows[:, j].tolist()  # a u and b u, from Eq. 2's products
         if a == 0.0:  # no shared support
             return 0
+        row = self.rows[j]
+        self._ab_mv[0], self._ab_mv[1] = a, b
         delta = np.subtract(self._rp, row[self.r0 : self.v0], out=self._delta)
-        b = np.dot(gs, delta, out=self._b)  # b u
-        spread = np.multiply(delta, a, out=self._spread)
-        np.subtract(spread, b, out=spread)
+        spread = np.multiply(delta, self._a, out=self._spread)
+        np.subtract(spread, self._b, out=spread)
         np.multiply(spread, np.multiply(self._vp, row[self.v0 : self.h0], out=self._support),
                     out=spread)  # 0 off the shared support
         np.abs(spread, out=spread)
-        if float(spread[spread.argmax()]) > _SLACK * float(a):
+        if float(spread[spread.argmax()]) > _SLACK * a:
             return 0
-        return round_half_even(int(float(b) * _TO_WINDOW), int(float(a) * _TO_WINDOW))
+        return round_half_even(int(b * _TO_WINDOW), int(a * _TO_WINDOW))
 
     def set_range(self, p: int, value: float) -> None:
         """Record normalised range ``value`` (a multiple of ``2**-16``) at padded index ``p``.
@@ -491,7 +539,7 @@ def _split(x: np.ndarray, parts: int) -> np.ndarray:
 
 
 def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: str,
-             scalars: tuple):
+             scalars: tuple, both=None):
     """:func:`refsynth.numeric.combine_eq2` in place on ``si``, ``sr`` and ``ws``.
 
     ``si`` and ``sr`` arrive already multiplied by :data:`~refsynth.numeric.EQ2_UNIT`,
@@ -500,16 +548,21 @@ def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: 
     IEEE operations in the same order (so the same bits), without allocating, and
     without the multiplications and divisions by 1 (exact identities): ``si``
     returns the distances. ``scalars`` holds the operands ``C``, ``λ``, ``λ ε`` and
-    ``ε`` as 0-d float64 arrays (the same values; see ``FillTable``).
+    ``ε`` as 0-d float64 arrays (the same values; see ``FillTable``). ``both``, when
+    given, is the array whose rows are ``sr`` and ``ws``: their priors are then
+    added by one call (the same two additions).
     """
-    divisor, lam, lam_prior, prior = scalars
+    divisor, lam, lam_prior, prior = scalars[:4]
     if channels != 1:  # x / 1 and x * 1 are x exactly: skipped
         np.divide(si, divisor, out=si)
     if range_weight != 1.0:
         np.multiply(sr, lam, out=sr)
     if missing_range == "mean":
-        np.add(sr, lam_prior, out=sr)
-        np.add(ws, prior, out=ws)
+        if both is not None:
+            sr, ws = np.add(both, scalars[4])  # [sr + λε, ws + ε] (a new array: ws stays)
+        else:
+            np.add(sr, lam_prior, out=sr)
+            np.add(ws, prior, out=ws)
         np.divide(wa, ws, out=ws)
         np.multiply(sr, ws, out=sr)
     return np.add(si, sr, out=si)

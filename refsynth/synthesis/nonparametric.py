@@ -279,11 +279,14 @@ def np_fill(
             candidates = _widened_candidates(p, filled, Wp, radius)
         # Eq. 2 of the candidates that can be the best match or in Eq. 5's set (in order)
         candidates, d = shortlist(p, candidates, scale)
-        best = int(d.argmin())
-        # Eq. 5 (eq5_set): the members within (1 + epsilon) of the best, in candidate order
-        threshold[()] = scale * d[best]
-        members = np.less_equal(d, threshold).nonzero()[0]  # indices into candidates
-        j = int(members[int(draws[step] * members.size)])
+        if candidates.size == 1:  # the best match and Eq. 5's only member (j below: 0)
+            best = j = 0
+        else:
+            best = int(d.argmin())
+            # Eq. 5 (eq5_set): the members within (1 + epsilon) of the best, in candidate order
+            threshold[()] = scale * d[best]
+            members = np.less_equal(d, threshold).nonzero()[0]  # indices into candidates
+            j = int(members[int(draws[step] * members.size)])
         q = int(candidates[j])
         value = values_at[q]
         original_at[p] = original_at[q]
