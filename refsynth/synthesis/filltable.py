@@ -92,6 +92,7 @@ def _by_rows(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:
         return np.matmul(weights, rows.T)
     return _matvec(rows, weights)
 
+
 #: Pixels of the frame built at a time, in whole rows: the float64 temporaries (about 2 MB)
 #: stay in cache. (Blocks of 64 rows took 4.4-4.8 µs per unknown pixel at 450×375 and
 #: 900×750, against 1.2-1.3.)
@@ -354,7 +355,8 @@ class FillTable:
             The candidates that may be within ``scale`` of the best, in their order; the
             best match and every member of Eq. 5's set among them.
         distances : ndarray of shape (len(kept),), float64
-            Their Eq. 2 distances, bit for bit those of :meth:`distances`.
+            Their Eq. 2 distances, bit for bit those of :meth:`distances`. With one
+            candidate kept, a buffer of the table that the next call overwrites.
 
         Notes
         -----
@@ -550,7 +552,8 @@ def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: 
     returns the distances. ``scalars`` holds the operands ``C``, ``λ``, ``λ ε`` and
     ``ε`` as 0-d float64 arrays (the same values; see ``FillTable``). ``both``, when
     given, is the array whose rows are ``sr`` and ``ws``: their priors are then
-    added by one call (the same two additions).
+    added by one call (the same two additions) into a new array, so that ``ws``
+    stays the offset copy's ``a`` (:meth:`FillTable.offset_shift`).
     """
     divisor, lam, lam_prior, prior = scalars[:4]
     if channels != 1:  # x / 1 and x * 1 are x exactly: skipped
