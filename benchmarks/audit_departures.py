@@ -32,6 +32,8 @@ of the two seed-to-seed standard deviations.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import functools
 import json
 import sys
 import time
@@ -169,6 +171,9 @@ for _name, _kw in {"sigma-i0.4": {"sigma_i": 0.4}, "sigma-i1.5": {"sigma_i": 1.5
                    "sigma-s0.05": {"sigma_s": 0.05}, "lambda0.25": {"range_weight": 0.25},
                    "lambda4": {"range_weight": 4.0}, "lambda16": {"range_weight": 16.0}}.items():
     VARIANTS[f"bp-with-{_name}"] = {"method": "bp", **_kw}
+# BP's defaults with 0.6's observations' fill (Gauss-Seidel on the image alone; 0.7 solves
+# it by the cascade, refsynth.synthesis.completion): run_one switches the fill's solver
+VARIANTS["bp-fill-gauss-seidel"] = {"method": "bp", "fill_solver": "gauss-seidel"}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},
           "report": {"phase": 0, "sizes": ("450x375", "741x500")},
@@ -182,6 +187,23 @@ def _scene(size: str, crop: bool = False):
     if crop:  # issue #10's protocol: columns 70:670, the disparity in the pair's pixels
         return motorcycle((width, height), crop=MOTORCYCLE_CROP, units="native")
     return motorcycle((width, height))
+
+
+@contextlib.contextmanager
+def _fill_solver(solver: str | None):
+    """BP's observations filled by ``portable_colorization(..., solver=solver)`` inside."""
+    if solver is None:
+        yield
+        return
+    from refsynth.synthesis import bp_observation
+    from refsynth.synthesis.completion import portable_colorization
+
+    bp_observation.portable_colorization = functools.partial(portable_colorization,
+                                                             solver=solver)
+    try:
+        yield
+    finally:
+        bp_observation.portable_colorization = portable_colorization
 
 
 def run_one(job: tuple) -> dict:
@@ -199,7 +221,10 @@ def run_one(job: tuple) -> dict:
     if name in CLASSICAL:
         estimate = BASELINES[name](scene.intensity, partial)
     else:
-        estimate = refsynth.synthesize(scene.intensity, partial, seed=seed, **VARIANTS[name]).range
+        options = dict(VARIANTS[name])
+        solver = options.pop("fill_solver", None)
+        with _fill_solver(solver):
+            estimate = refsynth.synthesize(scene.intensity, partial, seed=seed, **options).range
     seconds = time.perf_counter() - start
     scores = evaluate(estimate, scene.range, known)
     return dict(name=name, size=f"crop{size}" if len(job) > 5 and job[5] else size,

@@ -34,6 +34,7 @@ Run::
     python benchmarks/bench_speed.py --quick           # 112×94 and 225×188 only
     python benchmarks/bench_speed.py --sizes 450x375 --methods np,colorization --repeat 3
     python benchmarks/bench_speed.py --bp-stages       # BP's stages, CPU time (~3 min)
+    python benchmarks/bench_speed.py --fill-solvers    # BP's observations' fill (~3 min)
 
 Needs scikit-image (the Motorcycle).
 """
@@ -257,6 +258,52 @@ def bp_stages(sizes, out=sys.stdout) -> dict:
     return results
 
 
+def fill_solvers(sizes, out=sys.stdout) -> dict:
+    """BP's observations' fill by the cascade and by Gauss–Seidel alone, on the same inputs.
+
+    ``portable_colorization`` (``solver="cascadic"``, 0.7's, and ``"gauss-seidel"``, 0.6's)
+    on the Motorcycle's x-stripes at 63 / 78 / 85 % unknown (stripe phase 0): CPU µs per
+    unknown pixel, the sweeps run on the image itself, and the fill's MAR against the ground
+    truth beside the direct solve's (``colorization_fill``, SuperLU). Returns
+    ``{(width, height, percent, solver): {"us": float, "sweeps": int, "mar": float}}``.
+    """
+    from refsynth.acquisition.sampling import x_stripes_for_fraction
+    from refsynth.evaluation.baselines import colorization_fill
+    from refsynth.evaluation.metrics import mar
+    from refsynth.scenes import motorcycle
+    from refsynth.synthesis.completion import SOLVERS, portable_colorization
+
+    print("BP's observations' fill (portable_colorization), Motorcycle, x-stripes, phase 0: "
+          "CPU µs per unknown pixel, the sweeps on the image itself, MAR (px) against the "
+          "ground truth\n", file=out)
+    print("| size | unknown | solver | µs per unknown pixel | sweeps | MAR | direct solve's MAR |",
+          file=out)
+    print("|---|---|---|---|---|---|---|", file=out)
+    results = {}
+    for size in sizes:
+        scene = motorcycle(size)
+        for percent in (63, 78, 85):
+            known = x_stripes_for_fraction(scene.range.shape, percent / 100) & scene.has_truth
+            partial = np.where(known, scene.range, np.nan)
+            unknown = int((~known).sum())
+            direct = mar(colorization_fill(scene.intensity, partial), scene.range, known)
+            for solver in SOLVERS:
+                start = time.process_time()
+                fill, sweeps = portable_colorization(scene.intensity, partial, solver=solver,
+                                                     return_sweeps=True)
+                us = 1e6 * (time.process_time() - start) / unknown
+                score = mar(fill, scene.range, known)
+                results[size + (percent, solver)] = dict(us=us, sweeps=int(sweeps), mar=score)
+                print(f"| {size[0]}×{size[1]} | {percent} % | {solver} | {us:.3g} | {sweeps} | "
+                      f"{score:.4f} | {direct:.4f} |", file=out, flush=True)
+    for solver in SOLVERS:
+        for percent in (63, 78, 85):
+            per = [r["us"] for key, r in results.items() if key[2:] == (percent, solver)]
+            print(f"- {solver}, {percent} %: " + " / ".join(f"{v:.3g}" for v in per)
+                  + f" µs per unknown pixel (max/min {max(per) / min(per) - 1:+.0%})", file=out)
+    return results
+
+
 def _linearity(results: dict, methods, out, key: str = "seconds", what: str = "wall") -> None:
     """µs per unknown pixel (``key``: wall or CPU seconds) from the smallest to the largest
     size, against ±25 %."""
@@ -292,6 +339,9 @@ def main(argv=None) -> int:
     parser.add_argument("--bp-stages", action="store_true",
                         help="instead: the CPU time of each of BP's stages, read from its "
                         "progress reports, and the observations' fill's sweeps")
+    parser.add_argument("--fill-solvers", action="store_true",
+                        help="instead: BP's observations' fill by the cascade and by "
+                        "Gauss-Seidel alone, its time, sweeps and MAR")
     parser.add_argument("--child", nargs=2, metavar=("METHOD", "SIZE"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
@@ -307,6 +357,9 @@ def main(argv=None) -> int:
     sizes = QUICK_SIZES if args.quick else (args.sizes or SIZES)
     if args.bp_stages:
         bp_stages(sizes)
+        return 0
+    if args.fill_solvers:
+        fill_solvers(sizes)
         return 0
     run(sizes, args.methods, repeat=args.repeat, rss=not args.no_rss)
     return 0

@@ -48,6 +48,7 @@ ONION = "refsynth/synthesis/onion.py"
 BP_SEARCH = "refsynth/synthesis/bp_search.py"
 BP_MODEL = "refsynth/synthesis/bp_model.py"
 MESSAGES = "refsynth/synthesis/messages.py"
+COMPLETION = "refsynth/synthesis/completion.py"
 REG = "refsynth/registration"
 
 ORACLE_FAST = "tests/test_oracle.py::test_the_fast_code_passes_every_case_it_handles"
@@ -64,6 +65,7 @@ TESTS = {
                  "tests/test_reference.py", "tests/test_assembly.py",
                  "tests/test_np_speed_front.py", "tests/test_np_speed_steps.py",
                  "tests/test_mutation_gaps.py"],
+    "completion": ["tests/test_completion.py", "tests/test_progress.py"],
     "registration": ["tests/test_panorama.py", "tests/test_laser_camera.py",
                      "tests/test_registration_scenes.py"],
 }
@@ -317,6 +319,15 @@ MUTATIONS = [
     Mutation("reg-eq19-tan", "registration", f"{REG}/range_image.py",
              "np.asarray(focal / np.tan(theta))", "np.asarray(focal * np.tan(theta))",
              "Eq. 19's f / tan θ as f · tan θ"),
+    Mutation("cascade-no-doubling", "completion", COMPLETION, "min(2 * most, max_sweeps)",
+             "min(most, max_sweeps)",
+             "the cascade's coarser levels given the finest level's sweeps, not twice as many"),
+    Mutation("cascade-no-put-back", "completion", COMPLETION,
+             "start = np.where(known, range_values, start)", "start = start",
+             "a level's start keeps the coarse solution at the measured pixels"),
+    Mutation("cascade-block-count", "completion", COMPLETION,
+             "count[cells] = count[cells] + inside", "count[cells] = count[cells] + 1.0",
+             "the coarse range's block mean divided by four, not by its measured pixels"),
 ]
 
 

@@ -17,7 +17,7 @@ from strategies import small_scene
 
 from refsynth.evaluation.baselines import colorization_affinities, colorization_fill
 from refsynth.synthesis import completion
-from refsynth.synthesis.completion import portable_affinities, portable_colorization
+from refsynth.synthesis.completion import COARSEST, portable_affinities, portable_colorization
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -204,6 +204,111 @@ def test_a_positive_affine_map_of_the_range_commutes(scene, scale, shift):
                                atol=1e-9 * (abs(shift) + 5.0 * scale))
 
 
+# ----------------------------------------------------------------------------- the cascade
+
+
+def _large_case(seed: int, height: int = 40, width: int = 52):
+    """A textured image with an intensity edge, a slanted range, known columns: two levels."""
+    g = np.random.default_rng(seed)
+    rows, cols = np.mgrid[:height, :width]
+    image = np.where(cols > width // 2, 0.7, 0.2) + 0.05 * g.random((height, width))
+    truth = np.where(cols > width // 2, 4.0 + 0.02 * rows, 1.0 + 0.03 * cols)
+    known = (cols % 7 < 2) & (g.random((height, width)) < 0.9)
+    return image, np.where(known, truth, np.nan)
+
+
+@given(small_scene(max_side=2 * COARSEST - 1), st.integers(1, 300))
+def test_one_level_is_gauss_seidel_bit_for_bit(scene, sweeps):
+    """Below 2·COARSEST on a side the cascade has one level: 0.6's fill, bit for bit."""
+    image, truth, known = scene
+    partial = np.where(known, truth, np.nan)
+    np.testing.assert_array_equal(
+        portable_colorization(image, partial, sweeps=sweeps),
+        portable_colorization(image, partial, solver="gauss-seidel"))
+
+
+def test_the_block_means_of_a_hand_built_grid():
+    values = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]])
+    valid = np.array([[True, False, False], [True, True, False], [False, False, True]])
+    np.testing.assert_array_equal(completion._block_mean(values, np.ones((3, 3), bool)),
+                                  [[3.0, 4.5], [7.5, 9.0]])
+    got = completion._block_mean(values, valid)
+    np.testing.assert_array_equal(got, [[10.0 / 3.0, np.nan], [np.nan, 9.0]])
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_cascade_converges_to_the_direct_solve(seed):
+    """Run on, every level converges: the system is the baseline's, whatever the starts."""
+    image, partial = _large_case(seed)
+    direct = colorization_fill(image, partial)
+    tight = portable_colorization(image, partial, tolerance=1e-13, sweeps=100_000,
+                                  max_sweeps=100_000)
+    np.testing.assert_allclose(tight, direct, rtol=0, atol=1e-9 * 3.0)
+
+
+def test_the_coarse_start_does_most_of_the_work():
+    """A ramp between two known columns on a flat image (the solution is the ramp): a few
+    sweeps from the coarse solution come much closer than as many from the nearest fill."""
+    H, W = 48, 64
+    image = np.full((H, W), 0.5)
+    truth = np.tile(np.linspace(1.0, 3.0, W), (H, 1))
+    partial = np.where((np.arange(W) < 2) | (np.arange(W) >= W - 2), truth, np.nan)
+    partial = np.broadcast_to(partial, (H, W)).copy()
+    cascade, run = portable_colorization(image, partial, sweeps=5, tolerance=0.0,
+                                         return_sweeps=True)
+    plain = portable_colorization(image, partial, solver="gauss-seidel", max_sweeps=5,
+                                  tolerance=0.0)
+    assert run == 5
+    error, plain_error = np.abs(cascade - truth).max(), np.abs(plain - truth).max()
+    assert error < 0.1 * plain_error and error < 0.1
+
+
+def test_the_cascade_bounds_its_finest_sweeps():
+    image, partial = _large_case(3)
+    _, run = portable_colorization(image, partial, sweeps=7, tolerance=0.0, return_sweeps=True)
+    assert run == 7
+    _, run = portable_colorization(image, partial, sweeps=7, max_sweeps=3, tolerance=0.0,
+                                   return_sweeps=True)
+    assert run == 3
+
+
+def test_the_most_sweeps_double_on_each_coarser_level(monkeypatch):
+    """Fine ``sweeps``, twice that on the next level, ``max_sweeps`` on the coarsest; the
+    levels' shapes halve (rounded up) coarsest-first."""
+    seen = []
+    solve = completion._gauss_seidel
+
+    def spy(weights, rhs, diagonal, stop, most, **kw):
+        seen.append((rhs.shape, most))
+        return solve(weights, rhs, diagonal, stop, most, **kw)
+
+    monkeypatch.setattr(completion, "_gauss_seidel", spy)
+    image, partial = _large_case(6, 130, 140)  # 130 → 65 → 33 → 17 on the short side
+    portable_colorization(image, partial, sweeps=10, max_sweeps=500)
+    assert seen == [((17, 18), 500), ((33, 35), 40), ((65, 70), 20), ((130, 140), 10)]
+
+
+@pytest.mark.parametrize(("offset", "scale", "shift"), [(0.25, 1.0, 0.0), (0.0, 3.5, -2.0)])
+def test_the_cascade_commutes_with_an_offset_and_an_affine_range(offset, scale, shift):
+    image, partial = _large_case(4)
+    out = portable_colorization(image, partial)
+    np.testing.assert_allclose(portable_colorization(image * 0.5 + offset, partial,
+                                                     tolerance=1e-9),
+                               portable_colorization(image * 0.5, partial, tolerance=1e-9),
+                               rtol=0, atol=1e-6)
+    mapped = portable_colorization(image, scale * partial + shift)
+    np.testing.assert_allclose(mapped, scale * out + shift, rtol=0, atol=1e-9 * 10 * scale)
+
+
+def test_the_cascade_reports_progress_forward_and_changes_no_bit():
+    image, partial = _large_case(5, 70, 80)  # three levels
+    seen = []
+    got = portable_colorization(image, partial, progress=lambda d, t: seen.append((d, t)))
+    np.testing.assert_array_equal(got, portable_colorization(image, partial))
+    values = [done for done, _ in seen]
+    assert len(values) > 20 and values == sorted(set(values)) and seen[-1] == (1000, 1000)
+
+
 # ----------------------------------------------------------------------------- bad input
 
 
@@ -215,6 +320,9 @@ def test_a_positive_affine_map_of_the_range_commutes(scene, scale, shift):
     (dict(tolerance=None), TypeError, "tolerance"),
     (dict(max_sweeps=0), ValueError, "max_sweeps"),
     (dict(max_sweeps=10.0), TypeError, "max_sweeps"),
+    (dict(sweeps=0), ValueError, "sweeps"),
+    (dict(sweeps=2.5), TypeError, "sweeps"),
+    (dict(solver="multigrid"), ValueError, "solver"),
 ])
 def test_bad_parameters_are_refused_by_name(kwargs, error, name):
     image, truth, known = _step_scene()

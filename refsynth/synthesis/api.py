@@ -83,8 +83,9 @@ __all__ = [
 
 #: The observations' fill's share of BP's work with ``observation="colorization"`` (BP's
 #: progress reports, :mod:`refsynth.synthesis.progress`): CPU time on the Motorcycle,
-#: x-stripes 78 % (``python benchmarks/bench_speed.py --bp-stages``).
-OBSERVATION_SHARE = 0.25
+#: x-stripes 78 % (``python benchmarks/bench_speed.py --bp-stages``: 9 % at 450×375 and 10 % at
+#: 900×750 since 0.7's cascade; 0.6's Gauss–Seidel alone took about a quarter).
+OBSERVATION_SHARE = 0.10
 
 @dataclass(frozen=True)
 class SynthesisResult:

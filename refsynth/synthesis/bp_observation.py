@@ -27,7 +27,8 @@ compares measured range).
 
 The fill is :func:`refsynth.synthesis.completion.portable_colorization` (the
 system of :func:`refsynth.evaluation.baselines.colorization_fill` solved by
-Gauss–Seidel sweeps with fixed-order sums and
+a cascadic multigrid of Gauss–Seidel sweeps, linear in the pixels since 0.7, with
+fixed-order sums and
 :func:`~refsynth.numeric.portable_exp`: the same bits on every machine, which
 the baseline's SuperLU solve is not) of the *quantised* range guided by the
 *quantised* intensity (:mod:`refsynth.numeric`), so an offset or positive

@@ -17,6 +17,19 @@ Gauss–Seidel sweeps that use only what :mod:`refsynth.numeric` allows:
 
 So the same call gives the same bits on any CPU, SIMD width, BLAS and thread count.
 
+**Cascadic multigrid** (``solver="cascadic"``, the default since 0.7; Bornemann & Deuflhard
+1996). Plain Gauss–Seidel needs more sweeps the larger the image (the stopping rule is met
+after 641 / 388 / 968 / 1438 sweeps at 112×94 … 900×750 on the Motorcycle's x-stripes at
+78 %), so its cost per pixel grew fourfold over that range. The cascade solves the same
+system on the image halved (2×2 block means of the guide and of the measured range, each sum
+in a fixed order), recursively down to a side below ``2 · COARSEST``, takes each level's
+solution, repeated over its 2×2 block with the measured values put back, as the next finer
+level's start, and runs at most ``sweeps`` sweeps on the finest level, twice as many on each
+coarser one (``max_sweeps`` on the coarsest), each level also stopping at the rule. Its cost
+is at most ``2 · sweeps`` sweeps' worth of the finest level: linear in the pixels. An image
+whose smaller side is below ``2 · COARSEST`` has one level, and its fill is plain
+Gauss–Seidel's, bit for bit (the oracle's cases are such images).
+
 The sweeps are Gauss–Seidel over four colours, the pixels ``(r, c)`` grouped by
 ``(r mod 2, c mod 2)``: no two pixels of one colour are 3×3 neighbours, so each colour is
 updated at once, vectorised. The off-diagonal weights are non-negative and sum to 1 in every
@@ -26,8 +39,9 @@ Gauss–Seidel converges (the bound ``max_sweeps`` holds in any case). Over-rela
 (ω > 1) does not always converge here (it diverged on the Motorcycle at 85 % unknown with
 ω = 1.6) and is not offered.
 
-Measured on the Motorcycle's x-stripes (phase 1, 63 / 78 / 85 % unknown, MAR in disparity
-px, the defaults; one run each on a shared 2-core machine, so the times are rough):
+Measured with ``solver="gauss-seidel"`` (0.6's fill) on the Motorcycle's x-stripes (phase 1,
+63 / 78 / 85 % unknown, MAR in disparity px; one run each on a shared 2-core machine, so the
+times are rough):
 
 ================================  =======================  =======================
 \                                 450×375                  900×750
@@ -45,8 +59,14 @@ BP with this fill as its observations (``observation="colorization"``, 450×375)
 ``tolerance=1e-13`` on small cases the sweeps meet the direct solve to within 1e-9 of the
 range's span (``tests/test_completion.py``).
 
+The cascade (``sweeps=200``) against it, on the same cases at phase 0 (CPU µs per unknown
+pixel; MAR of the fill against the ground truth, the direct solve's in brackets; printed by
+``python benchmarks/bench_speed.py --fill-solvers``) is in the README's speed section.
+
 References
 ----------
+F. A. Bornemann and P. Deuflhard, "The cascadic multigrid method for elliptic problems",
+Numerische Mathematik 75:135–152 (1996), doi:10.1007/s002110050234.
 A. Levin, D. Lischinski and Y. Weiss, "Colorization using optimization", ACM TOG 23(3):689–694
 (SIGGRAPH 2004), doi:10.1145/1015706.1015780.
 N. Silberman, D. Hoiem, P. Kohli and R. Fergus, ECCV 2012: the NYU Depth V2 toolbox,
@@ -64,12 +84,16 @@ from refsynth._checks import BT601, check_int, check_real, grey
 from refsynth.numeric import portable_exp, portable_log
 from refsynth.synthesis.limits import validate_inputs
 
-__all__ = ["portable_affinities", "portable_colorization"]
+__all__ = ["COARSEST", "SOLVERS", "portable_affinities", "portable_colorization"]
 
 #: The 3×3 window without its centre, (row, col) offsets in raster order.
 OFFSETS = tuple((dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0))
 
 _PER_MILLE = 1000  # the total of a progress report
+#: The cascade halves the image while its smaller side is at least twice this.
+COARSEST = 16
+#: The solvers :func:`portable_colorization` offers.
+SOLVERS = ("cascadic", "gauss-seidel")
 _BAND = 1 << 15  # pixels of a colour updated at once by a sweep (its operands stay in cache)
 
 
@@ -148,6 +172,8 @@ def portable_colorization(
     alpha: float = 1.0,
     tolerance: float = 1e-4,
     max_sweeps: int = 2000,
+    solver: str = "cascadic",
+    sweeps: int = 200,
     progress: Callable[[int, int], None] | None = None,
     return_sweeps: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, int]:
@@ -155,8 +181,9 @@ def portable_colorization(
 
     The system of :func:`refsynth.evaluation.baselines.colorization_fill` (each pixel's range
     the affinity-weighted mean of its 3×3 neighbours'; measured pixels pulled towards their
-    measurement with weight ``alpha``), solved by four-colour Gauss–Seidel sweeps from the
-    nearest fill with elementwise IEEE arithmetic only (see the module's docstring).
+    measurement with weight ``alpha``), solved by four-colour Gauss–Seidel sweeps with
+    elementwise IEEE arithmetic only, from a coarse-to-fine start (the cascade) or from the
+    nearest fill (see the module's docstring).
 
     Parameters
     ----------
@@ -169,26 +196,33 @@ def portable_colorization(
     alpha : float, default 1
         Weight of the data term on the measured pixels, > 0.
     tolerance : float, default 1e-4
-        Stop after the first sweep that moves no pixel by more than ``tolerance`` times the
-        span (max − min) of the measured range; >= 0 (0 runs ``max_sweeps`` sweeps).
+        Each level stops after the first sweep that moves no pixel by more than
+        ``tolerance`` times the span (max − min) of the measured range; >= 0 (0 runs every
+        level's most sweeps).
     max_sweeps : int, default 2000
-        The most sweeps, >= 1.
+        The most sweeps of the coarsest level (of the only one with
+        ``solver="gauss-seidel"``) and of any level, >= 1.
+    solver : {"cascadic", "gauss-seidel"}, default "cascadic"
+        The cascadic multigrid (linear cost) or Gauss–Seidel on the image alone (0.6's fill,
+        whose sweeps grow with the image). Both give the same bits on an image whose smaller
+        side is below ``2 * COARSEST``.
+    sweeps : int, default 200
+        The cascade's most sweeps on the finest level (doubled on each coarser level), >= 1.
     progress : callable, optional
-        ``progress(done, 1000)`` after a sweep: per mille of the sweeps this
-        fill is estimated to need (the rate at which the largest change has
-        fallen, extrapolated to the stopping rule's ``tolerance``), never
-        backwards, and ``(1000, 1000)`` at the end. It reads the sweeps and
-        changes nothing in them.
+        ``progress(done, 1000)`` after a sweep: per mille of the estimated work, never
+        backwards, and ``(1000, 1000)`` at the end (the cascade: the sweeps run times their
+        level's pixels over that plus the most the levels can still run; Gauss–Seidel: the
+        rate at which the largest change has fallen, extrapolated to the stopping rule). It
+        reads the sweeps and changes nothing in them.
     return_sweeps : bool, default False
-        Also return the number of sweeps run.
+        Also return the number of sweeps run on the finest level (the image itself).
 
     Returns
     -------
     ndarray of shape (H, W), float64
         Measured pixels unchanged; a constant measured range comes back exactly.
     sweeps : int
-        Only with ``return_sweeps``: the Gauss–Seidel sweeps run (at most
-        ``max_sweeps``).
+        Only with ``return_sweeps``: the Gauss–Seidel sweeps run on the finest level.
 
     Raises
     ------
@@ -199,16 +233,17 @@ def portable_colorization(
     -----
     With the weights :math:`w_{rs}` of :func:`portable_affinities`, the known mask :math:`K`
     and the measured range :math:`d`, the fill solves
-    :math:`((I - W) + \alpha\,\mathrm{diag}(K))\,x = \alpha K d`. As in ``colorization_fill``
-    the unknown is the correction :math:`y = x - x_0` to the nearest fill :math:`x_0`, whose
-    right-hand side :math:`b_r = \sum_s w_{rs}(x_{0,s} - x_{0,r})` is exactly 0 where
-    :math:`x_0` is locally constant. A sweep sets, colour by colour,
+    :math:`((I - W) + \alpha\,\mathrm{diag}(K))\,x = \alpha K d`. On each level the unknown
+    is the correction :math:`y = x - x_0` to the level's start :math:`x_0` (the nearest fill
+    on the coarsest level, the coarser level's solution elsewhere; :math:`d` where measured),
+    whose right-hand side is :math:`b_r = \sum_s w_{rs}(x_{0,s} - x_{0,r})`. A sweep sets,
+    colour by colour,
 
     .. math:: y_r \leftarrow \Bigl(b_r + \sum_s w_{rs}\, y_s\Bigr) / (1 + \alpha K_r),
 
-    the terms added in the order of :data:`OFFSETS`. The result differs from the direct
-    solve by what the stopping rule leaves: on the Motorcycle's x-stripes (450×375, 63 / 78
-    / 85 % unknown) a mean absolute difference of about 0.002 / 0.015 / 0.046 disparity px.
+    the terms added in the order of :data:`OFFSETS`. The coarser level's guide and measured
+    range are the 2×2 block means (of the block's pixels inside the image, and of its
+    measured pixels: NaN where it has none), each sum in raster order.
 
     Examples
     --------
@@ -224,27 +259,106 @@ def portable_colorization(
     alpha = check_real("alpha", alpha, positive=True)
     tolerance = check_real("tolerance", tolerance, minimum=0.0)
     max_sweeps = check_int("max_sweeps", max_sweeps, minimum=1)
+    sweeps = check_int("sweeps", sweeps, minimum=1)
+    if solver not in SOLVERS:
+        raise ValueError(f"The parameter `solver` must be one of {SOLVERS}, got {solver!r}")
     guide = grey(image, BT601)  # MATLAB's rgb2gray, as the toolbox applies it
+    known = np.isfinite(range_values)
+    span = float(np.max(range_values[known])) - float(np.min(range_values[known]))
+    stop = tolerance * span
+    # the levels, finest first: (guide, measured range, most sweeps)
+    levels = [(guide, range_values, max_sweeps)]
+    if solver == "cascadic":
+        levels[0] = (guide, range_values, min(sweeps, max_sweeps))
+        while min(levels[-1][0].shape) >= 2 * COARSEST:
+            g, r, most = levels[-1]
+            levels.append((_block_mean(g, np.ones(g.shape, dtype=bool)),
+                           _block_mean(r, np.isfinite(r)), min(2 * most, max_sweeps)))
+        levels[-1] = levels[-1][:2] + (max_sweeps,)
+    on_sweep = None
+    if progress is not None:
+        if len(levels) == 1:
+            on_sweep = _SweepEstimate(progress, stop, max_sweeps)
+        else:
+            on_sweep = _WorkEstimate(progress, [(g.size, most) for g, _, most in levels])
+    x = None
+    for g, r, most in reversed(levels):  # coarsest first
+        x, run = _level(g, r, x, alpha, stop, most, on_sweep)
+        if isinstance(on_sweep, _WorkEstimate):
+            on_sweep.next_level()
+    if progress is not None:
+        progress(_PER_MILLE, _PER_MILLE)
+    x[known] = range_values[known]
+    return (x, run) if return_sweeps else x
+
+
+def _block_mean(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """The 2×2 block means of ``values`` over ``valid`` (NaN where a block has none).
+
+    The blocks start at (0, 0); an odd side's last block holds one row or column. The four
+    pixels of a block are added in raster order, then divided by their count: elementwise
+    IEEE operations only.
+    """
+    H, W = values.shape
+    shape = ((H + 1) // 2, (W + 1) // 2)
+    total, count = np.zeros(shape), np.zeros(shape)
+    for dr in (0, 1):
+        for dc in (0, 1):
+            part, inside = values[dr::2, dc::2], valid[dr::2, dc::2]
+            cells = (slice(0, part.shape[0]), slice(0, part.shape[1]))
+            total[cells] = total[cells] + np.where(inside, part, 0.0)
+            count[cells] = count[cells] + inside
+    out = np.full(shape, np.nan)
+    np.divide(total, count, out=out, where=count > 0)
+    return out
+
+
+def _level(guide: np.ndarray, range_values: np.ndarray, coarse: np.ndarray | None,
+           alpha: float, stop: float, most: int, on_sweep) -> tuple[np.ndarray, int]:
+    """One level of the fill: Gauss–Seidel from the coarser solution (or the nearest fill)."""
     shape = guide.shape
     known = np.isfinite(range_values)
-    _, (rows, cols) = ndimage.distance_transform_edt(~known, return_indices=True)
-    start = range_values[rows, cols]  # the nearest fill: copies, exact
+    if coarse is None:
+        _, (rows, cols) = ndimage.distance_transform_edt(~known, return_indices=True)
+        start = range_values[rows, cols]  # the nearest fill: copies, exact
+    else:  # the coarser level's solution over its 2×2 blocks, the measured values put back
+        start = coarse.repeat(2, axis=0).repeat(2, axis=1)[: shape[0], : shape[1]]
+        start = np.where(known, range_values, start)
     weights = portable_affinities(guide)
     padded = np.pad(start, 1, mode="edge")  # (outside the image the weight is 0)
     rhs = np.zeros(shape)
     for k, (dr, dc) in enumerate(OFFSETS):
         rhs = rhs + weights[k] * (_shifted(padded, dr, dc, shape) - start)
     diagonal = np.where(known, 1.0 + alpha, 1.0)
-    span = float(np.max(range_values[known])) - float(np.min(range_values[known]))
-    on_sweep = None if progress is None else _SweepEstimate(progress, tolerance * span,
-                                                             max_sweeps)
-    correction, sweeps = _gauss_seidel(weights, rhs, diagonal, tolerance * span, max_sweeps,
-                                       on_sweep=on_sweep)
-    if progress is not None:
-        progress(_PER_MILLE, _PER_MILLE)
-    out = start + correction
-    out[known] = range_values[known]
-    return (out, sweeps) if return_sweeps else out
+    correction, run = _gauss_seidel(weights, rhs, diagonal, stop, most, on_sweep=on_sweep)
+    return start + correction, run
+
+
+class _WorkEstimate:
+    """``on_sweep(sweeps, largest)`` → ``progress(done, 1000)`` for the cascade.
+
+    The work done is the sweeps run times their level's pixels; the estimate of the whole
+    adds the most sweeps the current level and the finer ones can still run (a level that
+    stops early moves the estimate forward, never back).
+    """
+
+    def __init__(self, progress, levels: list[tuple[int, int]]) -> None:
+        self.progress = progress
+        self.levels = levels[::-1]  # (pixels, most sweeps), coarsest first
+        self.level, self.run, self.done = 0, 0, 0
+        self.reported = -1
+
+    def next_level(self) -> None:
+        self.level, self.run = self.level + 1, 0
+
+    def __call__(self, sweeps: int, largest: float) -> None:
+        pixels, most = self.levels[self.level]
+        self.run, self.done = sweeps, self.done + pixels
+        left = (most - sweeps) * pixels + sum(p * m for p, m in self.levels[self.level + 1:])
+        done = min(int(self.done / (self.done + left) * _PER_MILLE), _PER_MILLE - 1)
+        if done > self.reported:
+            self.reported = done
+            self.progress(done, _PER_MILLE)
 
 
 class _SweepEstimate:
