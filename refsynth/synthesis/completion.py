@@ -20,15 +20,16 @@ So the same call gives the same bits on any CPU, SIMD width, BLAS and thread cou
 **Cascadic multigrid** (``solver="cascadic"``, the default since 0.7; Bornemann & Deuflhard
 1996). Plain Gauss–Seidel needs more sweeps the larger the image (the stopping rule is met
 after 641 / 388 / 968 / 1438 sweeps at 112×94 … 900×750 on the Motorcycle's x-stripes at
-78 %), so its cost per pixel grew fourfold over that range. The cascade solves the same
-system on the image halved (2×2 block means of the guide and of the measured range, each sum
-in a fixed order), recursively down to a side below ``2 · COARSEST``, takes each level's
-solution, repeated over its 2×2 block with the measured values put back, as the next finer
-level's start, and runs at most ``sweeps`` sweeps on the finest level, twice as many on each
-coarser one (``max_sweeps`` on the coarsest), each level also stopping at the rule. Its cost
-is at most ``2 · sweeps`` sweeps' worth of the finest level: linear in the pixels. An image
-whose smaller side is below ``2 · COARSEST`` has one level, and its fill is plain
-Gauss–Seidel's, bit for bit (the oracle's cases are such images).
+78 %), so its cost per unknown pixel grew from 5.3 µs at 225×188 to 17–19 µs at 900×750. The
+cascade solves the same system on the image halved (2×2 block means of the guide and of the
+measured range, each sum in a fixed order), recursively down to a side below ``2*COARSEST``,
+takes each level's solution, repeated over its 2×2 block with the measured values put back,
+as the next finer level's start, and runs at most ``sweeps`` sweeps on the finest level,
+twice as many on each coarser one (``max_sweeps`` on the coarsest), each level also stopping
+at the rule. Its cost is at most ``2 · sweeps`` sweeps' worth of the finest level, plus at
+most ``max_sweeps`` sweeps of the coarsest (whose smaller side is under ``2*COARSEST``):
+linear in the pixels. An image whose smaller side is below ``2*COARSEST`` has one level, and
+its fill is plain Gauss–Seidel's, bit for bit (the oracle's cases are such images).
 
 The sweeps are Gauss–Seidel over four colours, the pixels ``(r, c)`` grouped by
 ``(r mod 2, c mod 2)``: no two pixels of one colour are 3×3 neighbours, so each colour is
@@ -59,9 +60,9 @@ BP with this fill as its observations (``observation="colorization"``, 450×375)
 ``tolerance=1e-13`` on small cases the sweeps meet the direct solve to within 1e-9 of the
 range's span (``tests/test_completion.py``).
 
-The cascade (``sweeps=200``) against it, on the same cases at phase 0 (CPU µs per unknown
-pixel; MAR of the fill against the ground truth, the direct solve's in brackets; printed by
-``python benchmarks/bench_speed.py --fill-solvers``) is in the README's speed section.
+``python benchmarks/bench_speed.py --fill-solvers`` prints the cascade (``sweeps=200``) beside
+it on the same cases at stripe phase 0: CPU µs per unknown pixel, the sweeps on the image
+itself, and the fill's MAR against the ground truth beside the direct solve's.
 
 References
 ----------
@@ -345,15 +346,15 @@ class _WorkEstimate:
     def __init__(self, progress, levels: list[tuple[int, int]]) -> None:
         self.progress = progress
         self.levels = levels[::-1]  # (pixels, most sweeps), coarsest first
-        self.level, self.run, self.done = 0, 0, 0
+        self.level, self.done = 0, 0
         self.reported = -1
 
     def next_level(self) -> None:
-        self.level, self.run = self.level + 1, 0
+        self.level += 1
 
     def __call__(self, sweeps: int, largest: float) -> None:
         pixels, most = self.levels[self.level]
-        self.run, self.done = sweeps, self.done + pixels
+        self.done += pixels
         left = (most - sweeps) * pixels + sum(p * m for p, m in self.levels[self.level + 1:])
         done = min(int(self.done / (self.done + left) * _PER_MILLE), _PER_MILLE - 1)
         if done > self.reported:
