@@ -499,6 +499,7 @@ def synthesize(
         # the intensity convention: Canny on the grey level brought to [0, 1]
         levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
         edge_map = canny(levels, sigma=canny_sigma) if use_edges else None
+        del levels
     else:
         edge_map = edges.copy()
     if edge_map is None or not use_edges:

@@ -175,7 +175,8 @@ class FillTable:
         self_frame = self.self_unit.reshape(self.shape)
         g = window_weights(n).ravel().astype(np.float64)
         g_int = np.repeat(g, C)  # intensity columns are (offset, channel) raveled
-        levels = np.rint(np.asarray(image, dtype=np.float64) * 2.0**INTENSITY_BITS)
+        levels = np.multiply(np.asarray(image, dtype=np.float64), 2.0**INTENSITY_BITS)
+        np.rint(levels, out=levels)  # in place: one image-sized temporary, not two
         patches = intensity_patches(levels, n)  # a view, (H, W, n, n, C)
         h = n // 2
         rq = np.rint(np.asarray(range_norm, dtype=np.float64) * 2.0**RANGE_BITS)

@@ -148,7 +148,12 @@ class FrontQueue:
         0
         """
         slots = np.ravel(slots)
-        self.set_in_blocks(slots, slots >> self.shift, np.ravel(keys))
+        # many slots at once (the whole front, at the start): each touched block's maximum
+        # once, from the block itself; set_in_blocks gathers a block per slot, which for
+        # half a million slots in blocks of 256 would be a gigabyte
+        self.keys[slots] = np.ravel(keys)
+        touched = np.unique(slots >> self.shift)
+        self.maxima[touched] = self.blocks[touched].max(axis=1)
 
     def set_in_blocks(self, slots: np.ndarray, blocks: np.ndarray, keys: np.ndarray) -> None:
         """:meth:`set_slots` given also the slots' blocks, ``slots >> shift``.

@@ -227,6 +227,7 @@ def np_fill(
     pad = max(int(np.ceil(radius)), n // 2 + 1)
     table = FillTable(levels * 2.0**-INTENSITY_BITS, range_norm, n, pad, range_weight,
                       missing_range, channels)
+    del levels, rq  # the table holds them now (image-sized: 100 MB of levels at 2048²)
     front = FillFront(
         known,
         range_norm,
@@ -238,6 +239,7 @@ def np_fill(
         use_isophotes=use_isophotes,
         edges_last=edges_last,
     )
+    del range_norm  # the table and the front hold their own
     Wp = front.shape[1]
     dr, dc = disc_offsets(radius)
     disc = dr * Wp + dc
@@ -255,7 +257,7 @@ def np_fill(
     tick = max(1, min(2000, total // 20))
     # the loop body, in as few numpy calls as it takes: Python floats where the
     # operands are scalars (the same IEEE operations as numpy's on float64)
-    draws = draws.tolist()
+    draws = memoryview(draws)  # Python floats one at a time (a list of them: 32 bytes each)
     scale = 1.0 + epsilon
     update = ordering != "onion"
     pop, fill, shortlist, set_range = front.queue.pop, front.fill, table.shortlist, table.set_range
@@ -309,6 +311,10 @@ def np_fill(
             progress(step + 1, total)
     if progress is not None:
         progress(total, total)
+    # the table (three quarters of NP's memory) goes before the outputs are made
+    del table, shortlist, set_range
+    if shifting:
+        del offset_shift
 
     inner = (slice(pad, pad + H), slice(pad, pad + W))
     out = np.where(known, range_values, original.reshape(front.shape)[inner])

@@ -205,6 +205,14 @@ def _pair_differences(range_norm: np.ndarray, filled: np.ndarray):
     return d_row * v_row, v_row, d_col * v_col, v_col
 
 
+def _correlate_into(values: np.ndarray, kernel: np.ndarray, out: np.ndarray) -> None:
+    """``ndimage.correlate(values, kernel, mode="constant", cval=0)`` written into ``out``
+    (float64; a strided view of a field is fine): :func:`box_sum`'s and :func:`_pair_sum`'s
+    values without a temporary of their own."""
+    ndimage.correlate(np.asarray(values, dtype=np.float64), kernel, output=out,
+                      mode="constant", cval=0.0)
+
+
 def _pair_sum(values: np.ndarray, n: int, axis: int) -> np.ndarray:
     """Sum, over the n×n window, of pair values stored at the pair's first voxel.
 
@@ -491,19 +499,46 @@ class FillFront:
         self.filled = np.ascontiguousarray(np.pad(known, pad))
         self.range_norm = np.ascontiguousarray(np.pad(np.where(known, range_norm, 0.0), pad))
         self.confidence = self.filled.astype(np.float64)
+        # every field correlated straight into the state (ndimage writes its output in place),
+        # the pair terms one axis at a time: a few frames of temporaries, not dozens (at
+        # 2048² a frame of float64 is 34 MB)
         state = np.empty(self.shape + (_FIELDS,))
-        state[..., _CONF] = box_sum(self.confidence, n)
-        d_row, v_row, d_col, v_col = _pair_differences(self.range_norm, self.filled)
-        state[..., _DROW], state[..., _VROW] = _pair_sum(d_row, n, 0), _pair_sum(v_row, n, 0)
-        state[..., _DCOL], state[..., _VCOL] = _pair_sum(d_col, n, 1), _pair_sum(v_col, n, 1)
+        ones = np.ones((n, n))
+        _correlate_into(self.confidence, ones, state[..., _CONF])
+        r = np.where(self.filled, self.range_norm, 0.0)
+        for axis, d_field, v_field in ((0, _DROW, _VROW), (1, _DCOL, _VCOL)):
+            # _pair_differences, in place: the pair (p, p + e) at p, its difference times
+            # whether both voxels have range
+            head = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
+            tail = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+            d, v = np.zeros_like(r), np.zeros_like(r)
+            np.subtract(r[tail], r[head], out=d[head])
+            v[head] = self.filled[tail] & self.filled[head]
+            np.multiply(d, v, out=d)
+            kernel = ones.copy()
+            kernel[(-1, slice(None)) if axis == 0 else (slice(None), -1)] = 0.0
+            _correlate_into(d, kernel, state[..., d_field])
+            _correlate_into(v, kernel, state[..., v_field])
+            del d, v
+        del r
         mask = self.filled.astype(np.float64)
-        state[..., _MROW] = ndimage.correlate(mask, _SOBEL_ROW, mode="constant")
-        state[..., _MCOL] = ndimage.correlate(mask, _SOBEL_COL, mode="constant")
-        state[..., _MCOL2], state[..., _NMROW] = state[..., _MCOL], -state[..., _MROW]
-        state[..., _NEIGH] = box_sum(mask, 3)
-        state[..., _COUNT] = np.maximum(box_sum(self.inside, n), 1.0)
+        _correlate_into(mask, _SOBEL_ROW, state[..., _MROW])
+        _correlate_into(mask, _SOBEL_COL, state[..., _MCOL])
+        state[..., _MCOL2] = state[..., _MCOL]
+        np.negative(state[..., _MROW], out=state[..., _NMROW])
+        _correlate_into(mask, np.ones((3, 3)), state[..., _NEIGH])
+        del mask
+        count = state[..., _COUNT]
+        _correlate_into(self.inside.astype(np.float64), ones, count)
+        np.maximum(count, 1.0, out=count)
         edge_pad = np.pad(np.asarray(edges, dtype=bool), pad)
-        state[..., _EDGE] = 1.0 / (1.0 + box_sum(edge_pad, n)) if use_edges else 1.0
+        if use_edges:  # 1 / (1 + E)
+            edge = state[..., _EDGE]
+            _correlate_into(edge_pad.astype(np.float64), ones, edge)
+            np.add(1.0, edge, out=edge)
+            np.divide(1.0, edge, out=edge)
+        else:
+            state[..., _EDGE] = 1.0
         self.state = state
         self.flat_state = state.reshape(-1, _FIELDS)
         self.reach = k = max(h, 1)
@@ -534,9 +569,9 @@ class FillFront:
         self.open = self.inside & ~self.filled
         self.tier_offset = np.ascontiguousarray(np.where(self.tier != 0, ABSENT, 0), np.int64)
         self.queue = FrontQueue(self.tie.ravel())
-        self.tie_block = self.tie >> self.queue.shift
+        self._shift = np.array(self.queue.shift)  # a slot's block: slot >> shift
         # flat views
-        self.tie_flat, self.tie_block_flat = flat_view(self.tie), flat_view(self.tie_block)
+        self.tie_flat = flat_view(self.tie)
         self.tier_offset_flat = flat_view(self.tier_offset)
         # the flat offsets of the block a fill changes (raster order) from its top-left pixel
         self.block_offsets = (np.arange(side)[:, None] * self.shape[1]
@@ -562,7 +597,7 @@ class FillFront:
         self._keys = self._views[-1].reshape(-1)  # _block_priority's result, as int64
         self._at = np.zeros((), dtype=np.int64)  # the block's top-left pixel, as a 0-d array
         flat = np.flatnonzero(front)
-        p = self._priority(state).ravel()[flat]
+        p = self._priority(self.flat_state[flat])  # Eq. 10 on the front only (elementwise)
         self.queue.set(flat, p.view(np.int64) + self.tier_offset.ravel()[flat])
 
     # -- Eq. 10 on a block of the state ---------------------------------------
@@ -648,7 +683,8 @@ class FillFront:
             keys = self._priority(block.transpose(1, 2, 0)).view(np.int64).ravel()
             on = (block[_NEIGH] > 0).ravel()
         keys += self.tier_offset_flat.take(pixels)
-        self.queue.set_in_blocks(self.tie_flat.take(pixels), self.tie_block_flat.take(pixels),
+        slots = self.tie_flat.take(pixels)
+        self.queue.set_in_blocks(slots, np.right_shift(slots, self._shift),
                                  np.where(on, keys, self._absent))
 
     def _block_priority(self, block: np.ndarray) -> np.ndarray:
