@@ -16,7 +16,9 @@ block by block, and :attr:`refsynth.synthesis.bp.BPResult.log_psi` computes
 the whole array on first access (:func:`psi_bytes` says how much that takes).
 :func:`bp_memory_estimate` is an upper bound of the peak resident memory BP adds
 to the process, calibrated on the Motorcycle (x-stripes, 78 % unknown) from
-112×94 to 900×750; :func:`check_bp_memory` refuses, up front, a call that
+225×188 to 2048×2048 (``python benchmarks/bench_speed.py --memory SIZE``: 0.7.0's
+estimate, without Ψ's cache and the margin per node, was 10–23 % under the measured
+peak); :func:`check_bp_memory` refuses, up front, a call that
 would need more than a limit (:data:`BP_MEMORY_LIMIT`, 4 GiB, by default).
 
 References
@@ -32,7 +34,13 @@ __all__ = ["BP_MEMORY_LIMIT", "bp_memory_estimate", "psi_bytes", "check_bp_memor
 BP_MEMORY_LIMIT = 4 * 2**30
 
 _FLOAT = 8
-_BLOCKS = 96 * 2**20  # the bounded blocks of the search, Ψ and the sends, and Ψ's cache
+_BLOCKS = 96 * 2**20  # the bounded blocks of the search, Ψ and the sends
+_PSI_CACHE = 1 << 26  # Ψ's rows kept between sweeps (messages._PSI_CACHE), when E k² fills it
+#: Float64 per node that BP holds beyond the arrays counted below, found by calibration
+#: (tracemalloc's peak and the resident peak, the Motorcycle at x-stripes 78 %, 225×188 to
+#: 2048×2048): 0.7's 2048×2048 run held 235 MiB more than the count and the cache, 9 float64
+#: per node, and the process's peak was 60 MiB above the traced one
+_PER_NODE_MARGIN = 16
 
 
 def bp_memory_estimate(
@@ -72,10 +80,11 @@ def bp_memory_estimate(
 
     Examples
     --------
-    2048×2048 with 80 % unknown fits in 4 GiB (about 2.5 GiB):
+    2048×2048 with 80 % unknown fits in 4 GiB (about 3.0 GiB; the run's resident peak
+    is 2955 MiB, 2.9 GiB, above the process before it):
 
     >>> round(bp_memory_estimate((2048, 2048), 3_356_000, n_pairs=6_418_000) / 2**30, 1)
-    2.5
+    3.0
     """
     H, W = (int(v) for v in shape)
     n = int(n_unknown)
@@ -92,9 +101,11 @@ def bp_memory_estimate(
     # the schedule's sources and destinations; per pixel the range patches, masks
     # and the filled range and confidence
     result = _FLOAT * (n * (6 * k + 3) + e * (2 * k + 3) + pixels * 8)
-    # the blocks: bounded, and no larger than a few rows of work per node
+    # the blocks: bounded, and no larger than a few rows of work per node; Ψ's cache, held
+    # through the sweeps; the calibrated margin
     blocks = min(_BLOCKS, _FLOAT * 256 * k * (n + 1))
-    return int(max(search, result) + blocks)
+    cache = min(_PSI_CACHE, psi_bytes(e, k))
+    return int(max(search, result) + blocks + cache + _FLOAT * _PER_NODE_MARGIN * n)
 
 
 def psi_bytes(n_pairs: int, k: int = 8) -> int:
@@ -150,7 +161,7 @@ def check_bp_memory(shape: tuple[int, int], n_unknown: int, *, limit: int | None
     >>> check_bp_memory((64, 64), 2000, limit=2**20)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    ValueError: BP on 64×64 (2000 unknown pixels) with k=8 ... 0.0345 GB, ... of 0.00105 GB; ...
+    ValueError: BP on 64×64 (2000 unknown pixels) with k=8 ... 0.0368 GB, ... of 0.00105 GB; ...
     """
     need = bp_memory_estimate(shape, n_unknown, **sizes)
     limit = BP_MEMORY_LIMIT if limit is None else int(limit)
