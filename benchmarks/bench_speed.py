@@ -35,6 +35,12 @@ Run::
     python benchmarks/bench_speed.py --sizes 450x375 --methods np,colorization --repeat 3
     python benchmarks/bench_speed.py --bp-stages       # BP's stages, CPU time (~3 min)
     python benchmarks/bench_speed.py --fill-solvers    # BP's observations' fill (~3 min)
+    python benchmarks/bench_speed.py --memory 2048x2048  # item 3: NP and BP, ~12 min
+
+``--memory SIZE`` runs NP and BP once each at ``SIZE`` in a fresh subprocess and prints,
+beside each one's memory estimate (the one ``synthesize`` refuses a run by), its peak
+resident memory, the subprocess's peak with the scene alone, and its wall time (scene
+included): issue #15 item 3, an image up to 2048×2048 within 4 GB or refused up front.
 
 Needs scikit-image (the Motorcycle).
 """
@@ -110,24 +116,77 @@ def _own_peak_mb() -> tuple[float, str]:
     return (rss / 1024.0 if sys.platform != "darwin" else rss / 1024.0**2), "ru_maxrss"
 
 
+def _own_rss_mb() -> float | None:
+    """This process's resident memory now in MB (``VmRSS``), or None without ``/proc``."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return None
+
+
 def _child(method: str, size: tuple[int, int]) -> None:
-    """Run one fill (or, for ``"scene"``, only build the input); print the peak RSS as JSON."""
+    """Run one fill (or, for ``"scene"``, only build the input); print as JSON the peak RSS
+    and the RSS just before the fill (the scene built)."""
     image, partial, _ = _case(size)
+    before = _own_rss_mb()
     if method != "scene":
         _fill(method)(image, partial)
     peak, how = _own_peak_mb()
-    print(json.dumps({"peak_mb": peak, "how": how}))
+    print(json.dumps({"peak_mb": peak, "how": how, "before_mb": before}))
 
 
-def _peak_rss_mb(method: str, size: tuple[int, int]) -> tuple[float, str]:
-    """Peak RSS (MB) of a fresh subprocess running one fill, and how it was read."""
+def _child_report(method: str, size: tuple[int, int]) -> dict:
+    """What :func:`_child` prints, from a fresh subprocess running one fill."""
     command = [sys.executable, os.path.abspath(__file__), "--child", method,
                f"{size[0]}x{size[1]}"]
     done = subprocess.run(command, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} failed ({done.returncode}): {done.stderr}")
-    report = json.loads(done.stdout.strip().splitlines()[-1])
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _peak_rss_mb(method: str, size: tuple[int, int]) -> tuple[float, str]:
+    """Peak RSS (MB) of a fresh subprocess running one fill, and how it was read."""
+    report = _child_report(method, size)
     return report["peak_mb"], report["how"]
+
+
+def memory_at(size: tuple[int, int], methods=("np", "bp")) -> None:
+    """Item 3: each fill at ``size`` in a fresh subprocess, beside its memory estimate."""
+    from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate
+    from refsynth.synthesis.limits import np_memory
+
+    image, partial, percent = _case(size)
+    unknown = np.isnan(partial)
+    pairs = int(np.count_nonzero(unknown[:, :-1] & unknown[:, 1:])
+                + np.count_nonzero(unknown[:-1, :] & unknown[1:, :]))
+    estimates = {
+        "np": np_memory(partial.shape, image.shape[2], 5, 10.0),
+        "bp": bp_memory_estimate(partial.shape, int(unknown.sum()), n_pairs=pairs),
+    }
+    scene, how = _peak_rss_mb("scene", size)
+    print(f"Motorcycle {size[0]}×{size[1]}, x-stripes {percent:.0f} % unknown "
+          f"({int(unknown.sum())} pixels); resident memory of a fresh subprocess in MiB "
+          f"(peak: {how}; before: VmRSS with the scene built, just before the fill); the "
+          f"scene alone peaks at {scene:.0f} MiB while it is built. BP is refused above "
+          f"{BP_MEMORY_LIMIT / 2**20:.0f} MiB of estimate, NP above this machine's memory.")
+    print()
+    print("| method | estimate MiB | before MiB | peak MiB | peak less before MiB "
+          "| peak within 4 GiB | wall s (scene included) |")
+    print("|---|---|---|---|---|---|---|")
+    for method in methods:
+        start = time.perf_counter()
+        report = _child_report(method, size)
+        seconds = time.perf_counter() - start
+        peak, before = report["peak_mb"], report["before_mb"]
+        added = f"{peak - before:.0f}" if before is not None else "—"
+        before = f"{before:.0f}" if before is not None else "—"
+        print(f"| {method} | {estimates[method] / 2**20:.0f} | {before} | {peak:.0f} | {added} "
+              f"| {'yes' if peak <= 4096 else 'no'} | {seconds:.0f} |", flush=True)
 
 
 def _time(methods, image, partial, repeat: int):
@@ -342,6 +401,9 @@ def main(argv=None) -> int:
     parser.add_argument("--fill-solvers", action="store_true",
                         help="instead: BP's observations' fill by the cascade and by "
                         "Gauss-Seidel alone, its time, sweeps and MAR")
+    parser.add_argument("--memory", type=_size, metavar="SIZE",
+                        help="instead: NP's and BP's peak memory at SIZE (e.g. 2048x2048) "
+                        "beside their estimates, each in a fresh subprocess")
     parser.add_argument("--child", nargs=2, metavar=("METHOD", "SIZE"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
@@ -360,6 +422,9 @@ def main(argv=None) -> int:
         return 0
     if args.fill_solvers:
         fill_solvers(sizes)
+        return 0
+    if args.memory:
+        memory_at(args.memory, [m for m in args.methods if m in ("np", "bp")] or ["np", "bp"])
         return 0
     run(sizes, args.methods, repeat=args.repeat, rss=not args.no_rss)
     return 0

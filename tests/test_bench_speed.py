@@ -53,3 +53,19 @@ def test_bad_options_are_refused(bench, capsys):
             bench.main(argv)
         assert exit_info.value.code == 2
     assert "unknown method(s) fast" in capsys.readouterr().err
+
+
+def test_memory_mode_prints_each_fill_beside_its_estimate(bench, capsys):
+    """``--memory SIZE`` (item 3): NP and BP each in a fresh subprocess, the estimate that
+    ``synthesize`` refuses a run by beside the measured peak and the RSS before the fill."""
+    assert bench.main(["--memory", "32x27"]) == 0
+    text = capsys.readouterr().out
+    assert "Motorcycle 32×27" in text
+    rows = {line.split("|")[1].strip(): line for line in text.splitlines()
+            if line.startswith(("| np |", "| bp |"))}
+    assert set(rows) == {"np", "bp"}
+    for row in rows.values():
+        estimate, before, peak, added = (float(v) for v in row.split("|")[2:6])
+        assert estimate > 0 and 10 < before <= peak and added == pytest.approx(peak - before,
+                                                                              abs=1)
+        assert "| yes |" in row
