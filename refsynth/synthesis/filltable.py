@@ -164,11 +164,15 @@ class FillTable:
         width = 4 * nn + 1
         self.r0, self.v0, self.h0, self.l0, self.range_width = r0, v0, h0, l0, width
         self.intensity = np.zeros((pixels, base + 4), dtype=np.float32)
-        self.intensity[:, one] = 1.0
         self.ranges = np.zeros((pixels, width), dtype=np.float32)
-        self.ranges[:, -1] = 1.0
         frame_i = self.intensity.reshape(self.shape + (base + 4,))
         frame_r = self.ranges.reshape(self.shape + (width,))
+        # the constant columns on the image's pixels, the only rows ever read (p and the
+        # candidates): the padding's rows stay zero pages that are never touched (45 MB of
+        # resident memory at 2048×2048); set_range writes the range of the rows within n // 2
+        inner = (slice(pad, pad + H), slice(pad, pad + W))
+        frame_i[inner + (one,)] = 1.0
+        frame_r[inner + (-1,)] = 1.0
         # Σ G Σ_c I² (exact), then times EQ2_UNIT below: s_p u, the weight of the
         # candidates' constant 1 (a power-of-two scaling: exact)
         self.self_unit = np.zeros(pixels)
@@ -286,7 +290,10 @@ class FillTable:
 
     @property
     def table(self) -> np.ndarray:
-        """Every voxel's whole row ``[I | s | 1 | R | V | R² | 1]`` (a copy, for inspection)."""
+        """Every voxel's whole row ``[I | s | 1 | R | V | R² | 1]`` (a copy, for inspection).
+
+        The constant columns are 1 on the image's pixels, the only rows that are read, and 0
+        on the padding."""
         return np.concatenate([self.intensity, self.ranges], axis=1)
 
     def _target(self, p: int) -> None:
@@ -307,7 +314,9 @@ class FillTable:
         p : int
             Padded flat index of the target.
         candidates : ndarray of int, shape (M,)
-            Padded flat indices of the candidates.
+            Padded flat indices of the candidates: pixels of the image (Eq. 3's candidates
+            are; a row of the padding holds no constant columns, and its distance is not
+            ``PatchTable``'s).
 
         Returns
         -------
@@ -322,7 +331,7 @@ class FillTable:
         >>> levels = rng.integers(0, 2**16, (6, 6)) / 2**16
         >>> known = np.where(rng.random((6, 6)) < 0.5, levels, np.nan)
         >>> fast, wide = FillTable(image, known, 3, 2, 1.0), PatchTable(image, known, 3, 2, 1.0)
-        >>> q = np.arange(2 * 10 + 2, 3 * 10 + 8)      # the first row of the image, and more
+        >>> q = np.r_[22:28, 32:38]      # the image's first two rows (padded frame 10 wide)
         >>> bool(np.array_equal(fast.distances(33, q), wide.distances(33, q)))
         True
         """
@@ -375,7 +384,7 @@ class FillTable:
         >>> image = rng.integers(0, 2**16, (6, 6, 3)) / 2**16
         >>> known = np.where(rng.random((6, 6)) < 0.5, rng.random((6, 6)), np.nan)
         >>> table = FillTable(image, known, 3, 2, 1.0)
-        >>> q = np.arange(2 * 10 + 2, 3 * 10 + 8)
+        >>> q = np.r_[22:28, 32:38]      # the image's first two rows
         >>> every = table.distances(33, q)
         >>> kept, d = table.shortlist(33, q, 1.1)
         >>> bool(np.array_equal(d, every[np.isin(q, kept)]))

@@ -98,7 +98,9 @@ class FrontQueue:
         self.block = 1 << self.shift
         blocks = -(-max(size, 1) // self.block)
         self.rank = tie
-        self.pixel_at = np.empty(blocks * self.block, dtype=np.int64)
+        # pixel of each slot, read one at a time (int32 where it holds: half the memory)
+        index = np.int32 if size < 2**31 else np.int64
+        self.pixel_at = np.empty(blocks * self.block, dtype=index)
         self.pixel_at[tie] = np.arange(size)
         self.keys = np.full(blocks * self.block, ABSENT, dtype=np.int64)
         self.blocks = self.keys.reshape(blocks, self.block)
