@@ -353,9 +353,10 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     and range, the edge map). The table goes before the outputs are made.
 
     Measured: on the Motorcycle at 2048×2048 (colour, n = 5, r = 10, x-stripes 78 %) the
-    run's peak resident memory is 4071 MiB, 3862 MiB above the process before the call,
+    run's peak resident memory is 4030 MiB, 3821 MiB above the process before the call,
     against this estimate's 3936 MiB (``python benchmarks/bench_speed.py --memory
-    2048x2048``); ``tests/test_np_memory.py`` checks the estimate against the traced peak.
+    2048x2048 --methods np``; the padding's rows of the table, counted here, are never
+    touched); ``tests/test_np_memory.py`` checks the estimate against the traced peak.
 
     Parameters
     ----------
