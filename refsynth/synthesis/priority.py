@@ -81,7 +81,7 @@ _SOBEL_COL = _SOBEL_ROW.T.copy()
 _EIGHT = np.ones((3, 3), dtype=bool)
 
 
-def box_sum(values: np.ndarray, n: int) -> np.ndarray:
+def box_sum(values: np.ndarray, n: int, out: np.ndarray | None = None) -> np.ndarray:
     """Sum of ``values`` over the n×n window centred on each pixel (zeros outside).
 
     Parameters
@@ -90,6 +90,8 @@ def box_sum(values: np.ndarray, n: int) -> np.ndarray:
         Any real values (bool is counted as 0/1).
     n : int
         The odd side of the square window summed.
+    out : ndarray of shape (H, W), float64, optional
+        Where to write the sums (a strided view is fine); default a new array.
 
     Returns
     -------
@@ -102,9 +104,8 @@ def box_sum(values: np.ndarray, n: int) -> np.ndarray:
     >>> box_sum(np.ones((3, 3)), 3).tolist()
     [[4.0, 6.0, 4.0], [6.0, 9.0, 6.0], [4.0, 6.0, 4.0]]
     """
-    return ndimage.correlate(
-        np.asarray(values, dtype=np.float64), np.ones((n, n)), mode="constant", cval=0.0
-    )
+    return ndimage.correlate(np.asarray(values, dtype=np.float64), np.ones((n, n)),
+                             output=out, mode="constant", cval=0.0)
 
 
 def fill_front(filled: np.ndarray) -> np.ndarray:
@@ -188,44 +189,36 @@ def edge_count(edges: np.ndarray, n: int) -> np.ndarray:
     return box_sum(np.asarray(edges, dtype=np.float64), n)
 
 
-def _pair_differences(range_norm: np.ndarray, filled: np.ndarray):
-    """Forward differences along rows and columns, and where both ends have range.
+def _pair_differences(range_norm: np.ndarray, filled: np.ndarray, axis: int):
+    """Forward differences along ``axis`` where both ends have range, and that indicator.
 
-    The difference of the pair (p, p + e) is stored at p.
+    The pair (p, p + e) is stored at p; both arrays float64, built in place (two frames).
     """
     r = np.where(filled, range_norm, 0.0)
-    d_col = np.zeros_like(r)
-    v_col = np.zeros_like(r)
-    d_col[:, :-1] = r[:, 1:] - r[:, :-1]
-    v_col[:, :-1] = filled[:, 1:] & filled[:, :-1]
-    d_row = np.zeros_like(r)
-    v_row = np.zeros_like(r)
-    d_row[:-1, :] = r[1:, :] - r[:-1, :]
-    v_row[:-1, :] = filled[1:, :] & filled[:-1, :]
-    return d_row * v_row, v_row, d_col * v_col, v_col
+    head = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
+    tail = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+    d, v = np.zeros_like(r), np.zeros_like(r)
+    np.subtract(r[tail], r[head], out=d[head])
+    del r
+    v[head] = filled[tail] & filled[head]
+    return np.multiply(d, v, out=d), v
 
 
-def _correlate_into(values: np.ndarray, kernel: np.ndarray, out: np.ndarray) -> None:
-    """``ndimage.correlate(values, kernel, mode="constant", cval=0)`` written into ``out``
-    (float64; a strided view of a field is fine): :func:`box_sum`'s and :func:`_pair_sum`'s
-    values without a temporary of their own."""
-    ndimage.correlate(np.asarray(values, dtype=np.float64), kernel, output=out,
-                      mode="constant", cval=0.0)
-
-
-def _pair_sum(values: np.ndarray, n: int, axis: int) -> np.ndarray:
+def _pair_sum(values: np.ndarray, n: int, axis: int,
+              out: np.ndarray | None = None) -> np.ndarray:
     """Sum, over the n×n window, of pair values stored at the pair's first voxel.
 
     Only pairs with *both* voxels in the window count: along ``axis`` the first
-    voxel lies in the window's first ``n − 1`` rows (columns).
+    voxel lies in the window's first ``n − 1`` rows (columns). ``out`` as in
+    :func:`box_sum`.
     """
     kernel = np.ones((n, n))
     if axis == 0:
         kernel[-1, :] = 0.0
     else:
         kernel[:, -1] = 0.0
-    return ndimage.correlate(np.asarray(values, dtype=np.float64), kernel, mode="constant",
-                             cval=0.0)
+    return ndimage.correlate(np.asarray(values, dtype=np.float64), kernel, output=out,
+                             mode="constant", cval=0.0)
 
 
 def range_gradient(
@@ -259,10 +252,11 @@ def range_gradient(
     >>> float(g_row[1, 1]), float(g_col[1, 1])
     (0.0, 1.0)
     """
-    d_row, v_row, d_col, v_col = _pair_differences(range_norm, filled)
-    g_row = _pair_sum(d_row, n, 0) / np.maximum(_pair_sum(v_row, n, 0), 1.0)
-    g_col = _pair_sum(d_col, n, 1) / np.maximum(_pair_sum(v_col, n, 1), 1.0)
-    return g_row, g_col
+    gradient = []
+    for axis in (0, 1):
+        d, v = _pair_differences(range_norm, filled, axis)
+        gradient.append(_pair_sum(d, n, axis) / np.maximum(_pair_sum(v, n, axis), 1.0))
+    return gradient[0], gradient[1]
 
 
 def front_normals(filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -499,42 +493,27 @@ class FillFront:
         self.filled = np.ascontiguousarray(np.pad(known, pad))
         self.range_norm = np.ascontiguousarray(np.pad(np.where(known, range_norm, 0.0), pad))
         self.confidence = self.filled.astype(np.float64)
-        # every field correlated straight into the state (ndimage writes its output in place),
-        # the pair terms one axis at a time: a few frames of temporaries, not dozens (at
-        # 2048² a frame of float64 is 34 MB)
+        # every field correlated straight into the state (out=), the pair terms one axis at
+        # a time: a few frames of temporaries, not dozens (a float64 frame: 34 MB at 2048²)
         state = np.empty(self.shape + (_FIELDS,))
-        ones = np.ones((n, n))
-        _correlate_into(self.confidence, ones, state[..., _CONF])
-        r = np.where(self.filled, self.range_norm, 0.0)
+        box_sum(self.confidence, n, out=state[..., _CONF])
         for axis, d_field, v_field in ((0, _DROW, _VROW), (1, _DCOL, _VCOL)):
-            # _pair_differences, in place: the pair (p, p + e) at p, its difference times
-            # whether both voxels have range
-            head = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
-            tail = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
-            d, v = np.zeros_like(r), np.zeros_like(r)
-            np.subtract(r[tail], r[head], out=d[head])
-            v[head] = self.filled[tail] & self.filled[head]
-            np.multiply(d, v, out=d)
-            kernel = ones.copy()
-            kernel[(-1, slice(None)) if axis == 0 else (slice(None), -1)] = 0.0
-            _correlate_into(d, kernel, state[..., d_field])
-            _correlate_into(v, kernel, state[..., v_field])
+            d, v = _pair_differences(self.range_norm, self.filled, axis)
+            _pair_sum(d, n, axis, out=state[..., d_field])
+            _pair_sum(v, n, axis, out=state[..., v_field])
             del d, v
-        del r
         mask = self.filled.astype(np.float64)
-        _correlate_into(mask, _SOBEL_ROW, state[..., _MROW])
-        _correlate_into(mask, _SOBEL_COL, state[..., _MCOL])
+        ndimage.correlate(mask, _SOBEL_ROW, output=state[..., _MROW], mode="constant")
+        ndimage.correlate(mask, _SOBEL_COL, output=state[..., _MCOL], mode="constant")
         state[..., _MCOL2] = state[..., _MCOL]
         np.negative(state[..., _MROW], out=state[..., _NMROW])
-        _correlate_into(mask, np.ones((3, 3)), state[..., _NEIGH])
+        box_sum(mask, 3, out=state[..., _NEIGH])
         del mask
-        count = state[..., _COUNT]
-        _correlate_into(self.inside.astype(np.float64), ones, count)
+        count = box_sum(self.inside, n, out=state[..., _COUNT])
         np.maximum(count, 1.0, out=count)
         edge_pad = np.pad(np.asarray(edges, dtype=bool), pad)
         if use_edges:  # 1 / (1 + E)
-            edge = state[..., _EDGE]
-            _correlate_into(edge_pad.astype(np.float64), ones, edge)
+            edge = box_sum(edge_pad, n, out=state[..., _EDGE])
             np.add(1.0, edge, out=edge)
             np.divide(1.0, edge, out=edge)
         else:
