@@ -379,3 +379,77 @@ def test_bp_fill_training_radius():
         np.testing.assert_array_equal(out.range, want.range)
         np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
         assert out.params["training_radius"] == name
+
+
+# -- observations completed by NP's fill (observation="np") --------------------------------
+
+
+def test_np_observation_is_nps_fill_on_the_measured_ranges_unit_scale():
+    from refsynth.synthesis.bp_observation import np_observation
+
+    partial = np.array([[2.0, np.nan, 6.0, np.nan]])
+    unit = np_observation(np.array([[2.0, 3.0, 6.0, 1.0]]), partial)
+    assert unit.tolist() == [[0.0, 0.25, 1.0, -0.25]]
+    # on the grid: the measured pixels are quantise_range's, a value below the minimum is 0
+    rq, _, _ = quantise_range(partial)
+    assert observed_ranges(rq, unit)[0].tolist() == [[0, 16384, 65536, 0]]
+
+
+def test_observation_np_is_bp_on_nps_fill_from_the_same_seed():
+    from refsynth.synthesis.bp_observation import np_observation
+    from refsynth.synthesis.bp_proposals import np_proposals
+
+    image, partial = _small()
+    for seed in (0, 5):
+        out = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np",
+                                  seed=seed)
+        nps = refsynth.synthesize(image, partial, method="np", radius=3.0, seed=seed)
+        want = bp_fill(image[:, :, None], partial, out.edges, radius=3.0,
+                       observation=np_observation(nps.range, partial), training_radius="gap")
+        np.testing.assert_array_equal(out.range, want.range)
+        np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
+        assert out.params["observation"] == "np"
+    # with proposals, NP runs once: its first proposal completes the observations
+    both = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np",
+                               proposals="np", seed=5)
+    proposals = np_proposals(image[:, :, None], partial, both.edges, np.random.default_rng(5),
+                             neighbourhood=5, radius=3.0)
+    want = bp_fill(image[:, :, None], partial, both.edges, radius=3.0, proposals=proposals,
+                   proposal_phi="match", observation=np_observation(proposals[0], partial),
+                   training_radius="gap")
+    np.testing.assert_array_equal(both.range, want.range)
+    np.testing.assert_array_equal(both.bp.beliefs, want.beliefs)
+
+
+def test_observation_np_depends_on_the_seed_and_keeps_the_conventions():
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (12, 14, 3)).astype(np.uint8)
+    partial = np.where(np.arange(14) % 4 == 0, rng.random((12, 14)) * 3.0 + 1.0, np.nan)
+    plain = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np")
+    again = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np")
+    np.testing.assert_array_equal(plain.range, again.range)
+    other = [refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np",
+                                 seed=s).range for s in (1, 2, 3)]
+    assert any(not np.array_equal(plain.range, o) for o in other)
+    # an intensity offset, uint8 against the same values as floats, a range scale: bit for bit
+    for intensity, rv, scale in ((image + 17.5, partial, 1.0), (image / 255.0, partial, 1.0),
+                                 (image, partial * 41.0 + 3.0, 41.0)):
+        out = refsynth.synthesize(intensity, rv, method="bp", radius=3.0, observation="np")
+        np.testing.assert_allclose((out.range - (3.0 if scale != 1 else 0.0)) / scale,
+                                   plain.range, rtol=1e-12)
+        np.testing.assert_array_equal(out.bp.labels, plain.bp.labels)
+
+
+def test_the_reference_runs_np_first_from_its_generator():
+    from refsynth.synthesis import reference as ref
+
+    image, partial = _small()
+    edges = np.zeros(partial.shape, bool)
+    with pytest.raises(TypeError, match="rng"):
+        ref.bp_reference(image[:, :, None], partial, edges, radius=3.0, observation="np")
+    slow = ref.bp_reference(image[:, :, None], partial, edges, radius=3.0, observation="np",
+                            rng=np.random.default_rng(2))
+    fast = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np",
+                               seed=2, edges=edges)
+    np.testing.assert_array_equal(fast.range, slow.range)
+    np.testing.assert_array_equal(fast.bp.beliefs, slow.beliefs)

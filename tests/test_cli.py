@@ -327,6 +327,17 @@ def test_synth_bp_with_the_observation_departures_is_the_librarys(files, capsys)
     assert not np.array_equal(direct, library(image, partial, method="bp", seed=0).range)
 
 
+def test_synth_bp_on_nps_fill_is_the_librarys_and_follows_the_seed(files, capsys):
+    image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
+    library = __import__("refsynth").synthesize
+    for seed in ("0", "4"):
+        argv = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--method", "bp",
+                "--observation", "np", "--seed", seed, "--out", str(files / f"n{seed}.npy")]
+        assert _run(argv, capsys)[0] == 0
+        direct = library(image, partial, method="bp", observation="np", seed=int(seed)).range
+        np.testing.assert_array_equal(np.load(files / f"n{seed}.npy"), direct)
+
+
 def test_synth_refuses_a_bad_reading_in_one_line(files, capsys, no_work):
     _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
                  "--out", str(files / "o.npy"), "--channels", "max"], capsys,

@@ -124,3 +124,15 @@ def test_bp_fill_alone_reports_per_mille_to_the_end():
     bp_fill(image, partial, np.zeros(partial.shape, bool),
             progress=lambda done, total: seen.append((done, total)))
     assert seen[-1] == (PER_MILLE, PER_MILLE) and len(seen) > 5
+
+
+def test_bp_on_nps_fill_reports_nps_steps_within_their_share():
+    from refsynth.synthesis.api import NP_OBSERVATION_SHARE
+
+    values = _bp_reports(observation="np")
+    # NP's fill reports as it goes inside the first share, BP's stages after it
+    inside = [v for v in values if 1 < v < NP_OBSERVATION_SHARE * PER_MILLE - 1]
+    assert len(inside) >= 2, values
+    assert any(v > NP_OBSERVATION_SHARE * PER_MILLE + 1 for v in values[:-1])
+    # with proposals NP runs once, before the stages: the reports still climb to the end
+    assert _bp_reports(observation="np", proposals="np")[-1] == PER_MILLE

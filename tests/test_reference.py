@@ -74,7 +74,7 @@ def synthesis_case(draw, method: str):
                        product=draw(st.sampled_from(["max", "max", "sum"])),
                        edge_rule=draw(st.sampled_from(["silent", "paper"])),
                        observation=draw(st.sampled_from(
-                           ["colorization", "measured", "colorization-completed"])),
+                           ["colorization", "measured", "colorization-completed", "np"])),
                        training_radius=draw(st.sampled_from(["gap", "fixed"])),
                        range_copy=draw(st.sampled_from(["value", "offset"])))
     intensity = image[:, :, 0] if C == 1 else image
@@ -88,7 +88,7 @@ def run_reference(intensity, partial, edges, options, seed, method):
     if method == "np":
         return ref.np_reference(image, partial, edges, np.random.default_rng(seed), **options)
     options["k"] = options.pop("candidates")
-    return ref.bp_reference(image, partial, edges, **options)
+    return ref.bp_reference(image, partial, edges, rng=np.random.default_rng(seed), **options)
 
 
 def run_fast(intensity, partial, edges, options, seed, method):

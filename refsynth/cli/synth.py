@@ -403,7 +403,8 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           help="the observations' range for the candidates' ranking: "
                           "colorization (the default, a departure from Fig. 6) completes it "
                           "by the colorization fill, colorization-completed the training "
-                          "patches' too, measured is the paper's")
+                          "patches' too, np by NP's fill (another departure: NP's time on "
+                          "top, depends on --seed), measured is the paper's")
     bp_group.add_argument("--training-radius", choices=list(TRAINING_RADII),
                           help="each node's training disc: gap (the default, a departure) "
                           "widens it by the node's distance to the nearest measured pixel, "

@@ -44,7 +44,7 @@ import numpy as np
 from refsynth._checks import check_bool, check_choice, check_real
 from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
 from refsynth.synthesis.bp import BPResult, bp_fill
-from refsynth.synthesis.bp_observation import observation_fill
+from refsynth.synthesis.bp_observation import np_observation, observation_fill
 from refsynth.synthesis.bp_proposals import np_proposals
 from refsynth.synthesis.canny import canny
 from refsynth.synthesis.limits import (
@@ -86,6 +86,10 @@ __all__ = [
 #: x-stripes 78 % (``python benchmarks/bench_speed.py --bp-stages``: 9 % at 450×375 and 10 % at
 #: 900×750 since 0.7's cascade; 0.6's Gauss–Seidel alone took about a quarter).
 OBSERVATION_SHARE = 0.10
+#: The same with ``observation="np"``, NP's fill first: NP's wall time over BP-on-NP's, 0.55
+#: at 450×375 and 0.59 at 900×750 (``python benchmarks/bench_speed.py --sizes 450x375,900x750
+#: --no-rss --methods np,bp,bp-obs-np,colorization``).
+NP_OBSERVATION_SHARE = 0.55
 
 @dataclass(frozen=True)
 class SynthesisResult:
@@ -202,7 +206,8 @@ def synthesize(
     seed : int, numpy.random.Generator or None, default 0
         Source of every random choice of NP (the draw from the Eq. 5 set,
         ties in the fill order). The same seed gives bit-identical output.
-        BP makes no random choice: its output does not depend on the seed.
+        BP makes no random choice: its output does not depend on the seed,
+        unless NP runs first (``proposals``, ``observation="np"``).
     neighbourhood : int, default 5
         Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1).
     radius : float, default 10
@@ -326,7 +331,7 @@ def synthesize(
     proposal_runs : int, BP with ``proposals`` only, default 1
         How many NP fills propose (each a label per pixel; the seeds follow one
         another from ``seed``'s generator).
-    observation : {None, "colorization", "measured", "colorization-completed"}, BP only
+    observation : {None, "colorization", "measured", "colorization-completed", "np"}, BP only
         Fig. 6, step 2's observations ``y_i`` (issue #10;
         :mod:`refsynth.synthesis.bp_observation`). None or ``"colorization"``
         (the default, **a departure from Fig. 6** that won on real data): the
@@ -338,7 +343,12 @@ def synthesize(
         candidates with a range term deep in a gap too. ``"measured"``: the
         observations hold the measured range only, as printed.
         ``"colorization-completed"``: the training patches' range in Eq. 2 is
-        completed as well.
+        completed as well. ``"np"`` (**a departure**, an option): NP's fill
+        (at NP's defaults, the result ``method="np"`` gives with the same
+        ``seed``; with ``proposals`` their first fill) completes the
+        observations instead (:func:`refsynth.synthesis.bp_observation.np_observation`):
+        BP then depends on ``seed`` and takes NP's time on top of its own; its
+        measured gain and cost are in :mod:`refsynth.synthesis.bp_observation`.
     compatibility : {None, "overlap", "overlap-centres"}, BP only
         **A departure in Eq. 6** (:mod:`refsynth.synthesis.bp_centres`). None
         or ``"overlap"``: the mean square over the shared measured pixels, Ψ = 1
@@ -376,7 +386,7 @@ def synthesize(
     =======================  ===========  ===========  ================================
     option                   NP           BP           default
     =======================  ===========  ===========  ================================
-    ``seed``                 yes          (no effect)  0
+    ``seed``                 yes          (NP first)   0
     ``neighbourhood``        yes          yes          5
     ``radius``               yes          yes          10
     ``range_weight``         yes          yes          1
@@ -488,7 +498,8 @@ def synthesize(
     if departures.get("training_radius") == "gap":
         run_radius, proximity = radius, options.get("proximity", 0.0)
     extra_labels = proposal_options.get("proposal_runs", 0)
-    if proposal_options:  # NP runs first, at its own radius
+    np_first = bool(proposal_options) or departures.get("observation") == "np"
+    if np_first:  # NP runs first, at its own radius
         np_radius = search_radius("np", radius, 0.0, range_values.shape)[0]
         check_memory("np", image, range_values, neighbourhood=neighbourhood, radius=np_radius,
                      colour=colour)
@@ -521,14 +532,21 @@ def synthesize(
                 **{**common, "radius": np_radius, "progress": None})
             options["proposal_phi"] = "match"
             options["proposal_completed"] = proposal_options["proposals"] == "np-completed"
-        filled = departures["observation"] != "measured"
-        stages = StagedProgress(progress, [OBSERVATION_SHARE if filled else 0.0,
-                                           1.0 - OBSERVATION_SHARE])
-        if filled:  # the default: completed observations
-            options["observation"] = observation_fill(image, range_values,
-                                                      departures["observation"],
+        observation = departures["observation"]
+        share = {"measured": 0.0, "np": NP_OBSERVATION_SHARE}.get(observation,
+                                                                 OBSERVATION_SHARE)
+        stages = StagedProgress(progress, [share, 1.0 - share])
+        if observation == "np":  # the departure: NP's fill completes them
+            if proposal_options:  # NP has run already: its first fill
+                filled = options["proposals"][0]
+            else:
+                filled = np_fill(image, range_values, edge_map, rng,
+                                 **{**common, "radius": np_radius, "progress": stages.stage(0)})[0]
+            options["observation"] = np_observation(filled, range_values)
+        elif observation != "measured":  # the default: completed by the colorization fill
+            options["observation"] = observation_fill(image, range_values, observation,
                                                       colour=colour, progress=stages.stage(0))
-            options["observation_completed"] = departures["observation"].endswith("-completed")
+            options["observation_completed"] = observation.endswith("-completed")
         options["compatibility"] = departures["compatibility"]
         options["training_radius"] = departures["training_radius"]
         bp = bp_fill(image, range_values, edge_map, **options,

@@ -69,6 +69,45 @@ report split 1–6 % lower. On the room NP (0.114 / 0.153 m)
 stays far better: the candidates' ceiling (0.148 / 0.193 m) is above NP's
 MAR, so no choice among measured patches can reach it.
 
+**Observations completed by NP's fill** (``observation="np"``, 0.8: another
+departure, an option). BP's MAP is the value of each node's first-ranked label
+(Eq. 2's best match against ``y_i``) at 95–98 % of the Motorcycle's nodes, so
+BP is about as good as the range that completes ``y_i``. With ``"np"`` NP's
+own result (:func:`np_observation`; NP at its defaults with the same seed)
+completes it: Eq. 2 ranks, and the offset copy shifts, every label against
+the range NP synthesized around the node, and Fig. 6's labels, Φ, Ψ and
+messages then choose among the measured patches as before. BP then draws
+through NP (it depends on ``seed``) and takes NP's time on top of its own.
+Measured (MAR; NP and ``"np"`` mean ± sd over seeds 0–2; BP's default one
+run)::
+
+    python benchmarks/audit_departures.py --split choose --variants np,bp,bp-obs-np
+    python benchmarks/audit_departures.py --split report --variants np,bp,bp-obs-np
+    python benchmarks/bench_bp.py --proposals --room --variants np,bp,bp-obs-np
+
+=====================  =====================  =======================  =====================
+split, size            NP                     BP (``"colorization"``)  BP, ``"np"``
+=====================  =====================  =======================  =====================
+choose, 450×375        0.289 / 0.511 / 0.656  0.283 / 0.484 / 0.668    0.281 / 0.487 / 0.625
+report, 450×375        0.300 / 0.473 / 0.636  0.286 / 0.478 / 0.657    0.290 / 0.458 / 0.614
+report, 741×500        0.243 / 0.485 / 0.730  0.257 / 0.470 / 0.725    0.233 / 0.446 / 0.651
+room 128×128, grids    0.069 / 0.091 m        0.184 / 0.222 m          0.081 / 0.101 m
+10/20, 5/25
+=====================  =====================  =======================  =====================
+
+(x-stripes 63 / 78 / 85 % unknown, MAR in disparity px; NP's sd 0.001–0.020,
+``"np"``'s 0.002–0.012.) BP on NP's fill is below NP at every fraction and
+both sizes of the report split (by 3.1–3.5 % at 450×375, 4.1–10.8 % at
+741×500; beyond the two methods' summed sd except at 450×375 x78 and x85,
+where the difference equals it or is just under) and at every fraction of the
+choosing split (by 2.9–4.8 %, beyond the spread), 0.57–0.72× the best
+classical fill; against the default it ties at 63 and 78 % on the choosing
+split and wins at 85 % (−6.5 %). So it stays an option: on the choosing split
+it does not win beyond the 3 % band at every fraction, and it costs NP's time
+(the README's speed section). On the room it halves BP's error and lowers the
+candidate ceiling below NP's MAR (0.063 / 0.079 m), but BP keeps Eq. 2's
+first-ranked label at 95 % of the nodes and stays above NP.
+
 References
 ----------
 Torres-Méndez & Dudek (2008), §3.2.2–§3.2.3, Eqs. 2, 6–9, Fig. 6,
@@ -94,12 +133,13 @@ from refsynth.numeric import (
 from refsynth.synthesis.completion import portable_colorization
 from refsynth.synthesis.limits import normalise_intensity
 
-__all__ = ["OBSERVATIONS", "observation_fill", "observed_ranges"]
+__all__ = ["OBSERVATIONS", "observation_fill", "np_observation", "observed_ranges"]
 
 #: The observations :func:`refsynth.synthesize` accepts for BP: ``"measured"`` is Fig. 6's;
-#: the others complete them by a classical fill (see above; ``"colorization"`` is the
-#: default, :data:`refsynth.synthesis.api.BP_DEPARTURES`).
-OBSERVATIONS = ("measured", "colorization", "colorization-completed")
+#: the colorization ones complete them by a classical fill (see above; ``"colorization"`` is
+#: the default, :data:`refsynth.synthesis.api.BP_DEPARTURES`), ``"np"`` by NP's own fill
+#: (:func:`np_observation`).
+OBSERVATIONS = ("measured", "colorization", "colorization-completed", "np")
 
 
 def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: str,
@@ -144,8 +184,8 @@ def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: s
     >>> bool(np.all(np.isfinite(fill))), float(fill[0, 0]), float(fill[0, 5])
     (True, 0.0, 1.0)
     """
-    if observation not in OBSERVATIONS[1:]:
-        raise ValueError(f"The parameter `observation` must be one of {OBSERVATIONS[1:]} "
+    if observation not in OBSERVATIONS[1:3]:
+        raise ValueError(f"The parameter `observation` must be one of {OBSERVATIONS[1:3]} "
                          f"here, got {observation!r}")
     levels = quantise_intensity(normalise_intensity(image))
     if not colour:
@@ -154,6 +194,40 @@ def observation_fill(image: np.ndarray, range_values: np.ndarray, observation: s
     rq, _, _ = quantise_range(range_values)
     unit = np.where(rq == NO_RANGE, np.nan, rq * 2.0**-RANGE_BITS)
     return portable_colorization(levels, unit, progress=progress)
+
+
+def np_observation(filled: np.ndarray, range_values: np.ndarray) -> np.ndarray:
+    """NP's dense fill on the measured range's unit scale: the observations of ``"np"``.
+
+    With ``observation="np"`` (:func:`refsynth.synthesize`, BP; a departure, off by
+    default) NP (§3.2.2, at its defaults, with the same seed) fills the range first and
+    its result ``D`` completes every observation ``y_i`` for Eq. 2's ranking and the
+    labels' offset copy, as the colorization fill does for ``"colorization"``: the
+    observations then hold the range NP synthesized around each node, the evidence NP
+    itself compares against. :func:`observed_ranges` puts ``(D − low) / span`` on the
+    measured range's ``2**-16`` grid by the same arithmetic as
+    :func:`refsynth.numeric.quantise_range`.
+
+    Parameters
+    ----------
+    filled : ndarray of shape (H, W)
+        NP's result, finite everywhere, in the caller's unit.
+    range_values : ndarray of shape (H, W)
+        The measured range, NaN where unknown (``low``: its minimum, ``span``: its span).
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W)
+        ``(D − low) / span``.
+
+    Examples
+    --------
+    >>> partial = np.array([[2.0, np.nan, 4.0]])
+    >>> np_observation(np.array([[2.0, 3.5, 4.0]]), partial).tolist()
+    [[0.0, 0.75, 1.0]]
+    """
+    _, low, span = quantise_range(range_values)
+    return (np.asarray(filled, dtype=np.float64) - low) / span
 
 
 def observed_ranges(

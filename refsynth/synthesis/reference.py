@@ -472,25 +472,29 @@ def _send(t, axis, product):
     return m - (float(portable_log(z)) + m.max())
 
 
-def _observed_frame(frame, image, range_values, observation, colour):
+def _observed_frame(frame, image, range_values, observation, colour, np_range=None):
     """The observations ``y_i``: ``frame`` itself, or its range completed by the fill.
 
     With ``observation="colorization"`` (or ``"-completed"``) every unknown pixel's range is
     ``max(rint(2**16 f), 0)``, ``f`` the colorization fill
     (:func:`refsynth.synthesis.completion.portable_colorization`) of the quantised range
     ``q_r / 2**16`` guided by the quantised intensity ``q_i / 2**16`` (the fill reduces
-    colour to grey itself; with ``colour=False`` the grey level of Eq. 2); the measured
-    range is kept.
+    colour to grey itself; with ``colour=False`` the grey level of Eq. 2); with ``"np"``
+    ``f = (D − low) / span`` of NP's result ``np_range`` (``low``, ``span``: the measured
+    range's minimum and span); the measured range is kept.
     """
     if observation == "measured":
         return frame
-    q_intensity = quantise_intensity(image)
-    if not colour:
-        q_intensity = quantise_grey(q_intensity)
-    q_intensity = q_intensity * 2.0**-INTENSITY_BITS
-    q_range, _, _ = quantise_range(range_values)
-    fill = portable_colorization(
-        q_intensity, np.where(q_range == NO_RANGE, np.nan, q_range * 2.0**-RANGE_BITS))
+    q_range, low, span = quantise_range(range_values)
+    if observation == "np":
+        fill = (np_range - low) / span
+    else:
+        q_intensity = quantise_intensity(image)
+        if not colour:
+            q_intensity = quantise_grey(q_intensity)
+        q_intensity = q_intensity * 2.0**-INTENSITY_BITS
+        fill = portable_colorization(
+            q_intensity, np.where(q_range == NO_RANGE, np.nan, q_range * 2.0**-RANGE_BITS))
     observed = _Frame(image, range_values, frame.n, colour)
     inner = observed.qr[frame.h : frame.h + frame.shape[0], frame.h : frame.h + frame.shape[1]]
     for r, c in zip(*np.nonzero(inner == NO_RANGE)):
@@ -511,7 +515,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=0.0, colour=True, edge_rule="silent", channels="sum",
                  observation="colorization", training_radius="gap", range_copy="offset",
-                 trace=False) -> BPReference:
+                 rng=None, trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
@@ -524,7 +528,9 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
        Eq. 2 only), and with ``training_radius="gap"`` the disc's radius is
        ``r + ⌊d_i⌋`` (:func:`gap_depth_reference`; the prior μ then divides by that radius
        squared). ``observation="measured"``, ``training_radius="fixed"`` and
-       ``range_copy="value"`` (below) is Fig. 6 as printed.
+       ``range_copy="value"`` (below) is Fig. 6 as printed. With ``observation="np"``
+       :func:`np_reference` (NP's defaults, drawing on ``rng``) fills the range first and
+       its result completes ``y_i`` instead of the colorization fill.
     3. Eq. 7, ``log Φ(x_i^l, y_i) = −d_l / 2σ_i²`` with ``d_l`` the ranking distance.
     4. Eq. 6, ``log Ψ = −|d^l − d^m|² / 2σ_s²`` (:func:`overlap_mean_square`) for each pair
        of unknown 4-neighbours; a measured neighbour adds ``log Ψ`` against its own patch to
@@ -549,12 +555,21 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
 
     Parameters are :func:`refsynth.synthesize`'s (``k`` is ``candidates``); ``image``,
     ``range_values``, ``edges`` and ``colour`` as in :func:`np_reference`; ``edge_rule`` is
-    ``"silent"`` or ``"paper"`` (above). Returns :class:`BPReference`.
+    ``"silent"`` or ``"paper"`` (above); ``rng`` (a ``numpy.random.Generator``, used with
+    ``observation="np"`` only) as in :func:`np_reference`. Returns :class:`BPReference`.
     """
     H, W = range_values.shape
     h = neighbourhood // 2
     frame = _Frame(image, range_values, neighbourhood, colour)
-    observed = _observed_frame(frame, image, range_values, observation, colour)
+    np_range = None
+    if observation == "np":  # NP first, at its defaults, with BP's shared options
+        if not isinstance(rng, np.random.Generator):
+            raise TypeError("observation='np' needs `rng`, a numpy Generator")
+        np_range = np_reference(image, range_values, edges, rng, neighbourhood=neighbourhood,
+                                radius=radius, use_edges=use_edges, range_weight=range_weight,
+                                missing_range=missing_range, colour=colour,
+                                channels=channels).range
+    observed = _observed_frame(frame, image, range_values, observation, colour, np_range)
     training = observed if observation == "colorization-completed" else frame
     on_edge = np.asarray(edges, dtype=bool) & use_edges
     deaf = edge_rule == "paper"
