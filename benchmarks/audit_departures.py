@@ -163,6 +163,8 @@ VARIANTS["bp-fig6"] = {"method": "bp", **FIG6}
 # BP's copy, the other defaults kept: the labels' centre values (0.5's BP) or shifted (0.6)
 VARIANTS["bp-value-copy"] = {"method": "bp", "range_copy": "value"}
 VARIANTS["bp-offset-copy"] = {"method": "bp", "range_copy": "offset"}
+# BP's observations completed by NP's fill (0.8, an option): depends on the seed
+VARIANTS["bp-obs-np"] = {"method": "bp", "observation": "np"}
 VARIANTS["bp-offset-copy-obs-colorization-completed"] = {
     "method": "bp", "range_copy": "offset", "observation": "colorization-completed"}
 # BP's defaults with one parameter changed (the entries above change Fig. 6's): how much the

@@ -135,7 +135,8 @@ PROPOSAL_VARIANTS = {name: kw for name, kw in VARIANTS.items()
                      if name == "np" or kw["method"] == "bp"}
 #: Section 3's variants that make no random choice: one seed is enough.
 DETERMINISTIC = {name for name, kw in PROPOSAL_VARIANTS.items()
-                 if kw["method"] == "bp" and "proposals" not in kw}
+                 if kw["method"] == "bp" and "proposals" not in kw
+                 and kw.get("observation") != "np"}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 
 

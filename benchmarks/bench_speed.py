@@ -33,6 +33,8 @@ Run::
     python benchmarks/bench_speed.py                   # all sizes and methods (~10 min)
     python benchmarks/bench_speed.py --quick           # 112×94 and 225×188 only
     python benchmarks/bench_speed.py --sizes 450x375 --methods np,colorization --repeat 3
+    python benchmarks/bench_speed.py --sizes 450x375,900x750 --no-rss \
+        --methods np,bp,bp-obs-np,colorization    # BP on NP's fill, an option: its cost
     python benchmarks/bench_speed.py --bp-stages       # BP's stages, CPU time (~3 min)
     python benchmarks/bench_speed.py --fill-solvers    # BP's observations' fill (~3 min)
     python benchmarks/bench_speed.py --memory 2048x2048  # item 3: NP and BP, ~12 min
@@ -60,6 +62,8 @@ import numpy as np
 SIZES = ((112, 94), (225, 188), (450, 375), (900, 750))
 QUICK_SIZES = SIZES[:2]
 METHODS = ("np", "bp", "bp-fig6", "colorization", "nearest", "joint-bilateral")
+#: Chosen by name only (``--methods``): BP's observations completed by NP's fill (NP, then BP).
+OPTIONAL_METHODS = ("bp-obs-np",)
 UNKNOWN = 0.78  # x-stripes, as bench_np.py / bench_bp.py
 LINEAR_TOLERANCE = 0.25  # issue #15 item 4: µs per unknown pixel within ±25 %
 
@@ -97,6 +101,8 @@ def _fill(method: str):
         "bp-fig6": lambda image, partial: refsynth.synthesize(
             image, partial, method="bp", observation="measured", training_radius="fixed",
             range_copy="value"),
+        "bp-obs-np": lambda image, partial: refsynth.synthesize(
+            image, partial, method="bp", observation="np", seed=0),
         "colorization": baselines.colorization_fill,
         "nearest": baselines.nearest_fill,
         "joint-bilateral": baselines.joint_bilateral_fill,
@@ -388,7 +394,8 @@ def main(argv=None) -> int:
                         help="comma-separated WIDTHxHEIGHT (default: 112x94,225x188,450x375,"
                         "900x750)")
     parser.add_argument("--methods", type=lambda t: t.split(","), default=list(METHODS),
-                        help=f"comma-separated, of {', '.join(METHODS)} (default: all)")
+                        help=f"comma-separated, of {', '.join(METHODS + OPTIONAL_METHODS)} "
+                        f"(default: all but {', '.join(OPTIONAL_METHODS)})")
     parser.add_argument("--repeat", type=int, default=1,
                         help="time each method this many times, keep the best (default 1)")
     parser.add_argument("--quick", action="store_true",
@@ -409,9 +416,10 @@ def main(argv=None) -> int:
     if args.child:
         _child(args.child[0], _size(args.child[1]))
         return 0
-    unknown = sorted(set(args.methods) - set(METHODS))
+    unknown = sorted(set(args.methods) - set(METHODS + OPTIONAL_METHODS))
     if unknown:
-        parser.error(f"unknown method(s) {', '.join(unknown)}; choose from {', '.join(METHODS)}")
+        parser.error(f"unknown method(s) {', '.join(unknown)}; choose from "
+                     f"{', '.join(METHODS + OPTIONAL_METHODS)}")
     if args.repeat < 1:
         parser.error(f"--repeat must be >= 1, got {args.repeat}")
     if args.quick and args.sizes:

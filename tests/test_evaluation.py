@@ -134,16 +134,26 @@ def test_cases_run_np_over_seeds_and_the_rest_once():
 
 
 def test_default_grid_covers_the_issue():
+    from refsynth.evaluation.cases import OPTION_METHODS
+
     cases = grid_cases(DEFAULT_GRID)
     keys = {(c.scene, c.size, c.sampling, c.method) for c in cases}
+    methods = [m for m in method_names() if m not in OPTION_METHODS]
+    assert "bp-obs-np" in method_names() and "bp-obs-np" not in methods
     for scene in ("synthetic-0", "motorcycle"):
         for sampling in ("g24_80", "g10_20", "g5_25", "g3_28", "x63", "x78", "x85", "distance"):
-            for method in method_names():
+            for method in methods:
                 assert (scene, "128x128", sampling, method) in keys
     for sampling in ("x63", "x78", "x85"):
-        for method in method_names():
+        for method in methods:
             assert ("motorcycle", "450x375", sampling, method) in keys
+    assert not {c.method for c in cases} & set(OPTION_METHODS)
+    assert len(cases) == 404   # the README's Results: the default grid's 404 cases
     assert len(cases) == len(set(cases))
+    # chosen by name, the option runs over seeds (it draws through NP)
+    named = grid_cases([("synthetic", "16", "x20", "bp,bp-obs-np")], seeds=2)
+    assert [(c.method, c.seed) for c in named] == [("bp", 0), ("bp-obs-np", 0),
+                                                   ("bp-obs-np", 1)]
 
 
 # ----------------------------------------------------------------------------- bookkeeping

@@ -16,7 +16,8 @@ validates it and returns its canonical form:
   ``distance`` or ``distanceNN`` (Fig. 2's distance-driven columns, 60 % or
   NN % unknown);
 - methods: ``np``, ``np-noedges``, ``np-noisophotes``, ``np-onion``, ``bp``,
-  ``bp-noedges``, ``bp-fig6`` (Fig. 6 as printed), and the baselines of
+  ``bp-noedges``, ``bp-fig6`` (Fig. 6 as printed), ``bp-obs-np`` (BP's
+  observations completed by NP's fill, an option), and the baselines of
   :mod:`refsynth.evaluation.baselines` by name (``nearest``, ``linear``,
   ``harmonic``, ``colorization``, ``joint-bilateral``).
 
@@ -89,7 +90,12 @@ SYNTHESIS_METHODS: dict[str, dict] = {
     # disc (issue #10's departures, refsynth.synthesis.bp_observation / bp_gap_radius)
     "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
                 "range_copy": "value"},
+    # BP's observations completed by NP's fill instead (an option, 0.8): draws through NP
+    "bp-obs-np": {"method": "bp", "observation": "np"},
 }
+#: Variants the default grid leaves out (a block's methods None): options that run
+#: another method first (``bp-obs-np`` runs NP, then BP), chosen by name with ``--methods``.
+OPTION_METHODS = ("bp-obs-np",)
 
 #: Every sampling of the paper's experiments: Table 1's grids, Table 4's
 #: x-stripes and Fig. 2's distance-driven columns.
@@ -503,8 +509,8 @@ def parse_list(text: str, parse: Callable[[str], str], what: str) -> list[str]:
 
 
 def _is_stochastic(method: str) -> bool:
-    """NP draws from the Eq. 5 set; BP and the baselines are deterministic."""
-    return method.startswith("np")
+    """NP draws from the Eq. 5 set (so does BP on NP's fill); BP and the baselines do not."""
+    return method.startswith("np") or method == "bp-obs-np"
 
 
 def build_cases(
@@ -563,7 +569,7 @@ def grid_cases(
     blocks : iterable of (str, str, str, str or None)
         Each ``(scenes, sizes, samplings, methods)`` as comma-separated
         lists (see :func:`parse_list`); a block's methods None means every
-        name of :func:`method_names`.
+        name of :func:`method_names` but :data:`OPTION_METHODS`.
     seeds : int, default 3
         As in :func:`build_cases`.
     methods : str or None, default None
@@ -584,7 +590,8 @@ def grid_cases(
     """
     cases: list[Case] = []
     for scenes, sizes, samplings, block_methods in blocks:
-        chosen = methods or block_methods or ",".join(method_names())
+        chosen = methods or block_methods or ",".join(
+            name for name in method_names() if name not in OPTION_METHODS)
         cases += build_cases(
             parse_list(scenes, parse_scene, "scene"), parse_list(sizes, parse_size, "size"),
             parse_list(samplings, parse_sampling, "sampling"),
