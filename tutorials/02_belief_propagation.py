@@ -288,7 +288,10 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 #    three (refsynth's default), and compare BP's MAR, the
 #    candidate ceiling and the error of each pixel's first-ranked candidate
 #    (`result.candidate_values[:, 0]`) with one another and with NP. What
-#    moved — the candidates, or their order?
+#    moved — the candidates, or their order? Last, complete the observations
+#    with NP's own fill instead of the colorization fill
+#    (`observation="np"`, an option; it draws through NP, so take seeds
+#    0–2): on the room the ceiling falls below NP's MAR — does BP follow it?
 # 3. **Turn off the edge-constraint rule** (`use_edges=False` with
 #    `method="bp"`, refsynth's defaults otherwise) on both cases. How much
 #    does MAR change, and how does that compare with what the edges do for NP
