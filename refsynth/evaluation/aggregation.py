@@ -143,7 +143,7 @@ def without_timing(rows: Sequence[dict]) -> list[dict]:
 PAIRWISE_FINDINGS = (
     ("BP < NP", "bp", "np", "Tables 1–4"),
     ("Fig. 6's BP < NP", "bp-fig6", "np", "Tables 1–4"),
-    ("BP on NP's fill < NP", "bp-obs-np", "np", "Tables 1–4 (a departure)"),
+    ("BP on NP's fill < NP", "bp-obs-np", "np", "a departure; Tables 1–4"),
     ("NP < NP without edges", "np", "np-noedges", "Table 3, Fig. 13"),
     ("BP < NP without edges", "bp", "np-noedges", "Table 3, Fig. 13"),
     ("priority order < onion order", "np", "np-onion", "Fig. 7"),
