@@ -102,7 +102,9 @@ both sizes of the report split (by 3.1–3.5 % at 450×375, 4.1–10.8 % at
 where the difference equals it or is just under) and at every fraction of the
 choosing split (by 2.9–4.8 %, beyond the spread), 0.57–0.72× the best
 classical fill; against the default it ties at 63 and 78 % on the choosing
-split and wins at 85 % (−6.5 %). So it stays an option: on the choosing split
+split and wins at 85 % (−6.5 %), and with that split's stripe phase at
+741×500 (``--split choose --sizes 741x500``) it wins at every fraction
+(−5.7 / −3.9 / −14.9 %). So it stays an option: on the choosing split
 it does not win beyond the 3 % band at every fraction, and it costs NP's time
 (10× the colorization fill at 450×375 against the default's 4.8× in the same
 run: the README's "BP on NP's fill"). On the room it halves BP's error and lowers the
