@@ -248,16 +248,13 @@ class FillTable:
         # buffers for the window's terms
         self._rp, self._vp = self.product[r0:v0], self.product[h0:l0]
         self.rows = np.zeros((0, width))
-        self._row = np.zeros((1, width))  # one candidate's range row (_distance_of)
+        self._row = self.ranges[:1]  # one candidate's range row (_distance_of: a view)
         self._single = np.zeros(1)  # the shortlist's distances when it keeps one candidate
         self._single_mv = memoryview(self._single)
         self._ab_single = np.zeros((2, 1))  # _distance_of's [a w; b w]
         self._ab_single_mv = memoryview(self._ab_single.reshape(-1))
         self._ab_rows = self._ab_single
-        self._delta, self._spread, self._support = (np.empty(nn) for _ in range(3))
-        self._ab = np.zeros(2)
-        self._a, self._b = self._ab[0:1], self._ab[1:2]
-        self._ab_mv = memoryview(self._ab)
+        self._delta, self._support = np.empty(nn), np.empty(nn)
         self.lam = float(range_weight)
         self.missing_range = missing_range
         # _combine's scalar operands as 0-d arrays, made once: a ufunc takes a Python scalar
@@ -400,7 +397,7 @@ class FillTable:
         keep = np.less_equal(si, bound)
         kept = candidates.compress(keep)
         if kept.size == 1:  # k alone (D_k <= scale D_k keeps it): its distance is known
-            self.rows = self._row  # _distance_of's copy of k's row, for offset_shift
+            self.rows = self._row  # k's row (float32), for offset_shift
             self._ab_rows = self._ab_single
             self._single_mv[0] = best
             return kept, self._single
@@ -435,10 +432,9 @@ class FillTable:
     def _distance_of(self, q: int, si: float) -> float:
         """Eq. 2 of one candidate ``q`` with intensity term ``si``: :func:`_combine`'s
         operations on Python floats (the same IEEE operations, so the same bits). Leaves
-        ``q``'s range row in ``self._row`` (float64)."""
-        row = self._row
-        np.copyto(row[0], self.ranges[q])  # widened, exact
-        sr, ws, b = np.dot(self.range_weights, row[0]).tolist()  # exact
+        ``q``'s range row in ``self._row`` (a float32 view of the table)."""
+        self._row = row = self.ranges[q : q + 1]
+        sr, ws, b = np.dot(self.range_weights, row[0]).tolist()  # widened by dot: exact
         self._ab_single_mv[0], self._ab_single_mv[1] = ws, b  # offset_shift's a w, b w
         if self.lam != 1.0:
             sr = sr * self.lam
@@ -494,14 +490,13 @@ class FillTable:
         if a == 0.0:  # no shared support
             return 0
         row = self.rows[j]
-        self._ab_mv[0], self._ab_mv[1] = a, b
-        delta = np.subtract(self._rp, row[self.r0 : self.v0], out=self._delta)
-        spread = np.multiply(delta, self._a, out=self._spread)
-        np.subtract(spread, self._b, out=spread)
-        np.multiply(spread, np.multiply(self._vp, row[self.v0 : self.h0], out=self._support),
-                    out=spread)  # 0 off the shared support
-        np.abs(spread, out=spread)
-        if float(spread[spread.argmax()]) > _SLACK * a:
+        # δ = R_p − R_q on the shared support (V_p V_q = 1; a > 0, so it is not empty)
+        delta = np.subtract(self._rp, row[self.r0 : self.v0], out=self._delta).compress(
+            np.multiply(self._vp, row[self.v0 : self.h0], out=self._support)).tolist()
+        # max |δ a − b| over it is at its largest or smallest δ (a > 0; each product and
+        # difference exact): the same test as on every δ
+        slack = _SLACK * a
+        if a * max(delta) - b > slack or b - a * min(delta) > slack:
             return 0
         return round_half_even(int(b * _TO_WINDOW), int(a * _TO_WINDOW))
 
