@@ -37,6 +37,7 @@ Run::
         --methods np,bp,bp-obs-np,colorization    # BP on NP's fill, an option: its cost
     python benchmarks/bench_speed.py --bp-stages       # BP's stages, CPU time (~3 min)
     python benchmarks/bench_speed.py --fill-solvers    # BP's observations' fill (~3 min)
+    python benchmarks/bench_speed.py --fill-solvers --room   # the same on the room's grids
     python benchmarks/bench_speed.py --memory 2048x2048  # item 3: NP and BP, ~12 min
 
 ``--memory SIZE`` runs NP and BP once each at ``SIZE`` in a fresh subprocess and prints,
@@ -50,6 +51,7 @@ Needs scikit-image (the Motorcycle).
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import resource
@@ -369,6 +371,58 @@ def fill_solvers(sizes, out=sys.stdout) -> dict:
     return results
 
 
+#: The room's grids of ``evaluate``'s default grid: (the known lines' width, the unknown
+#: holes' side) in pixels (``stripes(shape, known, hole, axes="xy")``), widest holes first.
+ROOM_GRIDS = ((24, 80), (10, 20), (5, 25), (3, 28))
+
+
+def fill_solvers_room(out=sys.stdout, grids=ROOM_GRIDS) -> dict:
+    """:func:`fill_solvers` on the synthetic room (128×128, seed 0), with BP beside each fill.
+
+    The fill's MAR (m) against the ground truth for each solver and the direct solve, and
+    BP's (its defaults, ``observation="colorization"``) with its observations filled by each
+    solver. ``grids``: pairs (known lines' width, unknown holes' side). Returns
+    ``{(grid, solver): {"fill": float, "bp": float}}`` (``"direct"``: the direct solve's
+    fill only).
+    """
+    import refsynth
+    from refsynth.acquisition.sampling import stripes
+    from refsynth.evaluation.baselines import colorization_fill
+    from refsynth.evaluation.metrics import mar
+    from refsynth.scenes import synthetic_room
+    from refsynth.synthesis import bp_observation
+    from refsynth.synthesis.completion import SOLVERS, portable_colorization
+
+    print("BP's observations' fill on the synthetic room (128×128, seed 0), grids (known "
+          "lines' width / unknown holes' side, px): the fill's MAR (m) against the ground "
+          "truth, and BP's (defaults) with its observations filled by that solver\n", file=out)
+    print("| grid | unknown | solver | fill's MAR | BP's MAR |", file=out)
+    print("|---|---|---|---|---|", file=out)
+    scene = synthetic_room((128, 128), seed=0)
+    results = {}
+    for line, hole in grids:
+        grid = f"{line}/{hole}"
+        known = stripes(scene.range.shape, line, hole, axes="xy") & scene.has_truth
+        partial = np.where(known, scene.range, np.nan)
+        percent = 100.0 * (~known).mean()
+        direct = mar(colorization_fill(scene.intensity, partial), scene.range, known)
+        results[(grid, "direct")] = dict(fill=direct)
+        print(f"| {grid} | {percent:.1f} % | direct (SuperLU) | {direct:.3f} | — |", file=out)
+        for solver in SOLVERS:
+            fill = portable_colorization(scene.intensity, partial, solver=solver)
+            bp_observation.portable_colorization = functools.partial(portable_colorization,
+                                                                     solver=solver)
+            try:
+                bp = refsynth.synthesize(scene.intensity, partial, method="bp").range
+            finally:
+                bp_observation.portable_colorization = portable_colorization
+            results[(grid, solver)] = dict(fill=mar(fill, scene.range, known),
+                                           bp=mar(bp, scene.range, known))
+            print(f"| {grid} | {percent:.1f} % | {solver} | {results[(grid, solver)]['fill']:.3f}"
+                  f" | {results[(grid, solver)]['bp']:.3f} |", file=out, flush=True)
+    return results
+
+
 def _linearity(results: dict, methods, out, key: str = "seconds", what: str = "wall") -> None:
     """µs per unknown pixel (``key``: wall or CPU seconds) from the smallest to the largest
     size, against ±25 %."""
@@ -408,6 +462,9 @@ def main(argv=None) -> int:
     parser.add_argument("--fill-solvers", action="store_true",
                         help="instead: BP's observations' fill by the cascade and by "
                         "Gauss-Seidel alone, its time, sweeps and MAR")
+    parser.add_argument("--room", action="store_true",
+                        help="with --fill-solvers: on the synthetic room's grids (128x128), "
+                        "the fills' MAR and BP's with each")
     parser.add_argument("--memory", type=_size, metavar="SIZE",
                         help="instead: NP's and BP's peak memory at SIZE (e.g. 2048x2048) "
                         "beside their estimates, each in a fresh subprocess")
@@ -428,8 +485,13 @@ def main(argv=None) -> int:
     if args.bp_stages:
         bp_stages(sizes)
         return 0
+    if args.room and not args.fill_solvers:
+        parser.error("--room goes with --fill-solvers")
     if args.fill_solvers:
-        fill_solvers(sizes)
+        if args.room:
+            fill_solvers_room()
+        else:
+            fill_solvers(sizes)
         return 0
     if args.memory:
         memory_at(args.memory, [m for m in args.methods if m in ("np", "bp")] or ["np", "bp"])

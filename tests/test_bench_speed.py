@@ -48,7 +48,7 @@ def test_peak_rss_is_read_in_a_fresh_subprocess(bench):
 
 def test_bad_options_are_refused(bench, capsys):
     for argv in (["--methods", "np,fast"], ["--repeat", "0"], ["--sizes", "4x4"],
-                 ["--quick", "--sizes", "112x94"]):
+                 ["--quick", "--sizes", "112x94"], ["--room"]):
         with pytest.raises(SystemExit) as exit_info:
             bench.main(argv)
         assert exit_info.value.code == 2
@@ -69,3 +69,30 @@ def test_memory_mode_prints_each_fill_beside_its_estimate(bench, capsys):
         assert estimate > 0 and 10 < before <= peak and added == pytest.approx(peak - before,
                                                                               abs=1)
         assert "| yes |" in row
+
+
+def test_fill_solvers_on_the_room_put_the_default_fill_back(bench):
+    """``--fill-solvers --room``: BP with the cascade is BP's default, and the default fill is
+    restored after the Gauss-Seidel run."""
+    import io
+
+    import numpy as np
+
+    import refsynth
+    from refsynth.acquisition.sampling import stripes
+    from refsynth.evaluation.metrics import mar
+    from refsynth.scenes import synthetic_room
+    from refsynth.synthesis import bp_observation
+    from refsynth.synthesis.completion import portable_colorization
+
+    out = io.StringIO()
+    results = bench.fill_solvers_room(out=out, grids=((10, 20),))
+    assert bp_observation.portable_colorization is portable_colorization
+    assert set(results) == {("10/20", "direct"), ("10/20", "cascadic"),
+                            ("10/20", "gauss-seidel")}
+    scene = synthetic_room((128, 128), seed=0)
+    known = stripes(scene.range.shape, 10, 20, axes="xy") & scene.has_truth
+    partial = np.where(known, scene.range, np.nan)
+    bp = refsynth.synthesize(scene.intensity, partial, method="bp").range
+    assert results[("10/20", "cascadic")]["bp"] == mar(bp, scene.range, known)
+    assert "| 10/20 | 39.1 % | gauss-seidel |" in out.getvalue()
