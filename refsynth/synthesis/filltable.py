@@ -469,10 +469,10 @@ class FillTable:
         power of two): ``a u = Σ G V_p V_q u`` (Eq. 2's ``w_s``) and ``b u = Σ G V_p V_q δ u``
         with ``δ = R_p − R_q``, formed as ``Σ (G V_p R_p u) V_q − (G V_p u) R_q`` (``R_q = 0``
         where ``V_q = 0``) by the third row of the range weights, and the agreement test
-        ``|δ (a u) − b u| ≤ 2^{16−7} (a u)`` on the shared support (``V_p V_q = 1``; the
-        term is multiplied by 0 elsewhere). Every product and sum is an integer below
-        ``2**53`` times ``u``: exact in any order, the integers of
-        ``range_copy.offset_shift``.
+        ``|δ (a u) − b u| ≤ 2^{16−7} (a u)`` on the shared support (``V_p V_q = 1``),
+        decided at its largest and smallest ``δ`` (``a > 0``, so ``δ (a u) − b u`` grows with
+        ``δ``). Every product and sum is an integer below ``2**53`` times ``u``: exact in any
+        order, the integers and the decision of ``range_copy.offset_shift``.
 
         Examples
         --------
