@@ -142,6 +142,19 @@ def test_the_shifts_of_many_windows_are_the_shift_of_each(g, spread):
     assert got.tolist() == want
 
 
+def test_the_shifts_of_many_windows_round_exact_halves_to_even():
+    """Mean differences of exactly k + 1/2, k odd and even, of either sign: half to even, as
+    :func:`offset_shift` (random windows almost never meet these ties)."""
+    weights = np.ones(4)
+    source = np.full((4, 4), 1000)
+    deltas = np.array([[1, 2, 1, 2], [2, 3, 2, 3], [-1, -2, -1, -2], [-2, -3, -2, -3]])
+    got = offset_shifts(source + deltas, source, weights)
+    assert got.tolist() == [2, 2, -2, -2]  # 1.5, 2.5, -1.5, -2.5
+    full = np.ones(4, dtype=bool)
+    assert got.tolist() == [offset_shift((s + d).astype(float), s.astype(float), full, full,
+                                         weights) for s, d in zip(source, deltas, strict=True)]
+
+
 @given(windows)
 def test_the_shifted_values_are_nps_arithmetic(g):
     q = g.integers(0, 2**16 + 1, 40)
