@@ -51,7 +51,6 @@ Needs scikit-image (the Motorcycle).
 from __future__ import annotations
 
 import argparse
-import functools
 import json
 import os
 import resource
@@ -390,8 +389,10 @@ def fill_solvers_room(out=sys.stdout, grids=ROOM_GRIDS) -> dict:
     from refsynth.evaluation.baselines import colorization_fill
     from refsynth.evaluation.metrics import mar
     from refsynth.scenes import synthetic_room
-    from refsynth.synthesis import bp_observation
     from refsynth.synthesis.completion import SOLVERS, portable_colorization
+
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # this script's folder
+    from audit_departures import _fill_solver  # BP's observations filled by a given solver
 
     print("BP's observations' fill on the synthetic room (128×128, seed 0), grids (known "
           "lines' width / unknown holes' side, px): the fill's MAR (m) against the ground "
@@ -410,12 +411,8 @@ def fill_solvers_room(out=sys.stdout, grids=ROOM_GRIDS) -> dict:
         print(f"| {grid} | {percent:.1f} % | direct (SuperLU) | {direct:.3f} | — |", file=out)
         for solver in SOLVERS:
             fill = portable_colorization(scene.intensity, partial, solver=solver)
-            bp_observation.portable_colorization = functools.partial(portable_colorization,
-                                                                     solver=solver)
-            try:
+            with _fill_solver(solver):
                 bp = refsynth.synthesize(scene.intensity, partial, method="bp").range
-            finally:
-                bp_observation.portable_colorization = portable_colorization
             results[(grid, solver)] = dict(fill=mar(fill, scene.range, known),
                                            bp=mar(bp, scene.range, known))
             print(f"| {grid} | {percent:.1f} % | {solver} | {results[(grid, solver)]['fill']:.3f}"
