@@ -222,9 +222,9 @@ def test_a_neighbourhood_beyond_memory_is_refused_with_the_memory_needed():
 
 
 def test_the_memory_limit_is_the_machines_physical_memory(monkeypatch):
-    monkeypatch.setattr("refsynth._checks.physical_memory", lambda: 2**20)
-    with pytest.raises(ValueError, match=r"would need about [0-9.]+ MiB of memory, more than "
-                       r"this machine's 1\.0 MiB"):
+    monkeypatch.setattr("refsynth._checks.physical_memory", lambda: 2**16)
+    with pytest.raises(ValueError, match=r"would need about [0-9.]+ [KM]iB of memory, more "
+                       r"than this machine's 64\.0 KiB"):
         refsynth.synthesize(IMAGE, PARTIAL)
 
 

@@ -19,9 +19,9 @@ from refsynth.synthesis.similarity import PatchTable
     st.integers(0, 2**32 - 1),
 )
 def test_fill_table_matches_patch_table_through_fills(h, w, channels, n, missing, lam, seed):
-    """Intensity and range on the 2**-16 grid, extremes included (0 and 2**16, where R²
-    needs both float32 parts); after every set_range the two tables agree on every
-    target and candidate."""
+    """Intensity and range on the 2**-16 grid, extremes included (0 and 2**16, whose R²
+    float32 cannot hold: it is squared per step in float64); after every set_range the two
+    tables agree on every target and candidate."""
     rng = np.random.default_rng(seed)
     image = rng.integers(0, 2**16 + 1, (h, w, channels)).astype(np.float64)
     image.flat[0], image.flat[-1] = 0.0, 2.0**16

@@ -4,19 +4,20 @@ NP (:mod:`refsynth.synthesis.nonparametric`) evaluates Eq. 2 between the
 voxel ``p`` it fills and every candidate ``q`` of ``A_p`` (Eq. 3), one voxel
 at a time. :class:`FillTable` holds, per voxel of the padded frame, the row
 
-.. math:: [\, I_{v,c} \mid s_q \mid 1 \mid R_v \mid V_v \mid R_v^2 \,]_{v \in N_q}
+.. math:: [\, I_{v,c} \mid s_q \mid 1 \mid R_v \mid V_v \,]_{v \in N_q}
 
 (intensity; the self term ``s_q = Σ_v G_v Σ_c I²``; the constant 1; range, stored as 0
-where unknown; has-range indicator; squared range) in float32, held as two arrays: the
-intensity rows ``[I | s | 1]`` (fixed) and the range rows ``[R | V | R² | 1]`` (written as
-the fill goes). The integers of the
-numeric contract (:mod:`refsynth.numeric`) up to ``2**16`` are exact in
-float32; ``s_q`` (below ``2**52``) is stored as three float32 parts and
-``R²`` (up to ``2**32``) as two, each part exact and their sum exactly the
-integer. A row is 720 bytes (316 + 404) for a colour 5×5 window, against 1200 for
-:class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]``
-(BP's table): the table of a 900×750 image takes about 500 MB instead of 850,
-and each step gathers 40 % fewer bytes.
+where unknown; has-range indicator) in float32, held as two arrays: the intensity rows
+``[I | s | 1]`` (fixed) and the range rows ``[R | V | 1]`` (written as the fill goes).
+The integers of the numeric contract (:mod:`refsynth.numeric`) up to ``2**16`` are exact
+in float32; ``s_q`` (below ``2**52``) is stored as three float32 parts, each part exact
+and their sum exactly the integer. The squared range ``R²`` (up to ``2**32``, which
+float32 cannot hold) is not stored: each step squares the few range rows it gathers, in
+float64 (exact). A row is 520 bytes (316 + 204) for a colour 5×5 window, against 1200
+for :class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]``
+(BP's table): the table of a 900×750 image takes about 370 MB instead of 850. (Until
+0.8.2 the range rows held ``R²`` too, as two float32 parts: 200 bytes more a pixel, 820
+MiB more at 2048×2048, for about 2 % less time.)
 
 The gathered rows are widened to float64 and the four sums of Eq. 2
 
@@ -27,10 +28,11 @@ The gathered rows are widened to float64 and the four sums of Eq. 2
 
     w_s = \sum_v G_v V_p V_q, \qquad w_a = \sum_v G_v V_p
 
-come from two matrix–vector products with weights built from ``p``'s row
+come from matrix–vector products with weights built from ``p``'s row
 (``s_i`` over ``[I | s_q | 1]``, the constant 1 weighted by ``s_p``; then one product of
-the range rows with three weight rows: ``s_r`` over ``[R | V | R²]``, ``w_s`` over ``V``,
-and the offset copy's ``b``; ``w_a`` is the sum of ``w_s``'s weights). The
+the range rows with three weight rows: ``s_r``'s first two parts over ``[R | V]``, ``w_s``
+over ``V``, and the offset copy's ``b``; one more of the squared ``R`` with ``G V_p``,
+``s_r``'s first part, added to it; ``w_a`` is the sum of ``w_s``'s weights). The
 weights carry the sums' units, :data:`~refsynth.numeric.EQ2_UNIT` for ``s_i`` and ``s_r``
 and :data:`~refsynth.numeric.WEIGHT_UNIT` for ``w_s`` and ``w_a`` (powers of two,
 so scaling is exact). Every product and partial sum is an integer below
@@ -105,7 +107,7 @@ _TO_WINDOW = 2.0**WINDOW_BITS
 
 
 class FillTable:
-    """Every voxel's neighbourhood as one float32 row ``[I | s | R | V | R²]``, for NP (Eq. 2).
+    """Every voxel's neighbourhood as one float32 row ``[I | s | R | V]``, for NP (Eq. 2).
 
     The same distances as :class:`refsynth.synthesis.similarity.PatchTable`
     (bit for bit) in less memory; see the module docstring.
@@ -159,10 +161,10 @@ class FillTable:
         # the intensity rows: I, the self term in three parts, the constant 1
         s0, one = base, base + 3
         self.one = one
-        # the range rows: R, V, R² high and low parts, the constant 1 (read by p's weights)
-        r0, v0, h0, l0 = 0, nn, 2 * nn, 3 * nn
-        width = 4 * nn + 1
-        self.r0, self.v0, self.h0, self.l0, self.range_width = r0, v0, h0, l0, width
+        # the range rows: R, V, the constant 1 (read by p's weights); R² is formed per step
+        r0, v0 = 0, nn
+        width = 2 * nn + 1
+        self.r0, self.v0, self.range_width = r0, v0, width
         self.intensity = np.zeros((pixels, base + 4), dtype=np.float32)
         self.ranges = np.zeros((pixels, width), dtype=np.float32)
         frame_i = self.intensity.reshape(self.shape + (base + 4,))
@@ -200,53 +202,56 @@ class FillTable:
             has = np.isfinite(r)
             r = np.where(has, r, 0.0)
             out[:, :, r0:v0] = r
-            out[:, :, v0:h0] = has
-            out[:, :, h0:-1] = np.concatenate(np.moveaxis(_split(r * r, 2), -1, 0), axis=-1)
+            out[:, :, v0:-1] = has
         self.self_unit *= EQ2_UNIT
         # p's weights. Intensity, over [I | S | 1]: G I_p (-2 u) on I, u on the self term's
-        # parts, s_p u on the constant 1 (written per step). Range, over [R | V | R²_hi |
-        # R²_lo] and then Eq. 2's support weights G V_p: w = (row_p[perm] · row_p[square]) ·
-        # coef, every factor and product an exact integer times a power of two (the units
-        # of the sums, folded into coef), so every product and partial sum of the mat-vec
-        # products stays exact. `square` reads R_p for the V block (the weight G R_p² u) and
-        # the range row's constant 1 elsewhere.
+        # parts, s_p u on the constant 1 (written per step). Range, over [R | V] and the
+        # candidates' R² (formed per step), then Eq. 2's support weights G V_p: w =
+        # (row_p[perm] · row_p[square]) · coef, every factor and product an exact integer
+        # times a power of two (the units of the sums, folded into coef), so every product
+        # and partial sum of the mat-vec products stays exact. `square` reads R_p for the V
+        # block (the weight G R_p² u) and the range row's constant 1 elsewhere.
         self.coef_i = -2.0 * g_int * EQ2_UNIT
         self.w_si = np.full(base + 4, EQ2_UNIT)
         self._w_i = self.w_si[:base]
         # the range weights as three rows over the range row, so that one product gives
-        # s_r, w_s and the offset copy's b: row 0 is s_r's weights over [R | V | R²_hi |
-        # R²_lo] (0 on the constant), row 1 w_s's, G V_p w over V (0 elsewhere), row 2 b's,
-        # -G V_p w over R and G V_p R_p w over V (b = Σ G V_p V_q (R_p - R_q) w, as R_q = 0
-        # where V_q = 0). An unused entry reads the constant 1 twice and has the
-        # coefficient 0.
+        # s_r less its R_q² part, w_s and the offset copy's b: row 0 is s_r's weights over
+        # [R | V] (-2 G R_p u, G R_p² u; 0 on the constant), row 1 w_s's, G V_p w over V (0
+        # elsewhere), row 2 b's, -G V_p w over R and G V_p R_p w over V (b = Σ G V_p V_q
+        # (R_p - R_q) w, as R_q = 0 where V_q = 0); then a fourth block, G V_p u, the weights
+        # of the candidates' R_q² (s_r's third part). An unused entry reads the constant 1
+        # twice and has the coefficient 0.
         last, zeros = np.full(nn, width - 1), np.zeros(nn)
-        r_cols, v_cols = np.arange(r0, v0), np.arange(v0, h0)
-        self.perm = np.concatenate([r_cols, r_cols, v_cols, v_cols, [width - 1],
-                                    last, v_cols, last, last, [width - 1],
-                                    v_cols, v_cols, last, last, [width - 1]])
-        self.square = np.concatenate([last, r_cols, last, last, [width - 1],
-                                      last, last, last, last, [width - 1],
-                                      last, r_cols, last, last, [width - 1]])
-        self.coef = np.concatenate([-2.0 * g * EQ2_UNIT, g * EQ2_UNIT, g * EQ2_UNIT,
-                                    g * EQ2_UNIT, [0.0],
-                                    zeros, g * WEIGHT_UNIT, zeros, zeros, [0.0],
-                                    -g * WEIGHT_UNIT, g * WEIGHT_UNIT, zeros, zeros, [0.0]])
-        self.range_weights = np.zeros((3, width))
-        self.weights = self.range_weights.reshape(-1)
-        self.product = np.zeros(3 * width)
+        r_cols, v_cols = np.arange(r0, v0), np.arange(v0, width - 1)
+        self.perm = np.concatenate([r_cols, r_cols, [width - 1],
+                                    last, v_cols, [width - 1],
+                                    v_cols, v_cols, [width - 1],
+                                    v_cols])
+        self.square = np.concatenate([last, r_cols, [width - 1],
+                                      last, last, [width - 1],
+                                      last, r_cols, [width - 1],
+                                      last])
+        self.coef = np.concatenate([-2.0 * g * EQ2_UNIT, g * EQ2_UNIT, [0.0],
+                                    zeros, g * WEIGHT_UNIT, [0.0],
+                                    -g * WEIGHT_UNIT, g * WEIGHT_UNIT, [0.0],
+                                    g * EQ2_UNIT])
+        self.weights = np.zeros(3 * width + nn)
+        self.range_weights = self.weights[: 3 * width].reshape(3, width)
+        self.square_weights = self.weights[3 * width :]  # G V_p u, on R_q²
+        self.product = np.zeros(3 * width + nn)
         # row_p[perm] and row_p[square] by one take into a buffer (mode "clip": the indices
         # are valid, and "raise" with out= would take into a temporary first)
         self._both = np.concatenate([self.perm, self.square])
-        self._taken = np.empty(6 * width, dtype=np.float32)
-        self._by_perm, self._by_square = self._taken[: 3 * width], self._taken[3 * width :]
-        # views of the weights, made once: range, support
-        self.w_sr = self.range_weights[0, : l0 + nn]
-        self.g_v = self.range_weights[1, v0:h0]  # G V_p w
+        self._taken = np.empty(2 * self.perm.size, dtype=np.float32)
+        self._by_perm, self._by_square = self._taken[: self.perm.size], self._taken[
+            self.perm.size :]
+        # views of the weights, made once: support
+        self.g_v = self.range_weights[1, v0 : v0 + nn]  # G V_p w
         self.ones = np.ones(nn)
         # offset_shift's operands: p's R and V (from the product above, float64, exact), the
         # last gathered range rows and their [a w; b w] (rows 1 and 2 of the products), and
         # buffers for the window's terms
-        self._rp, self._vp = self.product[r0:v0], self.product[h0:l0]
+        self._rp, self._vp = self.product[r0:v0], self.product[3 * width :]
         self.rows = np.zeros((0, width))
         self._row = self.ranges[:1]  # one candidate's range row (_distance_of: a view)
         self._single = np.zeros(1)  # the shortlist's distances when it keeps one candidate
@@ -255,6 +260,7 @@ class FillTable:
         self._ab_single_mv = memoryview(self._ab_single.reshape(-1))
         self._ab_rows = self._ab_single
         self._delta, self._support = np.empty(nn), np.empty(nn)
+        self._square = np.empty(nn)  # _distance_of's G V_p u R_q
         self.lam = float(range_weight)
         self.missing_range = missing_range
         # _combine's scalar operands as 0-d arrays, made once: a ufunc takes a Python scalar
@@ -265,8 +271,8 @@ class FillTable:
         self._bound = np.zeros(())  # the shortlist's bound, written per step
         self._wa = np.zeros(())  # w_a w_unit, written per step
         # set_range writes p's range into the rows p - o (o an offset of the window, k its
-        # raster index) at the columns R, V, R²_hi, R²_lo + k: with o = (a - h) Wp + (b - h)
-        # for k = a n + b, one strided view per p, shape (4, n, n), whose element (blk, a, b)
+        # raster index) at the columns R and V + k: with o = (a - h) Wp + (b - h)
+        # for k = a n + b, one strided view per p, shape (2, n, n), whose element (blk, a, b)
         # is ranges[p - o, r0 + blk nn + k]: its flat index is p width + h (Wp + 1) width + r0
         # + blk nn + a (n - Wp width) + b (1 - width). self._p0 = h (Wp + 1) is the smallest
         # p whose window rows all lie in the frame (every pixel of the image, pad > h).
@@ -276,9 +282,9 @@ class FillTable:
         item = flat.itemsize
         strides = (width * item, nn * item, (n - wp * width) * item, (1 - width) * item)
         start = (p0 + h * (wp + 1)) * width + r0  # the element (p0, 0, 0, 0)
-        self._windows = as_strided(flat[start:], shape=(flat.size // width - 2 * p0, 4, n, n),
+        self._windows = as_strided(flat[start:], shape=(flat.size // width - 2 * p0, 2, n, n),
                                    strides=strides)
-        self._values = np.ones(4, dtype=np.float32)  # [R, V, R²_hi, R²_lo], broadcast
+        self._values = np.ones(2, dtype=np.float32)  # [R, V], broadcast
         self._value_block = self._values[:, None, None]
         # single values through memoryviews (cheaper than numpy's scalar indexing); a
         # float32 item is set by C's conversion, rounding to nearest as numpy's
@@ -287,7 +293,7 @@ class FillTable:
 
     @property
     def table(self) -> np.ndarray:
-        """Every voxel's whole row ``[I | s | 1 | R | V | R² | 1]`` (a copy, for inspection).
+        """Every voxel's whole row ``[I | s | 1 | R | V | 1]`` (a copy, for inspection).
 
         The constant columns are 1 on the image's pixels, the only rows that are read, and 0
         on the padding."""
@@ -421,8 +427,10 @@ class FillTable:
     def _finish(self, si: np.ndarray) -> np.ndarray:
         """Eq. 2 from the intensity terms ``si`` and the gathered range rows (in place)."""
         sums = _by_rows(self.range_weights, self.rows)  # [s_r u; w_s w; b w], exact
-        self._ab_rows = sums[1:]  # the offset copy's a and b (w_s is a)
+        r = self.rows[:, : self.nn]
         sr, ws, _ = sums
+        np.add(sr, _matvec(np.multiply(r, r), self.square_weights), out=sr)  # + Σ G V_p R_q² u
+        self._ab_rows = sums[1:]  # the offset copy's a and b (w_s is a)
         if self.missing_range != "mean":
             return _combine(si, sr, None, None, 1, self.lam, self.missing_range,
                             self._scalars)
@@ -435,6 +443,8 @@ class FillTable:
         ``q``'s range row in ``self._row`` (a float32 view of the table)."""
         self._row = row = self.ranges[q : q + 1]
         sr, ws, b = np.dot(self.range_weights, row[0]).tolist()  # widened by dot: exact
+        r = row[0, : self.nn]
+        sr = sr + float(np.dot(np.multiply(self.square_weights, r, out=self._square), r))
         self._ab_single_mv[0], self._ab_single_mv[1] = ws, b  # offset_shift's a w, b w
         if self.lam != 1.0:
             sr = sr * self.lam
@@ -492,7 +502,7 @@ class FillTable:
         row = self.rows[j]
         # δ = R_p − R_q on the shared support (V_p V_q = 1; a > 0, so it is not empty)
         delta = np.subtract(self._rp, row[self.r0 : self.v0], out=self._delta).compress(
-            np.multiply(self._vp, row[self.v0 : self.h0], out=self._support)).tolist()
+            np.multiply(self._vp, row[self.v0 : -1], out=self._support)).tolist()
         # max |δ a − b| over it is at its largest or smallest δ (a > 0; each product and
         # difference exact): the same test as on every δ
         slack = _SLACK * a
@@ -518,11 +528,8 @@ class FillTable:
         >>> float(table.ranges[12, table.r0 + 4]) == 2.0**15   # the centre's R column
         True
         """
-        values = self._values_mv
-        q = float(round(value * 2.0**RANGE_BITS))  # np.rint's value: both round half to even
-        values[0] = q
-        values[2] = q * q  # R² as in the table: float32 high part (rounded to nearest) ...
-        values[3] = q * q - values[2]  # ... and the exact low part
+        # np.rint's value (both round half to even), exact in float32 (at most 2**16)
+        self._values_mv[0] = float(round(value * 2.0**RANGE_BITS))
         self._windows[p - self._p0] = self._value_block
 
 
@@ -530,9 +537,8 @@ def _split(x: np.ndarray, parts: int) -> np.ndarray:
     """Integers ``x`` (float64, below ``2**53``) as ``parts`` float32 that sum to ``x`` exactly.
 
     Each part is the remainder so far rounded to float32 (24 significant bits),
-    so two parts hold ``R² ≤ 2**32`` and three any Eq. 2 self term (below
-    ``2**52``); the build checks that the parts sum back. Returns
-    ``x.shape + (parts,)``.
+    so three parts hold any Eq. 2 self term (below ``2**52``); the build checks that the
+    parts sum back. Returns ``x.shape + (parts,)``.
     """
     out = np.empty(x.shape + (parts,), dtype=np.float32)
     rest = x

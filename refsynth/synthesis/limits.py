@@ -343,7 +343,7 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
 
     Eq. 2's table (:class:`~refsynth.synthesis.filltable.FillTable`) holds, per pixel of the
     frame padded by ``max(ceil(r), n // 2 + 1)``, a float32 intensity row of ``n² C + 4``
-    entries, a float32 range row of ``4 n² + 1`` and a float64 self term. While it is built,
+    entries, a float32 range row of ``2 n² + 1`` and a float64 self term. While it is built,
     at most three image-sized float64 copies of the quantised intensity and two of the
     range exist beside it, with the temporaries of one block of about 4096 rows. Then come
     the fill front (:data:`_NP_FRONT_BYTES` per pixel of the frame, and four float64 frames
@@ -352,11 +352,12 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     :func:`~refsynth.synthesis.api.synthesize`'s own copies of the inputs (float64 intensity
     and range, the edge map). The table goes before the outputs are made.
 
-    Measured: on the Motorcycle at 2048×2048 (colour, n = 5, r = 10, x-stripes 78 %) the
-    run's peak resident memory is 4030 MiB, 3821 MiB above the process before the call,
-    against this estimate's 3936 MiB (``python benchmarks/bench_speed.py --memory
-    2048x2048 --methods np``; the padding's rows of the table, counted here, are never
-    touched); ``tests/test_np_memory.py`` checks the estimate against the traced peak.
+    Measured (0.8.2): on the Motorcycle at 2048×2048 (colour, n = 5, r = 10, x-stripes
+    78 %) the run's peak resident memory is 3222 MiB, 3013 MiB above the process before
+    the call, against this estimate's 3120 MiB (``python benchmarks/bench_speed.py
+    --memory 2048x2048 --methods np``; the padding's rows of the table, counted here, are
+    never touched); ``tests/test_np_memory.py`` checks the estimate against the traced
+    peak.
 
     Parameters
     ----------
@@ -378,17 +379,17 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     --------
     >>> from refsynth._checks import format_bytes
     >>> [format_bytes(np_memory(shape, 3, 5, 10.0)) for shape in ((12, 12), (375, 450))]
-    ['1.1 MiB', '170.2 MiB']
+    ['798.1 KiB', '134.8 MiB']
     """
     n2 = neighbourhood * neighbourhood
     rows = _padded_rows(shape, neighbourhood, radius)
     pixels = shape[0] * shape[1]
-    table = rows * (4 * (n2 * channels + 4) + 4 * (4 * n2 + 1) + _FLOAT)
+    table = rows * (4 * (n2 * channels + 4) + 4 * (2 * n2 + 1) + _FLOAT)
     inputs = pixels * (_FLOAT * (channels + 1) + 1)  # synthesize's copies
     # the quantised levels and range, image-sized; each block of the table's rows (about
-    # 4096 pixels, filltable._CHUNK_PIXELS) as float64 patches, their squares and the range's
-    # four columns with their temporaries
-    block = min(pixels, 4096) * _FLOAT * (3 * n2 * channels + 6 * n2)
+    # 4096 pixels, filltable._CHUNK_PIXELS) as float64 patches and their squares, or the
+    # patches beside the range's two columns and their temporaries
+    block = min(pixels, 4096) * _FLOAT * (2 * n2 * channels + 3 * n2)
     build = 3 * _FLOAT * pixels * channels + 2 * _FLOAT * pixels + block
     # the front, four frames of its temporaries while it is built, the copied range; order, draws
     fill = rows * (_NP_FRONT_BYTES + 5 * _FLOAT) + pixels * (2 * _FLOAT + 1)
