@@ -36,6 +36,7 @@ Run::
     python benchmarks/bench_speed.py --sizes 450x375,900x750 --no-rss \
         --methods np,bp,bp-obs-np,colorization    # BP on NP's fill, an option: its cost
     python benchmarks/bench_speed.py --bp-stages       # BP's stages, CPU time (~3 min)
+    python benchmarks/bench_speed.py --np-steps        # NP's shortlist per step (~3 min)
     python benchmarks/bench_speed.py --fill-solvers    # BP's observations' fill (~3 min)
     python benchmarks/bench_speed.py --fill-solvers --room   # the same on the room's grids
     python benchmarks/bench_speed.py --memory 2048x2048  # item 3: NP and BP, ~12 min
@@ -324,6 +325,65 @@ def bp_stages(sizes, out=sys.stdout) -> dict:
     return results
 
 
+def np_steps(sizes, out=sys.stdout) -> dict:
+    """What NP's steps do at each size: the shortlist's work, which the data decides.
+
+    NP's step costs more when more of Eq. 3's candidates survive the shortlist's bound
+    (:meth:`refsynth.synthesis.filltable.FillTable.shortlist`: their range term is then
+    evaluated and Eq. 5 draws among them) and less when only the candidate that set the
+    bound survives (no second gather, no draw). Counted on NP's default fill (the same
+    bits as ``synthesize``: the counting wraps the method and changes nothing it
+    returns), beside the CPU µs per unknown pixel of a separate run without the counting.
+
+    Returns
+    -------
+    dict
+        ``{(width, height): {"unknown", "steps", "candidates", "kept", "single", "many",
+        "cpu"}}``: the steps counted, the mean number of candidates and of kept candidates
+        per step, the share of steps that keep one, the mean kept where more than one is,
+        and the CPU seconds of the uncounted run.
+    """
+    import refsynth
+    from refsynth.synthesis.filltable import FillTable
+
+    print("NP's steps on the Motorcycle, x-stripes 78 % unknown: the candidates of Eq. 3 "
+          "within r, those the shortlist keeps for Eq. 2's range term, and the steps that "
+          "keep one\n", file=out)
+    print("| size | unknown pixels | candidates per step | kept per step | steps keeping one "
+          "| kept per step where more than one | CPU µs per unknown pixel |", file=out)
+    print("|---|---|---|---|---|---|---|", file=out)
+    shortlist = FillTable.shortlist
+    results = {}
+    for size in sizes:
+        image, partial, _ = _case(size)
+        unknown = int(np.isnan(partial).sum())
+        start = time.process_time()
+        refsynth.synthesize(image, partial, method="np")
+        cpu = time.process_time() - start
+        counts = []
+
+        def counted(self, p, candidates, scale, counts=counts):
+            kept, distances = shortlist(self, p, candidates, scale)
+            counts.append((candidates.size, kept.size))
+            return kept, distances
+
+        FillTable.shortlist = counted
+        try:
+            refsynth.synthesize(image, partial, method="np")
+        finally:
+            FillTable.shortlist = shortlist
+        steps = np.array(counts, dtype=np.float64).reshape(-1, 2)
+        many = steps[steps[:, 1] > 1, 1]
+        row = dict(unknown=unknown, steps=len(counts), candidates=float(steps[:, 0].mean()),
+                   kept=float(steps[:, 1].mean()), single=float(np.mean(steps[:, 1] == 1)),
+                   many=float(many.mean()) if many.size else 1.0, cpu=cpu)
+        results[size] = row
+        print(f"| {size[0]}×{size[1]} | {unknown} | {row['candidates']:.1f} | "
+              f"{row['kept']:.1f} | {row['single']:.0%} | {row['many']:.1f} | "
+              f"{1e6 * cpu / unknown:.1f} |", file=out, flush=True)
+    return results
+
+
 def fill_solvers(sizes, out=sys.stdout) -> dict:
     """BP's observations' fill by the cascade and by Gauss–Seidel alone, on the same inputs.
 
@@ -462,6 +522,9 @@ def main(argv=None) -> int:
     parser.add_argument("--room", action="store_true",
                         help="with --fill-solvers: on the synthetic room's grids (128x128), "
                         "the fills' MAR and BP's with each")
+    parser.add_argument("--np-steps", action="store_true",
+                        help="instead: NP's shortlist per step at each size (candidates, "
+                        "those kept for Eq. 2's range term, steps keeping one)")
     parser.add_argument("--memory", type=_size, metavar="SIZE",
                         help="instead: NP's and BP's peak memory at SIZE (e.g. 2048x2048) "
                         "beside their estimates, each in a fresh subprocess")
@@ -481,6 +544,9 @@ def main(argv=None) -> int:
     sizes = QUICK_SIZES if args.quick else (args.sizes or SIZES)
     if args.bp_stages:
         bp_stages(sizes)
+        return 0
+    if args.np_steps:
+        np_steps(sizes)
         return 0
     if args.room and not args.fill_solvers:
         parser.error("--room goes with --fill-solvers")

@@ -96,3 +96,25 @@ def test_fill_solvers_on_the_room_put_the_default_fill_back(bench):
     bp = refsynth.synthesize(scene.intensity, partial, method="bp").range
     assert results[("10/20", "cascadic")]["bp"] == mar(bp, scene.range, known)
     assert "| 10/20 | 39.1 % | gauss-seidel |" in out.getvalue()
+
+
+def test_np_steps_counts_every_step_and_leaves_the_fill_as_it_was(bench):
+    """``--np-steps``: one count per synthesized pixel, kept within the candidates, and the
+    shortlist put back afterwards (NP's result unchanged)."""
+    import numpy as np
+
+    import refsynth
+    from refsynth.synthesis.filltable import FillTable
+
+    shortlist = FillTable.shortlist
+    out = io.StringIO()
+    results = bench.np_steps([(32, 27)], out=out)
+    assert FillTable.shortlist is shortlist
+    row = results[(32, 27)]
+    assert row["unknown"] > 0 and row["steps"] == row["unknown"] and row["cpu"] > 0
+    assert 1 <= row["kept"] <= row["candidates"] and 0 <= row["single"] <= 1
+    assert row["many"] > 1 or row["single"] == 1
+    image, partial, _ = bench._case((32, 27))
+    assert int(np.isnan(partial).sum()) == row["unknown"]
+    assert "| 32×27 |" in out.getvalue()
+    assert np.isfinite(refsynth.synthesize(image, partial).range).all()

@@ -17,7 +17,7 @@ float64 (exact). A row is 520 bytes (316 + 204) for a colour 5×5 window, agains
 for :class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]``
 (BP's table): the table of a 900×750 image takes about 370 MB instead of 850. (Until
 0.8.2 the range rows held ``R²`` too, as two float32 parts: 200 bytes more a pixel, 820
-MiB more at 2048×2048, for about 2 % less time.)
+MiB more at 2048×2048, for 1–4 % less time.)
 
 The gathered rows are widened to float64 and the four sums of Eq. 2
 
@@ -30,9 +30,9 @@ The gathered rows are widened to float64 and the four sums of Eq. 2
 
 come from matrix–vector products with weights built from ``p``'s row
 (``s_i`` over ``[I | s_q | 1]``, the constant 1 weighted by ``s_p``; then one product of
-the range rows with three weight rows: ``s_r``'s first two parts over ``[R | V]``, ``w_s``
+the range rows with three weight rows: ``s_r``'s last two terms over ``[R | V]``, ``w_s``
 over ``V``, and the offset copy's ``b``; one more of the squared ``R`` with ``G V_p``,
-``s_r``'s first part, added to it; ``w_a`` is the sum of ``w_s``'s weights). The
+``s_r``'s first term, added to them; ``w_a`` is the sum of ``w_s``'s weights). The
 weights carry the sums' units, :data:`~refsynth.numeric.EQ2_UNIT` for ``s_i`` and ``s_r``
 and :data:`~refsynth.numeric.WEIGHT_UNIT` for ``w_s`` and ``w_a`` (powers of two,
 so scaling is exact). Every product and partial sum is an integer below
@@ -215,12 +215,12 @@ class FillTable:
         self.w_si = np.full(base + 4, EQ2_UNIT)
         self._w_i = self.w_si[:base]
         # the range weights as three rows over the range row, so that one product gives
-        # s_r less its R_q² part, w_s and the offset copy's b: row 0 is s_r's weights over
-        # [R | V] (-2 G R_p u, G R_p² u; 0 on the constant), row 1 w_s's, G V_p w over V (0
-        # elsewhere), row 2 b's, -G V_p w over R and G V_p R_p w over V (b = Σ G V_p V_q
+        # s_r less its V_p R_q² term, w_s and the offset copy's b: row 0 is s_r's weights
+        # over [R | V] (-2 G R_p u, G R_p² u; 0 on the constant), row 1 w_s's, G V_p w over V
+        # (0 elsewhere), row 2 b's, -G V_p w over R and G V_p R_p w over V (b = Σ G V_p V_q
         # (R_p - R_q) w, as R_q = 0 where V_q = 0); then a fourth block, G V_p u, the weights
-        # of the candidates' R_q² (s_r's third part). An unused entry reads the constant 1
-        # twice and has the coefficient 0.
+        # of the candidates' R_q² (s_r's V_p R_q² term). An unused entry reads the constant
+        # 1 twice and has the coefficient 0.
         last, zeros = np.full(nn, width - 1), np.zeros(nn)
         r_cols, v_cols = np.arange(r0, v0), np.arange(v0, width - 1)
         self.perm = np.concatenate([r_cols, r_cols, [width - 1],
