@@ -19,7 +19,8 @@ that the set always holds the best match, even when its distance is 0.
 How each step stays a few numpy calls
 -------------------------------------
 The Eq. 2 distances of the candidate set ``A_p`` that can matter to Eqs. 4–5 are two
-gathers and four matrix–vector products of :class:`refsynth.synthesis.filltable.FillTable`
+gathers and three matrix–vector products (one with three weight rows) of
+:class:`refsynth.synthesis.filltable.FillTable`
 (:meth:`~refsynth.synthesis.filltable.FillTable.shortlist`: the range term only where the
 intensity term leaves a candidate within ``1 + ε`` of one candidate's distance)
 (Eq. 2 with its squares expanded, on narrow float32 rows holding the
