@@ -10,10 +10,13 @@ from refsynth.synthesis.frontqueue import ABSENT, FrontQueue, encode_keys
 from refsynth.synthesis.priority import FillFront
 
 
-@given(st.integers(1, 300), st.integers(0, 2**32 - 1), st.sampled_from([None, 8, 16]))
-def test_queue_pops_as_a_heap_of_tier_priority_tie(size, seed, block):
+@given(st.integers(1, 300), st.integers(0, 2**32 - 1), st.sampled_from([None, 8, 16]),
+       st.booleans())
+def test_queue_pops_as_a_heap_of_tier_priority_tie(size, seed, block, by_blocks):
     """Random sets, updates and removals: the pops follow (tier, -priority, tie), ties
-    included (priorities drawn from a few values so that they tie often)."""
+    included (priorities drawn from a few values so that they tie often). ``by_blocks``:
+    the updates go through set_in_blocks (NP's per-step path, which only raises the blocks'
+    bounds, so that pop must tighten a bound left loose by a lowered or removed key)."""
     rng = np.random.default_rng(seed)
     tie = rng.permutation(size)
     queue = FrontQueue(tie, block)
@@ -26,7 +29,11 @@ def test_queue_pops_as_a_heap_of_tier_priority_tie(size, seed, block):
         keys = encode_keys(prio, tier)
         drop = rng.random(pixels.size) < 0.2
         keys[drop] = ABSENT
-        queue.set(pixels, keys)
+        if by_blocks:
+            slots = tie[pixels]
+            queue.set_in_blocks(slots, slots >> queue.shift, keys)
+        else:
+            queue.set(pixels, keys)
         for x, t, p, d in zip(pixels.tolist(), tier.tolist(), prio.tolist(), drop.tolist()):
             if d:
                 current.pop(x, None)
@@ -91,3 +98,18 @@ def test_fill_front_pops_the_fresh_choice_at_every_step(h, w, n, use_edges, use_
         front.fill(got, value, confidence)
         steps += 1
     assert steps == int((~known).sum())
+
+
+def test_pop_tightens_a_loose_bound_before_trusting_it():
+    """A block whose best key was lowered keeps a loose bound; pop must not take that
+    block's new best over a higher key elsewhere, nor report the queue empty early."""
+    queue = FrontQueue(np.arange(32), block=8)
+    queue.set_in_blocks(np.array([1, 20]), np.array([0, 2]), encode_keys(np.array([3.0, 2.0])))
+    queue.set_in_blocks(np.array([1, 2]), np.array([0, 0]),
+                        np.array([ABSENT, encode_keys(np.array([1.0]))[0]]))
+    assert queue.pop() == 20  # block 0's bound is still 3.0's key
+    assert queue.retries == 1
+    assert queue.pop() == 2
+    queue.set_in_blocks(np.array([9]), np.array([1]), encode_keys(np.array([5.0])))
+    queue.set_in_blocks(np.array([9]), np.array([1]), np.array([ABSENT]))
+    assert queue.pop() == -1
