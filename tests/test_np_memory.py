@@ -36,9 +36,42 @@ def test_np_memory_bounds_the_traced_peak(shape, channels, neighbourhood, radius
     assert peak <= estimate <= 1.5 * peak, (peak, estimate)
 
 
-def test_np_memory_grows_with_the_frame_and_the_window():
-    small = np_memory((400, 400), 3, 5, 10.0)
-    assert np_memory((800, 800), 3, 5, 10.0) > 3.5 * small  # per pixel, past the fixed part
-    assert np_memory((400, 400), 3, 7, 10.0) > small
-    assert np_memory((400, 400), 1, 5, 10.0) < small
-    assert np_memory((400, 400), 3, 5, 20.0) > small  # a wider padding
+@pytest.mark.parametrize("side", [200, 1600])  # float64 intensity rows, float32
+def test_np_memory_grows_with_the_frame_and_the_window(side):
+    small = np_memory((side, side), 3, 5, 10.0)
+    assert np_memory((2 * side, 2 * side), 3, 5, 10.0) > 3.5 * small  # past the fixed part
+    assert np_memory((side, side), 3, 7, 10.0) > small
+    assert np_memory((side, side), 1, 5, 10.0) < small
+    assert np_memory((side, side), 3, 5, 20.0) > small  # a wider padding
+
+
+def test_np_memory_counts_the_rows_dtype(monkeypatch):
+    """Float64 intensity rows up to WIDE_TABLE_BYTES: they take twice the bytes."""
+    from refsynth.synthesis import filltable
+
+    rows = (375 + 20) * (450 + 20)
+    wide = np_memory((375, 450), 3, 5, 10.0)
+    monkeypatch.setattr(filltable, "WIDE_TABLE_BYTES", 0)
+    narrow = np_memory((375, 450), 3, 5, 10.0)
+    assert wide - narrow == rows * 4 * (25 * 3 + 4)
+
+
+@pytest.mark.parametrize("wide", [True, False])
+def test_np_memory_bounds_the_traced_peak_with_either_rows(wide, monkeypatch):
+    from refsynth.synthesis import filltable
+
+    if not wide:
+        monkeypatch.setattr(filltable, "WIDE_TABLE_BYTES", 0)
+    rng = np.random.default_rng(4)
+    shape = (40, 56)
+    image = rng.random(shape + (3,))
+    partial = np.where(np.arange(shape[1]) % 4 == 0, rng.random(shape), np.nan)
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        refsynth.synthesize(image, partial, method="np", seed=0)
+        peak = tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+    estimate = np_memory(shape, 3, 5, 10.0)
+    assert peak <= estimate <= 1.5 * peak, (peak, estimate)

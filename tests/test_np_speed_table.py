@@ -5,6 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from refsynth.numeric import EQ2_UNIT
 from refsynth.synthesis.filltable import FillTable
 from refsynth.synthesis.similarity import PatchTable
 
@@ -17,8 +18,10 @@ from refsynth.synthesis.similarity import PatchTable
     st.sampled_from(["mean", "ignore"]),
     st.sampled_from([0.0, 1.0, 16.0, 0.3]),
     st.integers(0, 2**32 - 1),
+    st.sampled_from([np.float32, np.float64]),  # the intensity rows (intensity_dtype)
 )
-def test_fill_table_matches_patch_table_through_fills(h, w, channels, n, missing, lam, seed):
+def test_fill_table_matches_patch_table_through_fills(h, w, channels, n, missing, lam, seed,
+                                                      dtype):
     """Intensity and range on the 2**-16 grid, extremes included (0 and 2**16, whose R²
     float32 cannot hold: it is squared per step in float64); after every set_range the two
     tables agree on every target and candidate."""
@@ -31,7 +34,7 @@ def test_fill_table_matches_patch_table_through_fills(h, w, channels, n, missing
     values = rng.choice([0, 1, 2**15 + 1, 2**16 - 1, 2**16], (h, w)) * 2.0**-16
     range_norm = np.where(known, values, np.nan)
     pad = n // 2 + 1
-    fast = FillTable(image, range_norm, n, pad, lam, missing)
+    fast = FillTable(image, range_norm, n, pad, lam, missing, dtype=dtype)
     wide = PatchTable(image, range_norm, n, pad, lam, missing)
     wp = w + 2 * pad
     inside = ((np.arange(h)[:, None] + pad) * wp + np.arange(w)[None, :] + pad).ravel()
@@ -55,8 +58,10 @@ def test_fill_table_matches_patch_table_through_fills(h, w, channels, n, missing
     st.sampled_from([1, 3, 5]),
     st.integers(0, 2),
     st.integers(0, 2**32 - 1),
+    st.sampled_from([np.float32, np.float64]),  # the intensity rows (intensity_dtype)
 )
-def test_set_range_writes_the_rows_a_fresh_table_holds(h, w, channels, n, extra_pad, seed):
+def test_set_range_writes_the_rows_a_fresh_table_holds(h, w, channels, n, extra_pad, seed,
+                                                       dtype):
     """set_range's strided view: after synthesizing some pixels (border pixels included,
     whose windows reach into the padding), every row of the image equals, bit for bit, that
     of a table built afresh with those pixels' range known (every column: R, V, R² high and
@@ -67,7 +72,7 @@ def test_set_range_writes_the_rows_a_fresh_table_holds(h, w, channels, n, extra_
     known = rng.random((h, w)) < 0.4
     values = rng.choice([0, 1, 3, 2**15 + 1, 2**16 - 1, 2**16], (h, w)) * 2.0**-16
     pad = n // 2 + extra_pad
-    fast = FillTable(image, np.where(known, values, np.nan), n, pad, 1.0)
+    fast = FillTable(image, np.where(known, values, np.nan), n, pad, 1.0, dtype=dtype)
     now = known.copy()
     wp = w + 2 * pad
     inside = ((np.arange(h)[:, None] + pad) * wp + np.arange(w)[None, :] + pad).ravel()
@@ -75,12 +80,13 @@ def test_set_range_writes_the_rows_a_fresh_table_holds(h, w, channels, n, extra_
         r, c = divmod(int(flat), w)
         fast.set_range((r + pad) * wp + c + pad, float(values[r, c]))
         now[r, c] = True
-        fresh = FillTable(image, np.where(now, values, np.nan), n, pad, 1.0)
+        fresh = FillTable(image, np.where(now, values, np.nan), n, pad, 1.0, dtype=dtype)
         assert np.array_equal(fast.table[inside], fresh.table[inside])
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
 @pytest.mark.parametrize("product", ["matvec", "matmul"])
-def test_distances_are_the_same_with_either_matrix_vector_product(product, monkeypatch):
+def test_distances_are_the_same_with_either_matrix_vector_product(product, dtype, monkeypatch):
     """numpy >= 2.2's ``matvec`` and the ``@`` older numpy falls back to give the same bits
     (the sums are exact), on the largest sums the contract allows (every level 2**16 against
     0, full range against none)."""
@@ -92,7 +98,7 @@ def test_distances_are_the_same_with_either_matrix_vector_product(product, monke
     rng = np.random.default_rng(1)
     image = np.where(rng.random((9, 9, 3)) < 0.5, 1.0, 0.0)
     range_norm = np.where(rng.random((9, 9)) < 0.6, rng.choice([0.0, 1.0], (9, 9)), np.nan)
-    fast = FillTable(image, range_norm, 5, 3, 1.0)
+    fast = FillTable(image, range_norm, 5, 3, 1.0, dtype=dtype)
     wide = PatchTable(image, range_norm, 5, 3, 1.0)
     inside = ((np.arange(9)[:, None] + 3) * 15 + np.arange(9)[None, :] + 3).ravel()
     for p in inside:
@@ -105,8 +111,9 @@ def test_distances_are_the_same_with_either_matrix_vector_product(product, monke
     st.sampled_from([1, 3, 5, 7]),
     st.sampled_from([0.0, 0.5, 1.0]),
     st.integers(0, 2**32 - 1),
+    st.sampled_from([np.float32, np.float64]),  # the intensity rows (intensity_dtype)
 )
-def test_offset_shift_from_the_gathered_rows_is_range_copys(h, w, n, known_share, seed):
+def test_offset_shift_from_the_gathered_rows_is_range_copys(h, w, n, known_share, seed, dtype):
     """FillTable.offset_shift (NP's hot path, from the rows distances() gathered) gives
     range_copy.offset_shift's integer for every candidate: planes at any depth (the shift
     taken), differences on both sides of the agreement test's bound (2**9 steps), ties of
@@ -125,7 +132,7 @@ def test_offset_shift_from_the_gathered_rows_is_range_copys(h, w, n, known_share
     known = rng.random((h, w)) < known_share if known_share < 1 else np.ones((h, w), bool)
     known.flat[int(rng.integers(h * w))] = False  # one target at least
     pad = max(n // 2 + 1, 2)
-    table = FillTable(image, np.where(known, q * 2.0**-16, np.nan), n, pad, 1.0)
+    table = FillTable(image, np.where(known, q * 2.0**-16, np.nan), n, pad, 1.0, dtype=dtype)
     wp = w + 2 * pad
     frame = np.full((h + 2 * pad, wp), -1.0)
     frame[pad:-pad, pad:-pad] = np.where(known, q, -1.0)
@@ -178,9 +185,10 @@ def test_the_table_does_not_depend_on_its_build_blocks(chunk, monkeypatch):
     st.sampled_from([0.0, 1.0, 16.0, 0.3]),
     st.sampled_from([1.0, 1.1, 2.0]),
     st.integers(0, 2**32 - 1),
+    st.sampled_from([np.float32, np.float64]),  # the intensity rows (intensity_dtype)
 )
 def test_shortlist_keeps_eq4_and_eq5_with_the_same_distances(h, w, channels, n, missing, lam,
-                                                             scale, seed):
+                                                             scale, seed, dtype):
     """FillTable.shortlist (NP's hot path) keeps, in order, every candidate whose Eq. 2 is
     within ``scale`` of the best (the best included), with distances bit for bit those of
     distances(); and offset_shift reads the kept candidates' rows. Coarse intensity levels
@@ -191,7 +199,7 @@ def test_shortlist_keeps_eq4_and_eq5_with_the_same_distances(h, w, channels, n, 
     known.flat[0] = True
     values = rng.choice([0, 1, 2**15 + 1, 2**16], (h, w)) * 2.0**-16
     pad = n // 2 + 1
-    table = FillTable(image, np.where(known, values, np.nan), n, pad, lam, missing)
+    table = FillTable(image, np.where(known, values, np.nan), n, pad, lam, missing, dtype=dtype)
     wp = w + 2 * pad
     inside = ((np.arange(h)[:, None] + pad) * wp + np.arange(w)[None, :] + pad).ravel()
     for p in rng.choice(inside, min(4, inside.size), replace=False):
@@ -219,9 +227,10 @@ def test_shortlist_keeps_eq4_and_eq5_with_the_same_distances(h, w, channels, n, 
     st.sampled_from(["mean", "ignore"]),
     st.sampled_from([1.0, 16.0, 0.3]),
     st.integers(0, 2**32 - 1),
+    st.sampled_from([np.float32, np.float64]),  # the intensity rows (intensity_dtype)
 )
 def test_shortlist_of_one_returns_the_bounds_distance_and_its_shift(h, w, channels, n, missing,
-                                                                    lam, seed):
+                                                                    lam, seed, dtype):
     """Fine random levels make a lone survivor common (about half of NP's steps on real
     images): the shortlist then returns the distance it computed for the bound, without
     the batched product, and offset_shift reads that candidate's row and sums. Both must be
@@ -233,7 +242,7 @@ def test_shortlist_of_one_returns_the_bounds_distance_and_its_shift(h, w, channe
     known.flat[0] = True
     values = rng.integers(0, 2**16 + 1, (h, w)) * 2.0**-16
     pad = n // 2 + 1
-    table = FillTable(image, np.where(known, values, np.nan), n, pad, lam, missing)
+    table = FillTable(image, np.where(known, values, np.nan), n, pad, lam, missing, dtype=dtype)
     wp = w + 2 * pad
     inside = ((np.arange(h)[:, None] + pad) * wp + np.arange(w)[None, :] + pad).ravel()
     for p in rng.choice(inside, min(6, inside.size), replace=False):
@@ -264,3 +273,43 @@ def test_a_lone_survivor_happens_and_is_the_best_match():
             assert int(kept[0]) == int(inside[int(every.argmin())])
             assert d[0] == every.min()
     assert lone >= 10
+
+
+def test_intensity_rows_dtype_by_their_size(monkeypatch):
+    """float64 intensity rows up to WIDE_TABLE_BYTES (as float64), float32 above (the range
+    rows are float32 either way); the build's parts of the self term sum to it in both."""
+    from refsynth.synthesis import filltable
+
+    rng = np.random.default_rng(5)
+    image = rng.integers(0, 2**16 + 1, (6, 7, 3)) * 2.0**-16
+    range_norm = np.where(rng.random((6, 7)) < 0.5, 0.25, np.nan)
+    pixels = (6 + 6) * (7 + 6)
+    monkeypatch.setattr(filltable, "WIDE_TABLE_BYTES", pixels * (25 * 3 + 4) * 8)
+    wide = FillTable(image, range_norm, 5, 3, 1.0)
+    assert wide.intensity.dtype == np.float64 and wide.ranges.dtype == np.float32
+    monkeypatch.setattr(filltable, "WIDE_TABLE_BYTES", pixels * (25 * 3 + 4) * 8 - 1)
+    narrow = FillTable(image, range_norm, 5, 3, 1.0)
+    assert narrow.intensity.dtype == narrow.ranges.dtype == np.float32
+    assert np.array_equal(narrow.table.astype(np.float64)[:, :75], wide.table[:, :75])
+    parts = slice(75, 78)
+    assert np.array_equal(narrow.table[:, parts].astype(np.float64).sum(axis=1),
+                          wide.table[:, parts].sum(axis=1))
+    assert np.array_equal(wide.table[:, parts].sum(axis=1), wide.self_unit / EQ2_UNIT)
+
+
+@pytest.mark.parametrize("options", [{}, {"colour": False, "missing_range": "ignore"},
+                                     {"range_weight": 16.0, "range_copy": "value"}])
+def test_np_gives_the_same_bits_with_either_rows(options, monkeypatch):
+    """The whole fill (range, confidence, order) with float32 intensity rows is that with
+    float64."""
+    import refsynth
+    from refsynth.synthesis import filltable
+
+    rng = np.random.default_rng(8)
+    image = rng.random((24, 30, 3))
+    partial = np.where(np.arange(30) % 3 == 0, 1.0 + rng.random((24, 30)), np.nan)
+    wide = refsynth.synthesize(image, partial, method="np", seed=2, **options)
+    monkeypatch.setattr(filltable, "WIDE_TABLE_BYTES", 0)
+    narrow = refsynth.synthesize(image, partial, method="np", seed=2, **options)
+    for field in ("range", "confidence", "order"):
+        assert np.array_equal(getattr(wide, field), getattr(narrow, field)), field

@@ -7,19 +7,27 @@ at a time. :class:`FillTable` holds, per voxel of the padded frame, the row
 .. math:: [\, I_{v,c} \mid s_q \mid 1 \mid R_v \mid V_v \,]_{v \in N_q}
 
 (intensity; the self term ``s_q = Σ_v G_v Σ_c I²``; the constant 1; range, stored as 0
-where unknown; has-range indicator) in float32, held as two arrays: the intensity rows
+where unknown; has-range indicator), held as two arrays: the intensity rows
 ``[I | s | 1]`` (fixed) and the range rows ``[R | V | 1]`` (written as the fill goes).
 The integers of the numeric contract (:mod:`refsynth.numeric`) up to ``2**16`` are exact
-in float32; ``s_q`` (below ``2**52``) is stored as three float32 parts, each part exact
-and their sum exactly the integer. The squared range ``R²`` (up to ``2**32``, which
-float32 cannot hold) is not stored: each step squares the few range rows it gathers, in
-float64 (exact). A row is 520 bytes (316 + 204) for a colour 5×5 window, against 1200
-for :class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]``
-(BP's table): the table of a 900×750 image takes about 370 MB instead of 850. (Until
-0.8.2 the range rows held ``R²`` too, as two float32 parts: 200 bytes more a pixel, 820
-MiB more at 2048×2048, for 1.4 % less time at 450×375 and 4 % at 900×750.)
+in float32; ``s_q`` (below ``2**52``) is stored as three parts, each part exact and their
+sum exactly the integer (in float64 the first part is ``s_q`` and the others 0). The
+squared range ``R²`` (up to ``2**32``, which float32 cannot hold) is not stored: each step
+squares the few range rows it gathers, in float64 (exact).
 
-The gathered rows are widened to float64 and the four sums of Eq. 2
+The range rows are float32. The intensity rows are float64 when they then take at most
+:data:`WIDE_TABLE_BYTES` (1 GiB: a colour image up to about 1280×1280 with the default
+window and radius), and float32 above, at half the memory
+(:func:`intensity_dtype`): every step gathers some 190 intensity rows, and widening them to
+float64 for the product took about 9 % of the fill's instructions. Both hold the same
+integers, so the distances are the same bits either way. A float32 row is 520 bytes
+(316 + 204) for a colour 5×5 window, against 1200 for
+:class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]`` (BP's
+table): the table of a 900×750 image takes about 370 MB instead of 850. (Until 0.8.2 the
+range rows held ``R²`` too, as two float32 parts: 200 bytes more a pixel, 820 MiB more at
+2048×2048, for 1.4 % less time at 450×375 and 4 % at 900×750.)
+
+The gathered rows are float64, or widened to it, and the four sums of Eq. 2
 
 .. math::
 
@@ -78,12 +86,43 @@ from refsynth.numeric import (
 from refsynth.synthesis.neighbourhood import intensity_patches
 from refsynth.synthesis.range_copy import OFFSET_BITS, round_half_even
 
-__all__ = ["FillTable"]
+__all__ = ["FillTable", "WIDE_TABLE_BYTES", "intensity_dtype"]
 
 #: Matrix times vector: numpy's own loop where it has one (numpy >= 2.2), which unlike ``@``
 #: never hands these small products to BLAS threads; the sums are exact, so either gives
 #: the same bits.
 _matvec = getattr(np, "matvec", np.matmul)
+
+#: The most bytes :class:`FillTable`'s intensity rows may take as float64
+#: (:func:`intensity_dtype`).
+WIDE_TABLE_BYTES = 2**30
+
+
+def intensity_dtype(pixels: int, channels: int, n: int) -> type:
+    """The dtype of :class:`FillTable`'s intensity rows: float64 up to :data:`WIDE_TABLE_BYTES`.
+
+    Parameters
+    ----------
+    pixels : int
+        Pixels of the padded frame (the table's rows).
+    channels : int
+        Intensity channels.
+    n : int
+        Window side.
+
+    Returns
+    -------
+    type
+        ``numpy.float64`` when the float64 intensity rows (``n² C + 4`` entries each) take
+        at most :data:`WIDE_TABLE_BYTES`, else ``numpy.float32``: half the memory, widened
+        by every product (the same integers, so the same distances).
+
+    Examples
+    --------
+    >>> intensity_dtype(920 * 770, 3, 5).__name__, intensity_dtype(2068**2, 3, 5).__name__
+    ('float64', 'float32')
+    """
+    return np.float64 if pixels * (n * n * channels + 4) * 8 <= WIDE_TABLE_BYTES else np.float32
 
 
 def _by_rows(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -107,7 +146,7 @@ _TO_WINDOW = 2.0**WINDOW_BITS
 
 
 class FillTable:
-    """Every voxel's neighbourhood as one float32 row ``[I | s | R | V]``, for NP (Eq. 2).
+    """Every voxel's neighbourhood as one row ``[I | s | R | V]``, for NP (Eq. 2).
 
     The same distances as :class:`refsynth.synthesis.similarity.PatchTable`
     (bit for bit) in less memory; see the module docstring.
@@ -128,6 +167,9 @@ class FillTable:
         As in :class:`refsynth.synthesis.similarity.PatchTable`.
     channels : {"sum", "mean"}, default "sum"
         As in :class:`refsynth.synthesis.similarity.PatchTable`.
+    dtype : {None, numpy.float32, numpy.float64}, default None
+        The intensity rows' dtype; None: :func:`intensity_dtype` of the frame. Either gives
+        the same distances, bit for bit.
 
     Examples
     --------
@@ -149,6 +191,7 @@ class FillTable:
         range_weight: float,
         missing_range: str = "mean",
         channels: str = "sum",
+        dtype: type | None = None,
     ) -> None:
         H, W, C = image.shape
         self.shape = (H + 2 * pad, W + 2 * pad)
@@ -165,7 +208,10 @@ class FillTable:
         r0, v0 = 0, nn
         width = 2 * nn + 1
         self.r0, self.v0, self.range_width = r0, v0, width
-        self.intensity = np.zeros((pixels, base + 4), dtype=np.float32)
+        if dtype is None:
+            dtype = intensity_dtype(pixels, C, n)
+        self.dtype = np.dtype(dtype)
+        self.intensity = np.zeros((pixels, base + 4), dtype=dtype)
         self.ranges = np.zeros((pixels, width), dtype=np.float32)
         frame_i = self.intensity.reshape(self.shape + (base + 4,))
         frame_r = self.ranges.reshape(self.shape + (width,))
@@ -196,7 +242,7 @@ class FillTable:
             out[:, :, :base] = ints
             s = (ints**2) @ g_int
             self_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = s
-            out[:, :, s0:one] = _split(s, 3)
+            out[:, :, s0:one] = _split(s, 3, self.dtype)
             out = frame_r[pad + rows.start : pad + rows.stop, pad : pad + W]
             r = rp[rows].reshape(-1, W, nn)
             has = np.isfinite(r)
@@ -266,8 +312,7 @@ class FillTable:
         # _combine's scalar operands as 0-d arrays, made once: a ufunc takes a Python scalar
         # by a slower path (about 0.3 µs a call); the same float64 values, the same bits
         self._scalars = (np.array(float(self.divisor)), np.array(self.lam),
-                         np.array(self.lam * SUPPORT_PRIOR), np.array(SUPPORT_PRIOR),
-                         np.array([[self.lam * SUPPORT_PRIOR], [SUPPORT_PRIOR]]))
+                         np.array(self.lam * SUPPORT_PRIOR), np.array(SUPPORT_PRIOR))
         self._bound = np.zeros(())  # the shortlist's bound, written per step
         self._wa = np.zeros(())  # w_a w_unit, written per step
         # set_range writes p's range into the rows p - o (o an offset of the window, k its
@@ -412,7 +457,7 @@ class FillTable:
 
     def _intensity_term(self, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2's intensity term of each candidate (p's weights written)."""
-        rows = self.intensity.take(candidates, axis=0)  # widened to float64 by the product
+        rows = self.intensity.take(candidates, axis=0)  # float32: widened by the product
         # exact: every product and partial sum is an integer below 2**53 times the
         # power of two its weights carry, so this is the integer sum times its unit.
         # The positive terms (s_q's parts and s_p) add up to at most
@@ -435,7 +480,7 @@ class FillTable:
             return _combine(si, sr, None, None, 1, self.lam, self.missing_range,
                             self._scalars)
         return _combine(si, sr, ws, self._wa, 1, self.lam, self.missing_range,
-                        self._scalars, both=sums[:2])
+                        self._scalars, keep_ws=True)
 
     def _distance_of(self, q: int, si: float) -> float:
         """Eq. 2 of one candidate ``q`` with intensity term ``si``: :func:`_combine`'s
@@ -533,26 +578,27 @@ class FillTable:
         self._windows[p - self._p0] = self._value_block
 
 
-def _split(x: np.ndarray, parts: int) -> np.ndarray:
-    """Integers ``x`` (float64, below ``2**53``) as ``parts`` float32 that sum to ``x`` exactly.
+def _split(x: np.ndarray, parts: int, dtype=np.float32) -> np.ndarray:
+    """Integers ``x`` (float64, below ``2**53``) as ``parts`` of ``dtype`` that sum to ``x``.
 
-    Each part is the remainder so far rounded to float32 (24 significant bits),
-    so three parts hold any Eq. 2 self term (below ``2**52``); the build checks that the
-    parts sum back. Returns ``x.shape + (parts,)``.
+    Each part is the remainder so far rounded to ``dtype`` (float32: 24 significant bits),
+    so three float32 parts hold any Eq. 2 self term (below ``2**52``; in float64 the first
+    part is ``x`` and the rest 0); the build checks that the parts sum back. Returns
+    ``x.shape + (parts,)``.
     """
-    out = np.empty(x.shape + (parts,), dtype=np.float32)
+    out = np.empty(x.shape + (parts,), dtype=dtype)
     rest = x
     for k in range(parts - 1):
         out[..., k] = rest
         rest = rest - out[..., k]
     out[..., -1] = rest
     if not np.array_equal(out.astype(np.float64).sum(axis=-1), x):
-        raise ValueError("The integers do not fit the float32 parts")
+        raise ValueError(f"The integers do not fit {parts} {np.dtype(dtype).name} parts")
     return out
 
 
 def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: str,
-             scalars: tuple, both=None):
+             scalars: tuple, keep_ws: bool = False):
     """:func:`refsynth.numeric.combine_eq2` in place on ``si``, ``sr`` and ``ws``.
 
     ``si`` and ``sr`` arrive already multiplied by :data:`~refsynth.numeric.EQ2_UNIT`,
@@ -561,10 +607,10 @@ def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: 
     IEEE operations in the same order (so the same bits), without allocating, and
     without the multiplications and divisions by 1 (exact identities): ``si``
     returns the distances. ``scalars`` holds the operands ``C``, ``λ``, ``λ ε`` and
-    ``ε`` as 0-d float64 arrays (the same values; see ``FillTable``). ``both``, when
-    given, is the array whose rows are ``sr`` and ``ws``: their priors are then
-    added by one call (the same two additions) into a new array, so that ``ws``
-    stays the offset copy's ``a`` (:meth:`FillTable.offset_shift`).
+    ``ε`` as 0-d float64 arrays (the same values; see ``FillTable``). With ``keep_ws``
+    the prior is added to ``ws`` into a new array, so that ``ws`` stays the offset
+    copy's ``a`` (:meth:`FillTable.offset_shift`). (Two one-row additions: one call on
+    the two rows and a column of priors, broadcast, costs twice as much.)
     """
     divisor, lam, lam_prior, prior = scalars[:4]
     if channels != 1:  # x / 1 and x * 1 are x exactly: skipped
@@ -572,11 +618,8 @@ def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: 
     if range_weight != 1.0:
         np.multiply(sr, lam, out=sr)
     if missing_range == "mean":
-        if both is not None:
-            sr, ws = np.add(both, scalars[4])  # [sr + λε, ws + ε] (a new array: ws stays)
-        else:
-            np.add(sr, lam_prior, out=sr)
-            np.add(ws, prior, out=ws)
+        np.add(sr, lam_prior, out=sr)
+        ws = np.add(ws, prior) if keep_ws else np.add(ws, prior, out=ws)
         np.divide(wa, ws, out=ws)
         np.multiply(sr, ws, out=sr)
     return np.add(si, sr, out=si)
