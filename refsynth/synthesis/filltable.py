@@ -457,7 +457,7 @@ class FillTable:
 
     def _intensity_term(self, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2's intensity term of each candidate (p's weights written)."""
-        rows = self.intensity.take(candidates, axis=0)  # float32: widened by the product
+        rows = self.intensity.take(candidates, axis=0)  # float64, or float32 the product widens
         # exact: every product and partial sum is an integer below 2**53 times the
         # power of two its weights carry, so this is the integer sum times its unit.
         # The positive terms (s_q's parts and s_p) add up to at most
