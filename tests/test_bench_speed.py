@@ -1,22 +1,15 @@
 """A smoke test of ``benchmarks/bench_speed.py`` (issue #15 item 6) on tiny sizes."""
 
-import importlib.util
 import io
-from pathlib import Path
 
 import pytest
 
 pytest.importorskip("skimage")  # the Motorcycle
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_speed.py"
-
 
 @pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("bench_speed", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def bench(benchmark_script):
+    return benchmark_script("bench_speed")
 
 
 def test_the_table_has_every_method_and_size_and_the_linearity_line(bench):

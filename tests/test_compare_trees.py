@@ -1,6 +1,5 @@
 """A smoke test of ``benchmarks/compare_trees.py`` (the alternating runs the README quotes)."""
 
-import importlib.util
 import io
 from pathlib import Path
 
@@ -9,15 +8,11 @@ import pytest
 pytest.importorskip("skimage")  # the Motorcycle
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPT = ROOT / "benchmarks" / "compare_trees.py"
 
 
 @pytest.fixture(scope="module")
-def compare_trees():
-    spec = importlib.util.spec_from_file_location("compare_trees", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def compare_trees(benchmark_script):
+    return benchmark_script("compare_trees")
 
 
 def test_a_tree_against_itself_runs_abba_with_the_same_bits(compare_trees):
