@@ -64,8 +64,8 @@ def test_set_range_writes_the_rows_a_fresh_table_holds(h, w, channels, n, extra_
                                                        dtype):
     """set_range's strided view: after synthesizing some pixels (border pixels included,
     whose windows reach into the padding), every row of the image equals, bit for bit, that
-    of a table built afresh with those pixels' range known (every column: R, V, R² high and
-    low parts, and nothing else touched). The padding's rows are never read (they are
+    of a table built afresh with those pixels' range known (every column: R and V, and
+    nothing else touched; R² is not stored). The padding's rows are never read (they are
     neither targets nor candidates) and a fresh table leaves them blank."""
     rng = np.random.default_rng(seed)
     image = rng.integers(0, 2**16 + 1, (h, w, channels)) * 2.0**-16

@@ -210,7 +210,6 @@ class FillTable:
         self.r0, self.v0, self.range_width = r0, v0, width
         if dtype is None:
             dtype = intensity_dtype(pixels, C, n)
-        self.dtype = np.dtype(dtype)
         self.intensity = np.zeros((pixels, base + 4), dtype=dtype)
         self.ranges = np.zeros((pixels, width), dtype=np.float32)
         frame_i = self.intensity.reshape(self.shape + (base + 4,))
@@ -242,7 +241,7 @@ class FillTable:
             out[:, :, :base] = ints
             s = (ints**2) @ g_int
             self_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = s
-            out[:, :, s0:one] = _split(s, 3, self.dtype)
+            out[:, :, s0:one] = _split(s, 3, self.intensity.dtype)
             out = frame_r[pad + rows.start : pad + rows.stop, pad : pad + W]
             r = rp[rows].reshape(-1, W, nn)
             has = np.isfinite(r)

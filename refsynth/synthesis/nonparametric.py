@@ -23,12 +23,12 @@ gathers and three matrix–vector products (one with three weight rows) of
 :class:`refsynth.synthesis.filltable.FillTable`
 (:meth:`~refsynth.synthesis.filltable.FillTable.shortlist`: the range term only where the
 intensity term leaves a candidate within ``1 + ε`` of one candidate's distance)
-(Eq. 2 with its squares expanded, on narrow float32 rows holding the
-contract's integers), whose rows are updated in place on the n×n windows
-around each newly filled voxel (the offset copy's shift, :meth:`FillTable.offset_shift
-<refsynth.synthesis.filltable.FillTable.offset_shift>`, comes from the drawn candidate's
-row of the same gather); the fill order is kept up to date the same
-way by :class:`refsynth.synthesis.priority.FillFront`, whose
+(Eq. 2 with its squares expanded, on rows holding the contract's integers: float32 range
+rows, float64 intensity rows where they fit in 1 GiB), whose rows are updated in place on
+the n×n windows around each newly filled voxel (the offset copy's shift,
+:meth:`FillTable.offset_shift <refsynth.synthesis.filltable.FillTable.offset_shift>`,
+comes from the drawn candidate's row of the same gather); the fill order is kept up to
+date the same way by :class:`refsynth.synthesis.priority.FillFront`, whose
 :class:`~refsynth.synthesis.frontqueue.FrontQueue` pops the next voxel with two
 ``argmax`` over short arrays. Every step makes the decisions of the literal
 reference; the cost per synthesized voxel is the same at every image size.
