@@ -165,6 +165,12 @@ VARIANTS["bp-value-copy"] = {"method": "bp", "range_copy": "value"}
 VARIANTS["bp-offset-copy"] = {"method": "bp", "range_copy": "offset"}
 # BP's observations completed by NP's fill (0.8, an option): depends on the seed
 VARIANTS["bp-obs-np"] = {"method": "bp", "observation": "np"}
+# the labels' shift agreement (offset_tolerance, 0.8.4): 2**-k of the span; BP's default is
+# 2**-7 (NP's) with the colorization fill's observations and 2**-3 with NP's fill
+for _k in (0, 2, 3, 4, 5, 7):
+    VARIANTS[f"bp-obs-np-tolerance{_k}"] = {"method": "bp", "observation": "np",
+                                            "offset_tolerance": 2.0**-_k}
+    VARIANTS[f"bp-tolerance{_k}"] = {"method": "bp", "offset_tolerance": 2.0**-_k}
 VARIANTS["bp-offset-copy-obs-colorization-completed"] = {
     "method": "bp", "range_copy": "offset", "observation": "colorization-completed"}
 # BP's defaults with one parameter changed (the entries above change Fig. 6's): how much the

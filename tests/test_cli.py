@@ -338,6 +338,16 @@ def test_synth_bp_on_nps_fill_is_the_librarys_and_follows_the_seed(files, capsys
         np.testing.assert_array_equal(np.load(files / f"n{seed}.npy"), direct)
 
 
+def test_synth_bp_offset_tolerance_is_the_librarys(files, capsys):
+    image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
+    argv = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--method", "bp",
+            "--offset-tolerance", "0.5", "--out", str(files / "t.npy")]
+    assert _run(argv, capsys)[0] == 0
+    direct = __import__("refsynth").synthesize(image, partial, method="bp",
+                                               offset_tolerance=0.5).range
+    np.testing.assert_array_equal(np.load(files / "t.npy"), direct)
+
+
 def test_synth_refuses_a_bad_reading_in_one_line(files, capsys, no_work):
     _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
                  "--out", str(files / "o.npy"), "--channels", "max"], capsys,
@@ -357,6 +367,7 @@ def test_synth_refuses_a_bad_reading_in_one_line(files, capsys, no_work):
     (["--observation", "colorization"], "--observation applies to --method bp only"),
     (["--training-radius", "gap"], "--training-radius applies to --method bp only"),
     (["--compatibility", "overlap-centres"], "--compatibility applies to --method bp only"),
+    (["--offset-tolerance", "0.125"], "--offset-tolerance applies to --method bp only"),
 ])
 def test_synth_refuses_an_option_of_the_other_method(files, capsys, no_work, extra, needle):
     _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
@@ -370,6 +381,8 @@ def test_synth_refuses_an_option_of_the_other_method(files, capsys, no_work, ext
     (["--seed", "-1"], "--seed must be >= 0"),
     (["--seed", "٣"], "argument --seed: invalid integer"),
     (["--png-scale", "10"], "--png-scale applies to an image RANGE or a .png --out only"),
+    (["--method", "bp", "--offset-tolerance", "0.1"],
+     "--offset-tolerance must be a power of two from 2**-16 to 1 (e.g. 0.125), got 0.1"),
 ])
 def test_synth_refuses_values_beyond_use_before_the_work(files, capsys, no_work, extra, needle):
     """#14 item 8 (CLI part): radius=1e4 on a small image tried to allocate 149 GiB."""

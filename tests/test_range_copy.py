@@ -12,7 +12,11 @@ from hypothesis import strategies as st
 import refsynth
 from refsynth.numeric import RANGE_BITS, window_weights
 from refsynth.synthesis.range_copy import (
+    NP_OBSERVATION_TOLERANCE,
     OFFSET_BITS,
+    OFFSET_TOLERANCE,
+    check_offset_tolerance,
+    default_offset_tolerance,
     offset_shift,
     offset_shifts,
     shifted_value,
@@ -22,15 +26,16 @@ from refsynth.synthesis.range_copy import (
 G5 = window_weights(5).ravel().astype(np.float64)
 
 
-def _oracle(target, source, has_target, has_source, weights):
-    """The shift by exact fractions, written out (an independent copy of the rule)."""
+def _oracle(target, source, has_target, has_source, weights, tolerance_bits=OFFSET_BITS):
+    """The shift by exact fractions, written out (an independent copy of the rule), with the
+    agreement ``2**-tolerance_bits`` of the span."""
     pairs = [(int(w), int(t) - int(s)) for t, s, a, b, w in
              zip(target, source, has_target, has_source, weights, strict=True) if a and b]
     if not pairs:
         return 0
     a = sum(w for w, _ in pairs)
     mean = Fraction(sum(w * d for w, d in pairs), a)
-    if any(abs(d - mean) > Fraction(2**RANGE_BITS, 2**OFFSET_BITS) for _, d in pairs):
+    if any(abs(d - mean) > Fraction(2**RANGE_BITS, 2**tolerance_bits) for _, d in pairs):
         return 0
     return round(mean)  # Fraction rounds half to even
 
@@ -201,3 +206,98 @@ def test_bps_shift_ignores_an_intensity_offset_and_scales_with_the_range():
     scaled = refsynth.synthesize(image, partial * 3.7, method="bp")
     np.testing.assert_array_equal(plain.bp.labels, scaled.bp.labels)
     np.testing.assert_allclose(plain.range * 3.7, scaled.range, rtol=1e-12)
+
+
+# -- the agreement BP's shift needs (offset_tolerance, 0.8.4) ---------------------------------
+
+
+@given(windows, st.integers(0, 16), st.sampled_from([0, 40, 600, 5000, 20000]))
+def test_the_shifts_at_any_tolerance_are_the_exact_rule_at_that_tolerance(g, bits, spread):
+    rows = 30
+    source = g.integers(0, 2**16, (rows, 25))
+    target = source + g.integers(-3000, 3000, (rows, 1)) + g.integers(-spread, spread + 1,
+                                                                          (rows, 25))
+    target = np.maximum(target, 0)
+    has_t, has_s = g.random((rows, 25)) < 0.7, g.random((rows, 25)) < 0.8
+    tolerance = 2.0**-bits
+    got = offset_shifts(np.where(has_t, target, -1), np.where(has_s, source, -1), G5,
+                        tolerance)
+    want = [_oracle(t, s_, a, b, G5, bits) for t, s_, a, b in zip(target, source, has_t, has_s,
+                                                                   strict=True)]
+    assert got.tolist() == want
+    one = [offset_shift(t.astype(float), s_.astype(float), a, b, G5, tolerance)
+           for t, s_, a, b in zip(target, source, has_t, has_s, strict=True)]
+    assert got.tolist() == one
+    # a looser agreement shifts every window a tighter one shifts, by the same amount
+    if bits > 0:
+        looser = offset_shifts(np.where(has_t, target, -1), np.where(has_s, source, -1), G5,
+                               2 * tolerance)
+        taken = got != 0
+        assert looser[taken].tolist() == got[taken].tolist()
+
+
+def test_the_tolerance_decides_a_window_at_its_boundary():
+    """Differences 0 and 2d (mean d, every difference d from it): shifted exactly when
+    d <= 2**16 t."""
+    weights = np.ones(2)
+    both = np.ones(2, dtype=bool)
+    for bits in (3, 7):
+        slack = 2**(RANGE_BITS - bits)
+        for d, taken in ((slack, True), (slack + 1, False)):
+            target, source = np.array([1000.0, 1000.0 + 2 * d]), np.array([1000.0, 1000.0])
+            got = offset_shift(target, source, both, both, weights, 2.0**-bits)
+            assert got == (d if taken else 0)
+            assert offset_shifts(target[None].astype(np.int64), source[None].astype(np.int64),
+                                 weights, 2.0**-bits).tolist() == [got]
+
+
+def test_the_tolerance_is_a_power_of_two_from_2_to_the_minus_16_to_1():
+    assert check_offset_tolerance(1) == 1.0 and check_offset_tolerance(2.0**-16) == 2.0**-16
+    for bad in (0.0, 0.1, 3 * 2.0**-5, 2.0**-17, 2.0, -0.125):
+        with pytest.raises(ValueError, match="`offset_tolerance` must be a power of two"):
+            check_offset_tolerance(bad)
+    for bad in (float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="`offset_tolerance` must be finite"):
+            check_offset_tolerance(bad)
+    for bad in ("0.125", None, True):
+        with pytest.raises(TypeError, match="`offset_tolerance`"):
+            check_offset_tolerance(bad)
+    assert default_offset_tolerance("np") == NP_OBSERVATION_TOLERANCE == 2.0**-3
+    for observation in ("colorization", "measured", "colorization-completed", None):
+        assert default_offset_tolerance(observation) == OFFSET_TOLERANCE == 2.0**-7
+
+
+def test_synthesize_takes_the_tolerance_for_bp_only_and_records_the_one_it_used():
+    image, _, partial = _ramp()
+    assert refsynth.synthesize(image, partial, method="bp").params["offset_tolerance"] == 2**-7
+    on_np = refsynth.synthesize(image, partial, method="bp", observation="np")
+    assert on_np.params["offset_tolerance"] == 2**-3
+    given = refsynth.synthesize(image, partial, method="bp", offset_tolerance=0.5)
+    assert given.params["offset_tolerance"] == 0.5
+    with pytest.raises(ValueError, match="`offset_tolerance` applies to method='bp' only"):
+        refsynth.synthesize(image, partial, method="np", offset_tolerance=0.125)
+    with pytest.raises(ValueError, match="`offset_tolerance` must be a power of two"):
+        refsynth.synthesize(image, partial, method="bp", offset_tolerance=0.1)
+
+
+def test_bps_tolerance_reaches_the_labels_and_the_reference_agrees():
+    """A rough slanted surface: the labels' windows disagree by more than 2**-7 of the span
+    and less than 2**-1, so the tolerance changes BP's result; the literal reference gives
+    the same bits at both."""
+    from refsynth.synthesis import reference as ref
+
+    g = np.random.default_rng(5)
+    rows, cols = np.mgrid[0:12, 0:14]
+    image = (0.5 + 0.4 * np.sin(cols / 2.0) + 0.05 * g.random((12, 14)))
+    truth = 2.0 + 0.3 * cols + 0.2 * g.random((12, 14))
+    partial = np.where(cols % 3 == 0, truth, np.nan)
+    edges = np.zeros(partial.shape, dtype=bool)
+    out = {}
+    for tolerance in (2.0**-7, 2.0**-1):
+        fast = refsynth.synthesize(image, partial, method="bp", radius=3.0, edges=edges,
+                                   offset_tolerance=tolerance)
+        slow = ref.bp_reference(image[:, :, None], partial, edges, radius=3.0,
+                                offset_tolerance=tolerance)
+        np.testing.assert_array_equal(fast.range, slow.range)
+        out[tolerance] = fast.range
+    assert not np.array_equal(out[2.0**-7], out[2.0**-1])

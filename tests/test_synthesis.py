@@ -107,7 +107,8 @@ def test_integer_seed_types():
 NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion",
            "confidence_update": "product", "edges_last": False}
 BP_ONLY = {"candidates": 4, "proximity": 1.0, "sigma_i": 0.3, "sigma_s": 0.1,
-           "iterations": 3, "tolerance": 0.0, "product": "sum", "edge_rule": "paper"}
+           "iterations": 3, "tolerance": 0.0, "product": "sum", "edge_rule": "paper",
+           "offset_tolerance": 0.25}
 #: Both methods' options (in both tables, with the same default).
 SHARED = {"range_copy": "value"}
 

@@ -38,7 +38,7 @@ from refsynth.synthesis.api import synthesize
 from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
 from refsynth.synthesis.bp_model import COMPATIBILITIES
 from refsynth.synthesis.bp_observation import OBSERVATIONS
-from refsynth.synthesis.range_copy import RANGE_COPIES
+from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
 
 __all__ = ["pixel_progress", "add_synth_parser"]
 
@@ -183,7 +183,7 @@ _METHOD_OPTIONS = {
     "--sigma-s": ("sigma_s", "bp"), "--iterations": ("iterations", "bp"),
     "--proposals": ("proposals", "bp"), "--proposal-runs": ("proposal_runs", "bp"),
     "--observation": ("observation", "bp"), "--training-radius": ("training_radius", "bp"),
-    "--compatibility": ("compatibility", "bp"),
+    "--compatibility": ("compatibility", "bp"), "--offset-tolerance": ("offset_tolerance", "bp"),
 }
 #: Options of both methods that are not Eq. 2's: passed on only when given.
 _BOTH_OPTIONS = ("range_copy",)
@@ -216,6 +216,12 @@ def _check_options(args) -> tuple[Path, Path | None, Path | None]:
             raise ValueError("--png-scale applies to an image RANGE or a .png --out only")
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    if args.offset_tolerance is not None:
+        try:
+            check_offset_tolerance(args.offset_tolerance)
+        except ValueError:
+            raise ValueError("--offset-tolerance must be a power of two from 2**-16 to 1 "
+                             f"(e.g. 0.125), got {args.offset_tolerance:g}") from None
     if args.proposal_runs is not None:
         if args.proposals is None:
             raise ValueError("--proposal-runs needs --proposals (np or np-completed)")
@@ -409,6 +415,11 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           help="each node's training disc: gap (the default, a departure) "
                           "widens it by the node's distance to the nearest measured pixel, "
                           "fixed is the paper's r")
+    bp_group.add_argument("--offset-tolerance", type=real, metavar="T",
+                          help="with the offset copy: how closely the windows' range "
+                          "differences must agree for a label to be shifted, a power of two "
+                          "fraction of the measured span (default 0.0078125 = 2**-7, NP's; "
+                          "0.125 = 2**-3 with --observation np)")
     bp_group.add_argument("--compatibility", choices=list(COMPATIBILITIES),
                           help="a departure in Eq. 6: overlap-centres counts the two labels' "
                           "centres as one more shared pixel; default overlap, the paper's")

@@ -68,6 +68,7 @@ from refsynth.synthesis.options import (
     random_source,
 )
 from refsynth.synthesis.progress import StagedProgress
+from refsynth.synthesis.range_copy import default_offset_tolerance
 from refsynth.synthesis.similarity import CHANNELS, MISSING_RANGE
 
 __all__ = [
@@ -176,6 +177,7 @@ def synthesize(
     confidence_update: str | None = None,
     edges_last: bool | None = None,
     range_copy: str | None = None,
+    offset_tolerance: float | None = None,
     edge_rule: str | None = None,
     proposals: str | None = None,
     proposal_runs: int | None = None,
@@ -282,6 +284,15 @@ def synthesize(
         (:mod:`refsynth.synthesis.range_copy`). BP shifts every label against
         its node's observation (measured or completed range) and compares the
         shifted patches in Eq. 6.
+    offset_tolerance : float, BP only, default by ``observation``
+        How closely the two windows' range differences must agree for BP's
+        labels to be shifted (``range_copy="offset"``), as a fraction of the
+        measured span: a power of two from ``2**-16`` to 1. None: ``2**-3``
+        with ``observation="np"`` (0.8.4, chosen on the Motorcycle: with NP's
+        dense fill as the observation a looser agreement shifts more labels
+        and wins), else ``2**-7``, NP's own agreement (a looser one loses with
+        the colorization fill's observations). See
+        :mod:`refsynth.synthesis.range_copy`.
     edges_last : bool, NP only, default True
         With ``use_edges``: pixels on an edge form a second tier, filled only
         when no other pixel is left on the front. ``False`` keeps only Eq. 10's
@@ -403,6 +414,7 @@ def synthesize(
     ``confidence_update``    Eq. 11       —            ``"best"``
     ``edges_last``           Eq. 10       —            True
     ``range_copy``           Eq. 5        Eq. 8        ``"offset"`` (departure)
+    ``offset_tolerance``     —            Eq. 8        ``2**-7``; ``2**-3`` on NP's fill
     ``candidates``           —            ``k``        8
     ``proximity``            —            μ            0
     ``sigma_i``              —            Eq. 7        0.1
@@ -461,10 +473,12 @@ def synthesize(
         candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
         iterations=iterations, tolerance=tolerance, product=product,
         confidence_update=confidence_update, edges_last=edges_last, edge_rule=edge_rule,
-        range_copy=range_copy,
+        range_copy=range_copy, offset_tolerance=offset_tolerance,
     ))
     proposal_options = check_proposals(method, proposals, proposal_runs)
     departures = check_bp_departures(method, observation, compatibility, training_radius)
+    if method == "bp" and options["offset_tolerance"] is None:  # by the observation
+        options["offset_tolerance"] = default_offset_tolerance(departures["observation"])
     neighbourhood = at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
         raise ValueError(f"The parameter `neighbourhood` must be odd, got {neighbourhood}")

@@ -135,7 +135,13 @@ from refsynth.synthesis.bp_proposals import proposal_frame
 from refsynth.synthesis.bp_search import candidates, search_candidates
 from refsynth.synthesis.messages import belief_propagation
 from refsynth.synthesis.progress import StagedProgress
-from refsynth.synthesis.range_copy import RANGE_COPIES, offset_shifts, shifted_values
+from refsynth.synthesis.range_copy import (
+    OFFSET_TOLERANCE,
+    RANGE_COPIES,
+    check_offset_tolerance,
+    offset_shifts,
+    shifted_values,
+)
 
 __all__ = ["BPResult", "BP_STAGES", "bp_fill", "bp_memory_estimate", "BP_MEMORY_LIMIT",
            "candidates", "phi", "psi", "pair_compatibilities", "fixed_neighbour_terms",
@@ -275,6 +281,7 @@ def bp_fill(
     compatibility: str = "overlap",
     training_radius: str = "fixed",
     range_copy: str = "offset",
+    offset_tolerance: float = OFFSET_TOLERANCE,
 ) -> BPResult:
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
 
@@ -377,6 +384,9 @@ def bp_fill(
         observation (``observation`` where given, else the measured range) in
         Ψ, the measured neighbours' terms and step 6 (**a departure**,
         :mod:`refsynth.synthesis.range_copy`), or ``"value"``: Fig. 6's labels.
+    offset_tolerance : float, default :data:`~refsynth.synthesis.range_copy.OFFSET_TOLERANCE`
+        The agreement the shift needs, a fraction of the measured span (a power of two;
+        :func:`refsynth.synthesize` gives ``2**-3`` with NP's fill as the observation).
 
     Returns
     -------
@@ -416,6 +426,7 @@ def bp_fill(
     if range_copy not in RANGE_COPIES:
         raise ValueError(f"The parameter `range_copy` must be one of {RANGE_COPIES}, "
                          f"got {range_copy!r}")
+    offset_tolerance = check_offset_tolerance(offset_tolerance)
     known = np.isfinite(range_values)
     unknown = ~known
     # up front: the memory this call needs, against the limit
@@ -484,7 +495,8 @@ def bp_fill(
     label_shifts = measured_span = None
     if target_pad is not None:
         measured_span = (float(np.min(range_values[known])), float(np.max(range_values[known])))
-        label_shifts = _label_shifts(target_pad, patches, rows, cols, labels, W, n)
+        label_shifts = _label_shifts(target_pad, patches, rows, cols, labels, W, n,
+                                     offset_tolerance)
         del target_pad
 
     node_of = np.full(H * W, -1, dtype=np.int64)
@@ -572,10 +584,11 @@ def bp_fill(
                     compatibilities=compatibilities.all)
 
 
-def _label_shifts(target_pad, patches, rows, cols, labels, width, n):
+def _label_shifts(target_pad, patches, rows, cols, labels, width, n,
+                  tolerance=OFFSET_TOLERANCE):
     """Every label's shift Δ (:mod:`refsynth.synthesis.range_copy`) against its node's
     observation, (N, k) int64: the node's window of ``target_pad`` against the label's
-    patch, block by block."""
+    patch, block by block, with the agreement ``tolerance``."""
     out = np.empty(labels.shape, dtype=np.int64)
     weights = window_weights(n).ravel()
     windows = sliding_window_view(target_pad, (n, n))
@@ -587,7 +600,8 @@ def _label_shifts(target_pad, patches, rows, cols, labels, width, n):
         cr, cc = np.divmod(labels[sl], width)
         source = patches[cr, cc].reshape(m, k, -1).astype(np.int64)
         out[sl] = offset_shifts(np.broadcast_to(target, source.shape).reshape(m * k, -1),
-                                source.reshape(m * k, -1), weights).reshape(m, k)
+                                source.reshape(m * k, -1), weights,
+                                tolerance).reshape(m, k)
     return out
 
 

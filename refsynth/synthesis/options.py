@@ -35,7 +35,7 @@ from refsynth.synthesis.bp_observation import OBSERVATIONS
 from refsynth.synthesis.bp_proposals import PROPOSALS
 from refsynth.synthesis.limits import PARAMETER_BOUNDS
 from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES
-from refsynth.synthesis.range_copy import RANGE_COPIES
+from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
 
 __all__ = [
     "METHODS", "PRODUCTS", "ORDERINGS", "NP_OPTIONS", "BP_OPTIONS", "OPTIONS", "BP_DEPARTURES",
@@ -68,6 +68,7 @@ BP_OPTIONS = MappingProxyType({
     "product": "max",
     "edge_rule": "silent",
     "range_copy": "offset",
+    "offset_tolerance": None,  # by the observation: range_copy.default_offset_tolerance
 })
 OPTIONS = {"np": NP_OPTIONS, "bp": BP_OPTIONS}
 
@@ -103,6 +104,7 @@ OPTION_CHECKS = {
     "edges_last": partial(check_bool, "edges_last"),
     "range_copy": partial(check_choice, "range_copy", choices=RANGE_COPIES),
     "edge_rule": partial(check_choice, "edge_rule", choices=EDGE_RULES),
+    "offset_tolerance": check_offset_tolerance,
 }
 
 

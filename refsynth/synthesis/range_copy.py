@@ -80,6 +80,15 @@ not make BP beat NP at 85 %. ``observation="colorization-completed"`` with it ga
 default (it still loses to NP at 85 % on the larger size). The README's audit has the report
 split.
 
+**BP's agreement** (``offset_tolerance``, 0.8.4, BP only): the test above at ``2**-k`` of the
+span instead of NP's :data:`OFFSET_TOLERANCE` (``2**-7``), any power of two from ``2**-16`` to
+1 (:func:`check_offset_tolerance`; the slack ``2**(16 − k)`` stays a whole number on the
+grid). :func:`default_offset_tolerance`: NP's ``2**-7`` with the measured or colorization-filled
+observations, where a looser agreement loses on the Motorcycle, and
+:data:`NP_OBSERVATION_TOLERANCE` (``2**-3``) with ``observation="np"``, where NP's dense fill
+is the observation and the looser agreement wins (measured in
+:mod:`refsynth.synthesis.bp_observation`).
+
 References
 ----------
 Torres-Méndez & Dudek (2008), §3.2.2, Eqs. 2–5, doi:10.1007/s11263-007-0108-2.
@@ -88,11 +97,15 @@ A. A. Efros and T. K. Leung, "Texture synthesis by non-parametric sampling", ICC
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from refsynth._checks import check_real
 from refsynth.numeric import RANGE_BITS
 
-__all__ = ["RANGE_COPIES", "OFFSET_TOLERANCE", "OFFSET_BITS", "offset_shift", "offset_shifts",
+__all__ = ["RANGE_COPIES", "OFFSET_TOLERANCE", "OFFSET_BITS", "NP_OBSERVATION_TOLERANCE",
+           "check_offset_tolerance", "default_offset_tolerance", "offset_shift", "offset_shifts",
            "shifted_value", "shifted_values", "round_half_even"]
 
 #: What :func:`refsynth.synthesize` (NP) copies from the drawn neighbourhood: ``"value"``, its
@@ -105,12 +118,49 @@ OFFSET_BITS = 7
 #: :data:`OFFSET_BITS` as a fraction of the measured range's span (about 0.8 %).
 OFFSET_TOLERANCE = 2.0**-OFFSET_BITS
 
+#: BP's agreement when NP's fill completes its observations (``observation="np"``, 0.8.4):
+#: ``2**-3`` of the span (about 12 %; see the module docstring).
+NP_OBSERVATION_TOLERANCE = 2.0**-3
+
 _FULL = 2**RANGE_BITS
-_SLACK = 2 ** (RANGE_BITS - OFFSET_BITS)
+
+
+def check_offset_tolerance(value) -> float:
+    """``offset_tolerance``, checked: a power of two from ``2**-16`` to 1 (the agreement's
+    slack, ``tolerance · 2**16``, is then a whole number on the range's grid).
+
+    >>> check_offset_tolerance(0.125)
+    0.125
+    >>> check_offset_tolerance(0.1)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: The parameter `offset_tolerance` must be a power of two ... got 0.1
+    """
+    value = check_real("offset_tolerance", value)
+    if not (2.0**-RANGE_BITS <= value <= 1.0 and math.frexp(value)[0] == 0.5):
+        raise ValueError("The parameter `offset_tolerance` must be a power of two from "
+                         f"2**-16 to 1 (e.g. 0.125 = 2**-3), got {value!r}")
+    return value
+
+
+def default_offset_tolerance(observation: str | None) -> float:
+    """BP's agreement for its ``observation``: :data:`NP_OBSERVATION_TOLERANCE` on NP's fill,
+    :data:`OFFSET_TOLERANCE` (NP's own) otherwise.
+
+    >>> default_offset_tolerance("np"), default_offset_tolerance("colorization")
+    (0.125, 0.0078125)
+    """
+    return NP_OBSERVATION_TOLERANCE if observation == "np" else OFFSET_TOLERANCE
+
+
+def _slack(tolerance: float) -> int:
+    """The agreement on the range's integer grid: ``tolerance · 2**16`` (a whole number)."""
+    return int(tolerance * _FULL)
 
 
 def offset_shift(target: np.ndarray, source: np.ndarray, has_target: np.ndarray,
-                 has_source: np.ndarray, weights: np.ndarray) -> int:
+                 has_source: np.ndarray, weights: np.ndarray,
+                 tolerance: float = OFFSET_TOLERANCE) -> int:
     """``Δ`` of the two windows (see above), or 0 when it is not taken.
 
     Parameters
@@ -122,6 +172,8 @@ def offset_shift(target: np.ndarray, source: np.ndarray, has_target: np.ndarray,
         Where each window has range.
     weights : ndarray of float64, shape (n·n,)
         Eq. 2's window :func:`~refsynth.numeric.window_weights`, whole numbers.
+    tolerance : float, default :data:`OFFSET_TOLERANCE`
+        The agreement, a fraction of the span (:func:`check_offset_tolerance`).
 
     Returns
     -------
@@ -152,12 +204,13 @@ def offset_shift(target: np.ndarray, source: np.ndarray, has_target: np.ndarray,
     delta = target[shared] - source[shared]
     a = float(np.dot(g, np.ones_like(g)))
     b = float(np.dot(g, delta))
-    if float(np.max(np.abs(delta * a - b))) > _SLACK * a:
+    if float(np.max(np.abs(delta * a - b))) > _slack(tolerance) * a:
         return 0
     return round_half_even(int(b), int(a))
 
 
-def offset_shifts(target: np.ndarray, source: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def offset_shifts(target: np.ndarray, source: np.ndarray, weights: np.ndarray,
+                  tolerance: float = OFFSET_TOLERANCE) -> np.ndarray:
     """:func:`offset_shift` of many pairs of windows at once.
 
     Parameters
@@ -166,6 +219,8 @@ def offset_shifts(target: np.ndarray, source: np.ndarray, weights: np.ndarray) -
         ``q_r`` of the windows, ``< 0`` where a window has no range.
     weights : ndarray, shape (n·n,)
         Eq. 2's window :func:`~refsynth.numeric.window_weights`, whole numbers.
+    tolerance : float, default :data:`OFFSET_TOLERANCE`
+        The agreement, a fraction of the span (:func:`check_offset_tolerance`).
 
     Returns
     -------
@@ -188,7 +243,7 @@ def offset_shifts(target: np.ndarray, source: np.ndarray, weights: np.ndarray) -
     a = gs.sum(axis=1)
     b = (gs * delta).sum(axis=1)
     spread = np.where(shared, np.abs(delta * a[:, None] - b[:, None]), 0).max(axis=1, initial=0)
-    taken = (a > 0) & (spread <= _SLACK * a)
+    taken = (a > 0) & (spread <= _slack(tolerance) * a)
     safe = np.where(a > 0, a, 1)
     quotient, remainder = np.divmod(b, safe)
     twice = 2 * remainder

@@ -211,14 +211,15 @@ def priority_terms(r, c, filled, qr, conf, edge_count, n, *, use_isophotes=True)
     return confidence_term(conf, r, c, n), d_term, e_term
 
 
-def offset_shift(frame, p, q, source=None) -> int:
+def offset_shift(frame, p, q, source=None, tolerance=2.0**-7) -> int:
     r"""Δ of :mod:`refsynth.synthesis.range_copy`: the windows' consistent range difference.
 
     Over the offsets ``v`` where both windows have range, ``A = Σ G_v``, ``B = Σ G_v δ_v``
     with ``δ_v = q_r(p + v) − q_r(q + v)``; 0 if there is none, or if some
-    ``|A δ_v − B| > 2**(16 − 7) A``; else ``B / A`` rounded half to even (Python integers).
-    ``q``'s window is read from ``source`` (BP: the measured frame, ``p``'s from the
-    observations') when given, else from ``frame``.
+    ``|A δ_v − B| > 2**16 t A`` (the agreement ``t = tolerance``, a power of two: NP's
+    ``2**-7``); else ``B / A`` rounded half to even (Python integers). ``q``'s window is
+    read from ``source`` (BP: the measured frame, ``p``'s from the observations') when
+    given, else from ``frame``.
     """
     (pr, pc), (qr_, qc), n = p, q, frame.n
     source = frame if source is None else source
@@ -231,7 +232,8 @@ def offset_shift(frame, p, q, source=None) -> int:
                 g = int(frame.window[i, j])
                 a, b = a + g, b + g * (at_p - at_q)
                 deltas.append(at_p - at_q)
-    if a == 0 or any(abs(a * d - b) > 2 ** (RANGE_BITS - 7) * a for d in deltas):
+    slack = int(Fraction(tolerance) * 2**RANGE_BITS)
+    if a == 0 or any(abs(a * d - b) > slack * a for d in deltas):
         return 0
     return round(Fraction(b, a))
 
@@ -515,7 +517,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=0.0, colour=True, edge_rule="silent", channels="sum",
                  observation="colorization", training_radius="gap", range_copy="offset",
-                 rng=None, trace=False) -> BPReference:
+                 offset_tolerance=None, rng=None, trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
@@ -551,7 +553,9 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     ``Δ_il`` of NP's offset copy between ``y_i``'s range (the observations: measured or
     completed) and the label's measured patch (:func:`offset_shift`); its patch's range is
     moved by ``Δ_il`` in every term of step 4, and its centre in step 6 (clipped to the
-    measured span, as NP's). ``"value"`` is Fig. 6's labels as printed.
+    measured span, as NP's). ``"value"`` is Fig. 6's labels as printed. The shift's
+    agreement is ``offset_tolerance``; None: ``2**-3`` with ``observation="np"``, else
+    NP's ``2**-7``.
 
     Parameters are :func:`refsynth.synthesize`'s (``k`` is ``candidates``); ``image``,
     ``range_values``, ``edges`` and ``colour`` as in :func:`np_reference`; ``edge_rule`` is
@@ -570,6 +574,9 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                                 missing_range=missing_range, colour=colour,
                                 channels=channels).range
     observed = _observed_frame(frame, image, range_values, observation, colour, np_range)
+    agreement = offset_tolerance
+    if agreement is None:
+        agreement = 2.0**-3 if observation == "np" else 2.0**-7
     training = observed if observation == "colorization-completed" else frame
     on_edge = np.asarray(edges, dtype=bool) & use_edges
     deaf = edge_rule == "paper"
@@ -588,7 +595,8 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
         cands[i] = cand
         unary[i] = [-d / (2.0 * sigma_i * sigma_i) for d in dist]
         if range_copy == "offset":
-            shifts[i] = [offset_shift(observed, (r, c), q, source=frame) for q in cand]
+            shifts[i] = [offset_shift(observed, (r, c), q, source=frame, tolerance=agreement)
+                         for q in cand]
         patches = [frame.patch(a, b)[1] for a, b in cand]
         for dr, dc, direction, node_first in ((0, 1, "h", True), (0, -1, "h", False),
                                               (1, 0, "v", True), (-1, 0, "v", False)):
