@@ -292,6 +292,8 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 #    with NP's own fill instead of the colorization fill
 #    (`observation="np"`, an option; it draws through NP, so take seeds
 #    0–2): on the room the ceiling falls below NP's MAR — does BP follow it?
+#    (Its labels' shift then agrees to 2⁻³ of the span, `offset_tolerance`;
+#    try NP's 2⁻⁷ too, `offset_tolerance=2**-7`.)
 # 3. **Turn off the edge-constraint rule** (`use_edges=False` with
 #    `method="bp"`, refsynth's defaults otherwise) on both cases. How much
 #    does MAR change, and how does that compare with what the edges do for NP

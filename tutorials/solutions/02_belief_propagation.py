@@ -160,17 +160,22 @@ def exercise_2b() -> None:
 def exercise_2c() -> None:
     """The observations completed by NP's fill (``observation="np"``).
 
-    On the room BP's MAR falls by about half (0.195 → 0.099 m) and, for the
-    first time, the candidate ceiling (0.072 m) is below NP's MAR (0.085 m):
-    ranked and shifted against the range NP synthesized around each pixel,
-    the training patches include one that beats NP at most pixels. BP does
-    not follow the ceiling down: it keeps Eq. 2's first-ranked candidate at
-    about 96 % of the pixels (86 % with the default), so its MAR stays that
-    candidate's error, still above NP's. On the Motorcycle's narrow gaps
-    nothing changes beyond the seeds' spread: BP on NP's fill, the default BP
-    and NP tie, and the ceiling even rises a little. On real data at
-    450×375 and 741×500 the same option puts BP below NP at every fraction
-    (the README's "BP on NP's fill"), at the price of NP's time.
+    On the room BP's MAR falls by more than half (0.195 → 0.085 m) and the
+    candidate ceiling (0.071 m) is below NP's MAR (0.085 m): ranked and
+    shifted against the range NP synthesized around each pixel, the training
+    patches include one that beats NP at most pixels. BP does not follow the
+    ceiling down: it keeps Eq. 2's first-ranked candidate at about 98 % of the
+    pixels (86 % with the default), so its MAR is that candidate's error, and
+    it ties NP. On the Motorcycle's narrow gaps BP on NP's fill is lower than
+    both NP and the default BP (0.268 against 0.287 and 0.286 px), though the
+    ceiling rises a little: the candidates are no nearer the truth, the first
+    one is better shifted. Since 0.8.4 the shift's agreement is looser with
+    NP's fill (``offset_tolerance`` 2**-3 of the span, not NP's 2**-7: the
+    README's "BP on NP's fill"): that is the whole change from 0.8's figures
+    (0.099 m on the room, a tie on the Motorcycle), which
+    ``offset_tolerance=2**-7`` gives again. On real data at 450×375 and
+    741×500 the same option puts BP below NP at every fraction, at the price
+    of NP's time.
     """
     for scene, known, partial in (bike_case(), room_case()):
         np_mar = np.mean([mar(refsynth.synthesize(scene.intensity, partial, seed=s).range,
@@ -195,10 +200,11 @@ def exercise_2c() -> None:
         default, on_np = scores["default"], scores["np"]
         assert on_np[2] > 0.9  # BP keeps Eq. 2's first-ranked candidate almost everywhere
         if scene.name.startswith("synthetic-room"):
-            assert on_np[0] < 0.6 * default[0]  # BP's error about halves
-            assert on_np[1] < np_mar < on_np[0]  # the ceiling below NP, BP above it
+            assert on_np[0] < 0.5 * default[0]  # BP's error more than halves
+            assert on_np[1] < np_mar  # the ceiling below NP
+            assert abs(on_np[0] - np_mar) < 0.005  # and BP ties NP
         else:
-            assert abs(on_np[0] - np_mar) < 0.01 and abs(on_np[0] - default[0]) < 0.01  # ties
+            assert on_np[0] < min(np_mar, default[0]) - 0.01  # below both
             assert on_np[1] > default[1]  # the candidates are no nearer the truth
 
 
