@@ -133,14 +133,20 @@ def test_bad_range_copy_is_refused_by_name_before_any_work():
 # -- BP's labels (0.6) --------------------------------------------------------------------
 
 
-@given(windows, st.sampled_from([0, 3, 40, 600, 5000]))
-def test_the_shifts_of_many_windows_are_the_shift_of_each(g, spread):
-    rows = 30
+def _window_pairs(g, spread, rows=30):
+    """Thirty pairs of 5×5 windows: the target a shifted source plus noise up to ``spread``,
+    each with range at about 70 % and 80 % of its offsets."""
     source = g.integers(0, 2**16, (rows, 25))
     target = source + g.integers(-3000, 3000, (rows, 1)) + g.integers(-spread, spread + 1,
                                                                           (rows, 25))
     target = np.maximum(target, 0)
     has_t, has_s = g.random((rows, 25)) < 0.7, g.random((rows, 25)) < 0.8
+    return target, source, has_t, has_s
+
+
+@given(windows, st.sampled_from([0, 3, 40, 600, 5000]))
+def test_the_shifts_of_many_windows_are_the_shift_of_each(g, spread):
+    target, source, has_t, has_s = _window_pairs(g, spread)
     got = offset_shifts(np.where(has_t, target, -1), np.where(has_s, source, -1), G5)
     want = [_oracle(t, s_, a, b, G5) for t, s_, a, b in zip(target, source, has_t, has_s,
                                                              strict=True)]
@@ -213,12 +219,7 @@ def test_bps_shift_ignores_an_intensity_offset_and_scales_with_the_range():
 
 @given(windows, st.integers(0, 16), st.sampled_from([0, 40, 600, 5000, 20000]))
 def test_the_shifts_at_any_tolerance_are_the_exact_rule_at_that_tolerance(g, bits, spread):
-    rows = 30
-    source = g.integers(0, 2**16, (rows, 25))
-    target = source + g.integers(-3000, 3000, (rows, 1)) + g.integers(-spread, spread + 1,
-                                                                          (rows, 25))
-    target = np.maximum(target, 0)
-    has_t, has_s = g.random((rows, 25)) < 0.7, g.random((rows, 25)) < 0.8
+    target, source, has_t, has_s = _window_pairs(g, spread)
     tolerance = 2.0**-bits
     got = offset_shifts(np.where(has_t, target, -1), np.where(has_s, source, -1), G5,
                         tolerance)
