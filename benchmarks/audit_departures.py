@@ -158,19 +158,25 @@ VARIANTS: dict[str, dict] = {
 VARIANTS = {name: ({**FIG6, **kw} if kw["method"] == "bp" else {**VALUE_COPY, **kw})
             for name, kw in VARIANTS.items()}
 VARIANTS["np"] = {"method": "np"}          # the defaults: the offset copy (0.5)
-VARIANTS["bp"] = {"method": "bp"}          # the defaults: completed observations, gap radius
+VARIANTS["bp"] = {"method": "bp"}          # the defaults: NP's fill completes (0.9), gap radius
+#: 0.4-0.8's default observations: the entries below that measured those releases' BP name them,
+#: so that their commands in the README print the same figures under 0.9's default
+COLORIZATION = {"observation": "colorization"}
+VARIANTS["bp-0.8"] = {"method": "bp", **COLORIZATION}   # 0.6-0.8's default BP (0.7's fill)
 VARIANTS["bp-fig6"] = {"method": "bp", **FIG6}
 # BP's copy, the other defaults kept: the labels' centre values (0.5's BP) or shifted (0.6)
-VARIANTS["bp-value-copy"] = {"method": "bp", "range_copy": "value"}
-VARIANTS["bp-offset-copy"] = {"method": "bp", "range_copy": "offset"}
-# BP's observations completed by NP's fill (0.8, an option): depends on the seed
+VARIANTS["bp-value-copy"] = {"method": "bp", "range_copy": "value", **COLORIZATION}
+VARIANTS["bp-offset-copy"] = {"method": "bp", "range_copy": "offset", **COLORIZATION}
+# BP's observations completed by NP's fill (0.8, an option; the default since 0.9, so the same
+# as "bp"): depends on the seed
 VARIANTS["bp-obs-np"] = {"method": "bp", "observation": "np"}
 # the labels' shift agreement (offset_tolerance, 0.8.4): 2**-k of the span; BP's default is
 # 2**-7 (NP's) with the colorization fill's observations and 2**-3 with NP's fill
 for _k in (0, 2, 3, 4, 5, 7):
     VARIANTS[f"bp-obs-np-tolerance{_k}"] = {"method": "bp", "observation": "np",
                                             "offset_tolerance": 2.0**-_k}
-    VARIANTS[f"bp-tolerance{_k}"] = {"method": "bp", "offset_tolerance": 2.0**-_k}
+    VARIANTS[f"bp-tolerance{_k}"] = {"method": "bp", "offset_tolerance": 2.0**-_k,
+                                     **COLORIZATION}
 VARIANTS["bp-offset-copy-obs-colorization-completed"] = {
     "method": "bp", "range_copy": "offset", "observation": "colorization-completed"}
 # BP's defaults with one parameter changed (the entries above change Fig. 6's): how much the
@@ -178,10 +184,11 @@ VARIANTS["bp-offset-copy-obs-colorization-completed"] = {
 for _name, _kw in {"sigma-i0.4": {"sigma_i": 0.4}, "sigma-i1.5": {"sigma_i": 1.5},
                    "sigma-s0.05": {"sigma_s": 0.05}, "lambda0.25": {"range_weight": 0.25},
                    "lambda4": {"range_weight": 4.0}, "lambda16": {"range_weight": 16.0}}.items():
-    VARIANTS[f"bp-with-{_name}"] = {"method": "bp", **_kw}
+    VARIANTS[f"bp-with-{_name}"] = {"method": "bp", **_kw, **COLORIZATION}
 # BP's defaults with 0.6's observations' fill (Gauss-Seidel on the image alone; 0.7 solves
 # it by the cascade, refsynth.synthesis.completion): run_one switches the fill's solver
-VARIANTS["bp-fill-gauss-seidel"] = {"method": "bp", "fill_solver": "gauss-seidel"}
+VARIANTS["bp-fill-gauss-seidel"] = {"method": "bp", "fill_solver": "gauss-seidel",
+                                    **COLORIZATION}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 SPLITS = {"choose": {"phase": 1, "sizes": ("450x375",)},
           "report": {"phase": 0, "sizes": ("450x375", "741x500")},

@@ -17,9 +17,10 @@ Prints, as Markdown tables:
    ``O(n k² T)``);
 2. accuracy on the synthetic room (128×128, the paper's grid stripes
    rw/xw = 24/80, 10/20, 5/25, 3/28) and on the Motorcycle (450×375, x-stripes
-   63/78/85 %): BP (refsynth's defaults), BP as Fig. 6 prints it (the
-   observations' measured range, the fixed disc), BP without the
-   edge-constraint rule, NP (3 seeds), and the
+   63/78/85 %): BP (refsynth's defaults: since 0.9 on NP's fill, so over the
+   same seeds as NP), BP as Fig. 6 prints it (the observations' measured
+   range, the fixed disc), BP without the edge-constraint rule, NP (3 seeds),
+   and the
    nearest, linear and harmonic fills, each measured in the same run; for BP
    also the *candidate ceiling* (the MAR if every pixel picked its best
    candidate) and the MAR of the 50 % most confident synthesized pixels
@@ -57,6 +58,8 @@ import time
 
 import numpy as np
 from audit_departures import VARIANTS  # this script's folder: one variant table
+
+from refsynth.synthesis.options import BP_DEPARTURES
 
 
 def _rss_mb() -> float:
@@ -136,7 +139,7 @@ PROPOSAL_VARIANTS = {name: kw for name, kw in VARIANTS.items()
 #: Section 3's variants that make no random choice: one seed is enough.
 DETERMINISTIC = {name for name, kw in PROPOSAL_VARIANTS.items()
                  if kw["method"] == "bp" and "proposals" not in kw
-                 and kw.get("observation") != "np"}
+                 and kw.get("observation", BP_DEPARTURES["observation"]) != "np"}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 
 
@@ -314,7 +317,8 @@ def main(argv=None) -> int:
                         help="section 0 only: BP against the colorization fill")
     parser.add_argument("--big", action="store_true",
                         help="with section 0, BP on a 2048×2048 Motorcycle too")
-    parser.add_argument("--seeds", type=int, default=3, help="NP seeds (default 3)")
+    parser.add_argument("--seeds", type=int, default=3,
+                        help="seeds of NP and of BP on NP's fill (default 3)")
     parser.add_argument("--proposals", action="store_true",
                         help="section 3 only: BP's proposals against BP, NP and the classical")
     parser.add_argument("--phase", type=int, default=1,
@@ -369,9 +373,10 @@ def main(argv=None) -> int:
             ("motorcycle", (450, 375), ("x63", "x78", "x85")),
         ):
             for spec in samplings:
-                cases += [(scene, size, spec, "BP", 0, {}),
-                          (scene, size, spec, "BP, Fig. 6", 0, {}),
-                          (scene, size, spec, "BP, no edge rule", 0, {})]
+                # BP draws through NP's fill (its default observations since 0.9): seeds
+                cases += [(scene, size, spec, name, s, {}) for s in range(args.seeds)
+                          for name in ("BP", "BP, no edge rule")]
+                cases += [(scene, size, spec, "BP, Fig. 6", 0, {})]
                 cases += [(scene, size, spec, "NP", s, {}) for s in range(args.seeds)]
                 cases += [(scene, size, spec, b, 0, {})
                           for b in ("nearest", "linear", "harmonic")]

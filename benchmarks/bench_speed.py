@@ -34,12 +34,12 @@ Run::
     python benchmarks/bench_speed.py --quick           # 112×94 and 225×188 only
     python benchmarks/bench_speed.py --sizes 450x375 --methods np,colorization --repeat 3
     python benchmarks/bench_speed.py --sizes 450x375,900x750 --no-rss \
-        --methods np,bp,bp-obs-np,colorization    # BP on NP's fill, an option: its cost
+        --methods np,bp,bp-colorization,colorization    # BP on NP's fill and on colorization
     python benchmarks/bench_speed.py --bp-stages       # BP's stages, CPU time (~3 min)
     python benchmarks/bench_speed.py --np-steps        # NP's shortlist per step (~3 min)
     python benchmarks/bench_speed.py --fill-solvers    # BP's observations' fill (~3 min)
     python benchmarks/bench_speed.py --fill-solvers --room   # the same on the room's grids
-    python benchmarks/bench_speed.py --memory 2048x2048  # item 3: NP and BP, ~12 min
+    python benchmarks/bench_speed.py --memory 2048x2048  # item 3: NP and both BPs, ~20 min
 
 ``--memory SIZE`` runs NP and BP once each at ``SIZE`` in a fresh subprocess and prints,
 beside each one's memory estimate (the one ``synthesize`` refuses a run by), its peak
@@ -63,10 +63,15 @@ import numpy as np
 
 SIZES = ((112, 94), (225, 188), (450, 375), (900, 750))
 QUICK_SIZES = SIZES[:2]
-METHODS = ("np", "bp", "bp-fig6", "colorization", "nearest", "joint-bilateral")
-#: Chosen by name only (``--methods``): BP's observations completed by NP's fill (NP, then BP).
+#: ``bp`` is BP's default (0.9: NP's fill, then BP), ``bp-colorization`` 0.4–0.8's default BP
+#: (the observations completed by the colorization fill).
+METHODS = ("np", "bp", "bp-colorization", "bp-fig6", "colorization", "nearest",
+           "joint-bilateral")
+#: Chosen by name only (``--methods``): ``bp`` under its 0.8 name (NP's fill, then BP).
 OPTIONAL_METHODS = ("bp-obs-np",)
 UNKNOWN = 0.78  # x-stripes, as bench_np.py / bench_bp.py
+#: The fills ``--memory`` measures, beside their estimates.
+MEMORY_METHODS = ("np", "bp", "bp-colorization")
 LINEAR_TOLERANCE = 0.25  # issue #15 item 4: µs per unknown pixel within ±25 %
 
 
@@ -99,7 +104,9 @@ def _fill(method: str):
 
     return {
         "np": lambda image, partial: refsynth.synthesize(image, partial, seed=0),
-        "bp": lambda image, partial: refsynth.synthesize(image, partial, method="bp"),
+        "bp": lambda image, partial: refsynth.synthesize(image, partial, method="bp", seed=0),
+        "bp-colorization": lambda image, partial: refsynth.synthesize(
+            image, partial, method="bp", observation="colorization"),
         "bp-fig6": lambda image, partial: refsynth.synthesize(
             image, partial, method="bp", observation="measured", training_radius="fixed",
             range_copy="value"),
@@ -163,7 +170,7 @@ def _peak_rss_mb(method: str, size: tuple[int, int]) -> tuple[float, str]:
     return report["peak_mb"], report["how"]
 
 
-def memory_at(size: tuple[int, int], methods=("np", "bp")) -> None:
+def memory_at(size: tuple[int, int], methods=MEMORY_METHODS) -> None:
     """Item 3: each fill at ``size`` in a fresh subprocess, beside its memory estimate."""
     from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate
     from refsynth.synthesis.limits import np_memory
@@ -174,8 +181,11 @@ def memory_at(size: tuple[int, int], methods=("np", "bp")) -> None:
                 + np.count_nonzero(unknown[:-1, :] & unknown[1:, :]))
     estimates = {
         "np": np_memory(partial.shape, image.shape[2], 5, 10.0),
-        "bp": bp_memory_estimate(partial.shape, int(unknown.sum()), n_pairs=pairs),
+        "bp-colorization": bp_memory_estimate(partial.shape, int(unknown.sum()),
+                                              n_pairs=pairs),
     }
+    # BP's default runs NP first, then BP: each is checked (and peaks) on its own
+    estimates["bp"] = max(estimates["np"], estimates["bp-colorization"])
     scene, how = _peak_rss_mb("scene", size)
     print(f"Motorcycle {size[0]}×{size[1]}, x-stripes {percent:.0f} % unknown "
           f"({int(unknown.sum())} pixels); resident memory of a fresh subprocess in MiB "
@@ -264,7 +274,8 @@ def run(sizes, methods, repeat: int = 1, rss: bool = True, out=sys.stdout) -> di
 
 
 def bp_stages(sizes, out=sys.stdout) -> dict:
-    """CPU time of each of BP's stages (0.4's defaults), read from its progress reports.
+    """CPU time of each of BP's stages (0.4–0.8's defaults: the observations completed by the
+    colorization fill), read from its progress reports.
 
     BP reports per mille of its work, each stage within its share
     (:data:`refsynth.synthesis.api.OBSERVATION_SHARE`, :data:`refsynth.synthesis.bp.BP_STAGES`);
@@ -302,7 +313,7 @@ def bp_stages(sizes, out=sys.stdout) -> dict:
         _, sweeps = portable_colorization(image, partial, return_sweeps=True)
         seen = []
         start = time.process_time()
-        refsynth.synthesize(image, partial, method="bp",
+        refsynth.synthesize(image, partial, method="bp", observation="colorization",
                             progress=lambda done, total, seen=seen, start=start: seen.append(
                                 (time.process_time() - start, done)))
         # a stage's end, in whole per mille, is reached to within 2 (two roundings down)
@@ -472,7 +483,8 @@ def fill_solvers_room(out=sys.stdout, grids=ROOM_GRIDS) -> dict:
         for solver in SOLVERS:
             fill = portable_colorization(scene.intensity, partial, solver=solver)
             with _fill_solver(solver):
-                bp = refsynth.synthesize(scene.intensity, partial, method="bp").range
+                bp = refsynth.synthesize(scene.intensity, partial, method="bp",
+                                         observation="colorization").range
             results[(grid, solver)] = dict(fill=mar(fill, scene.range, known),
                                            bp=mar(bp, scene.range, known))
             print(f"| {grid} | {percent:.1f} % | {solver} | {results[(grid, solver)]['fill']:.3f}"
@@ -557,7 +569,8 @@ def main(argv=None) -> int:
             fill_solvers(sizes)
         return 0
     if args.memory:
-        memory_at(args.memory, [m for m in args.methods if m in ("np", "bp")] or ["np", "bp"])
+        memory_at(args.memory, [m for m in args.methods if m in MEMORY_METHODS]
+                  or list(MEMORY_METHODS))
         return 0
     run(sizes, args.methods, repeat=args.repeat, rss=not args.no_rss)
     return 0

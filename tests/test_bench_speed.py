@@ -65,8 +65,9 @@ def test_memory_mode_prints_each_fill_beside_its_estimate(bench, capsys):
 
 
 def test_fill_solvers_on_the_room_put_the_default_fill_back(bench):
-    """``--fill-solvers --room``: BP with the cascade is BP's default, and the default fill is
-    restored after the Gauss-Seidel run."""
+    """``--fill-solvers --room``: BP with the cascade is BP on the colorization fill's
+    observations (0.4–0.8's default), and the default fill is restored after the
+    Gauss-Seidel run."""
     import io
 
     import numpy as np
@@ -86,7 +87,8 @@ def test_fill_solvers_on_the_room_put_the_default_fill_back(bench):
     scene = synthetic_room((128, 128), seed=0)
     known = stripes(scene.range.shape, 10, 20, axes="xy") & scene.has_truth
     partial = np.where(known, scene.range, np.nan)
-    bp = refsynth.synthesize(scene.intensity, partial, method="bp").range
+    bp = refsynth.synthesize(scene.intensity, partial, method="bp",
+                             observation="colorization").range
     assert results[("10/20", "cascadic")]["bp"] == mar(bp, scene.range, known)
     assert "| 10/20 | 39.1 % | gauss-seidel |" in out.getvalue()
 

@@ -278,8 +278,10 @@ def test_synthesize_checks_the_options_by_name():
     with pytest.raises(ValueError, match="`compatibility` applies to method='bp' only"):
         refsynth.synthesize(image, partial, method="np", compatibility="overlap-centres")
     # BP's defaults are accepted by NP and leave no trace
-    out = refsynth.synthesize(image, partial, method="np", observation="colorization",
+    out = refsynth.synthesize(image, partial, method="np", observation="np",
                               compatibility="overlap", training_radius="gap")
+    with pytest.raises(ValueError, match="`observation` applies to method='bp' only"):
+        refsynth.synthesize(image, partial, method="np", observation="colorization")
     assert not {"observation", "compatibility", "training_radius"} & set(out.params)
 
 
@@ -287,12 +289,13 @@ def test_synthesize_passes_the_options_to_bp():
     image, partial = _small()
     plain = refsynth.synthesize(image, partial, method="bp", radius=3.0)
     named = refsynth.synthesize(image, partial, method="bp", radius=3.0,
-                                observation="colorization", compatibility="overlap",
+                                observation="np", compatibility="overlap",
                                 training_radius="gap")
     np.testing.assert_array_equal(plain.range, named.range)
     np.testing.assert_array_equal(plain.bp.beliefs, named.bp.beliefs)
-    # the defaults are recorded: a result says which BP made it
-    assert plain.params["observation"] == "colorization"
+    # the defaults are recorded: a result says which BP made it (NP's fill since 0.9)
+    assert plain.params["observation"] == "np"
+    assert plain.params["offset_tolerance"] == 2.0**-3
     assert plain.params["training_radius"] == "gap"
     assert plain.params["compatibility"] == "overlap"
     fig6 = refsynth.synthesize(image, partial, method="bp", radius=3.0,

@@ -124,11 +124,14 @@ def test_path_pair_scene_is_made_absolute(tmp_path, monkeypatch):
 
 
 def test_cases_run_np_over_seeds_and_the_rest_once():
-    cases = build_cases(["synthetic"], ["32"], ["x78"], ["np", "np-onion", "bp", "nearest"],
+    cases = build_cases(["synthetic"], ["32"], ["x78"],
+                        ["np", "np-onion", "bp", "bp-fig6", "bp-obs-colorization", "nearest"],
                         seeds=3)
+    # BP draws through NP's fill (its default observations since 0.9): over seeds too
     assert [(c.method, c.seed) for c in cases] == [
         ("np", 0), ("np", 1), ("np", 2), ("np-onion", 0), ("np-onion", 1), ("np-onion", 2),
-        ("bp", 0), ("nearest", 0)]
+        ("bp", 0), ("bp", 1), ("bp", 2), ("bp-fig6", 0), ("bp-obs-colorization", 0),
+        ("nearest", 0)]
     with pytest.raises(ValueError, match="no native size"):
         build_cases(["synthetic"], ["native"], ["x78"], ["np"])
 
@@ -139,7 +142,8 @@ def test_default_grid_covers_the_issue():
     cases = grid_cases(DEFAULT_GRID)
     keys = {(c.scene, c.size, c.sampling, c.method) for c in cases}
     methods = [m for m in method_names() if m not in OPTION_METHODS]
-    assert "bp-obs-np" in method_names() and "bp-obs-np" not in methods
+    assert {"bp-obs-np", "bp-obs-colorization"} <= set(method_names())
+    assert not {"bp-obs-np", "bp-obs-colorization"} & set(methods)
     for scene in ("synthetic-0", "motorcycle"):
         for sampling in ("g24_80", "g10_20", "g5_25", "g3_28", "x63", "x78", "x85", "distance"):
             for method in methods:
@@ -148,12 +152,14 @@ def test_default_grid_covers_the_issue():
         for method in methods:
             assert ("motorcycle", "450x375", sampling, method) in keys
     assert not {c.method for c in cases} & set(OPTION_METHODS)
-    assert len(cases) == 404   # the README's Results: the default grid's 404 cases
+    assert len(cases) == 486   # the README's Results: the default grid's 486 cases
     assert len(cases) == len(set(cases))
-    # chosen by name, the option runs over seeds (it draws through NP)
-    named = grid_cases([("synthetic", "16", "x20", "bp,bp-obs-np")], seeds=2)
-    assert [(c.method, c.seed) for c in named] == [("bp", 0), ("bp-obs-np", 0),
-                                                   ("bp-obs-np", 1)]
+    # chosen by name, the options: bp-obs-np (= bp) over seeds, 0.8's BP once
+    named = grid_cases([("synthetic", "16", "x20", "bp,bp-obs-np,bp-obs-colorization")],
+                       seeds=2)
+    assert [(c.method, c.seed) for c in named] == [("bp", 0), ("bp", 1), ("bp-obs-np", 0),
+                                                   ("bp-obs-np", 1),
+                                                   ("bp-obs-colorization", 0)]
 
 
 # ----------------------------------------------------------------------------- bookkeeping

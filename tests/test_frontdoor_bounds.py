@@ -109,12 +109,24 @@ def test_canny_sigma_is_bounded_by_the_image():
 
 @pytest.mark.parametrize("radius", [1e4, 1e30, 1e308])
 def test_bp_runs_a_radius_beyond_the_image_as_the_whole_image(radius):
-    """Was: radius=1e4 tried to allocate 149 GiB; 1e30 "Maximum allowed dimension exceeded"."""
+    """Was: radius=1e4 tried to allocate 149 GiB; 1e30 "Maximum allowed dimension exceeded".
+    BP's own search is cut to the image (here on the colorization fill's observations); its
+    default observations run NP at that radius first, which is refused as NP's is, naming
+    the way out."""
     reach = image_reach(PARTIAL.shape)
     assert reach == math.ceil(math.hypot(11, 11)) == 16
-    _same(refsynth.synthesize(IMAGE, PARTIAL, method="bp", proximity=0.0, radius=radius),
-          refsynth.synthesize(IMAGE, PARTIAL, method="bp", proximity=0.0, radius=float(reach)))
-    _sane(refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=radius))
+    fill = dict(method="bp", observation="colorization")
+    _same(refsynth.synthesize(IMAGE, PARTIAL, proximity=0.0, radius=radius, **fill),
+          refsynth.synthesize(IMAGE, PARTIAL, proximity=0.0, radius=float(reach), **fill))
+    _sane(refsynth.synthesize(IMAGE, PARTIAL, radius=radius, **fill))
+    with pytest.raises(ValueError, match=r"synthesize\(method='bp'\) runs NP first "
+                       r"\(`observation='np'`, BP's default\) on a 12x12 image with "
+                       r"neighbourhood=5, radius=[0-9e+]+ would need about .*; lower "
+                       r"`neighbourhood`, `radius` \(radius 16 already reaches the whole "
+                       r"image\), or take `observation='colorization'`$"):
+        refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=radius)
+    with pytest.raises(ValueError, match=r"runs NP first \(`proposals`\).*or drop `proposals`$"):
+        refsynth.synthesize(IMAGE, PARTIAL, radius=radius, proposals="np", **fill)
 
 
 @pytest.mark.parametrize("radius", [1e4, 1e30, 1e308])
@@ -162,7 +174,8 @@ def test_bp_with_the_gap_radius_beyond_the_image_is_the_reference_bit_for_bit(pr
     result = refsynth.synthesize(small_image, small, method="bp", radius=20.0, candidates=3,
                                  neighbourhood=3, proximity=proximity, iterations=5)
     slow = ref.bp_reference(small_image, small, result.edges, neighbourhood=3, radius=20.0,
-                            k=3, proximity=proximity, iterations=5)
+                            k=3, proximity=proximity, iterations=5,
+                            rng=np.random.default_rng(0))   # NP's fill first, seed 0
     assert np.array_equal(result.bp.unary, slow.unary)
     assert np.array_equal(result.range, slow.range)
 
@@ -307,7 +320,8 @@ def test_extreme_options_are_refused_by_name_or_give_a_sane_result(option, value
         result = refsynth.synthesize(IMAGE, partial, method=method, **{name: value})
     except (ValueError, TypeError) as error:
         # NP keeps its radius: beyond the image, only as far as its padded frame fits in memory
-        refused_for_memory = (method, name) == ("np", "radius") and "would need about" in str(error)
+        # (BP's default observations run NP first, at BP's radius)
+        refused_for_memory = name == "radius" and "would need about" in str(error)
         assert f"`{name}`" in str(error) and (not inside or refused_for_memory)
     else:
         assert inside

@@ -52,8 +52,15 @@ def _digest(result) -> str:
 
 GOLDEN = {
     ("steps", "np"): "27f7cd040b1f223cc74298c2",   # 0.5: NP's offset copy
-    ("steps", "bp"): "207c5aede45dc5d1bac3b32c",   # 0.6: BP's offset copy
+    ("steps", "bp"): "de888bd52dfba104db0a840b",   # 0.9: BP on NP's fill
     ("texture", "np"): "f2f579904e60b638f8084138",
+    ("texture", "bp"): "e4ec2240a65b662ea60ea88a",
+}
+#: BP's observations completed by the colorization fill, the other defaults kept: 0.6–0.8's
+#: default BP, which NP's fill replaced in 0.9; its hashes are those releases'.
+COLORIZATION = dict(observation="colorization")
+GOLDEN_COLORIZATION = {
+    ("steps", "bp"): "207c5aede45dc5d1bac3b32c",
     ("texture", "bp"): "d7a8bbc8b58ef66e5f6701ca",
 }
 #: BP as Fig. 6 prints it (the observations' measured range, the fixed training disc, the
@@ -65,9 +72,11 @@ GOLDEN_FIG6 = {
     ("texture", "bp"): "e2699b75d7f964ac7ec9c282",
 }
 #: The centre's value copied (Eq. 5 as printed; Fig. 6's labels), the other defaults kept:
-#: NP's is 0.4's default NP, which the offset copy replaced in 0.5, BP's 0.5's default BP,
-#: which it replaced in 0.6; their hashes are those releases'.
-VALUE_COPY = dict(range_copy="value")
+#: NP's is 0.4's default NP, which the offset copy replaced in 0.5, BP's 0.5's default BP
+#: (on the colorization fill's observations, 0.4–0.8's), which it replaced in 0.6; their
+#: hashes are those releases'.
+VALUE_COPY = {"np": dict(range_copy="value"),
+              "bp": dict(range_copy="value", observation="colorization")}
 GOLDEN_VALUE_COPY = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
     ("steps", "bp"): "7ce147a968fc672ca5e0f018",
@@ -109,7 +118,7 @@ def test_the_golden_hash_of_the_earlier_readings_holds(scene, method):
 def test_the_golden_hash_of_eq5s_value_copy_holds(scene, method):
     intensity, partial = SCENES[scene]()
     result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0,
-                                 **VALUE_COPY)
+                                 **VALUE_COPY[method])
     assert _digest(result) == GOLDEN_VALUE_COPY[scene, method], (
         f"{scene}/{method} (Eq. 5's value copy): the output changed; new hash "
         f"{_digest(result)}")
@@ -121,3 +130,13 @@ def test_the_golden_hash_of_fig6s_bp_holds(scene, method):
     result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0, **FIG6)
     assert _digest(result) == GOLDEN_FIG6[scene, method], (
         f"{scene}/{method} (Fig. 6): the output changed; new hash {_digest(result)}")
+
+
+@pytest.mark.parametrize(("scene", "method"), list(GOLDEN_COLORIZATION))
+def test_the_golden_hash_of_bp_on_the_colorization_fill_holds(scene, method):
+    intensity, partial = SCENES[scene]()
+    result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0,
+                                 **COLORIZATION)
+    assert _digest(result) == GOLDEN_COLORIZATION[scene, method], (
+        f"{scene}/{method} (the colorization fill's observations): the output changed; new "
+        f"hash {_digest(result)}")

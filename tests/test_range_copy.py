@@ -263,16 +263,21 @@ def test_the_tolerance_is_a_power_of_two_from_2_to_the_minus_16_to_1():
     for bad in ("0.125", None, True):
         with pytest.raises(TypeError, match="`offset_tolerance`"):
             check_offset_tolerance(bad)
-    assert default_offset_tolerance("np") == NP_OBSERVATION_TOLERANCE == 2.0**-3
-    for observation in ("colorization", "measured", "colorization-completed", None):
+    # None: BP's default observation, NP's fill since 0.9
+    for observation in ("np", None):
+        assert default_offset_tolerance(observation) == NP_OBSERVATION_TOLERANCE == 2.0**-3
+    for observation in ("colorization", "measured", "colorization-completed"):
         assert default_offset_tolerance(observation) == OFFSET_TOLERANCE == 2.0**-7
 
 
 def test_synthesize_takes_the_tolerance_for_bp_only_and_records_the_one_it_used():
     image, _, partial = _ramp()
-    assert refsynth.synthesize(image, partial, method="bp").params["offset_tolerance"] == 2**-7
+    assert refsynth.synthesize(image, partial, method="bp").params["offset_tolerance"] == 2**-3
     on_np = refsynth.synthesize(image, partial, method="bp", observation="np")
     assert on_np.params["offset_tolerance"] == 2**-3
+    for observation in ("colorization", "colorization-completed", "measured"):
+        other = refsynth.synthesize(image, partial, method="bp", observation=observation)
+        assert other.params["offset_tolerance"] == 2**-7
     given = refsynth.synthesize(image, partial, method="bp", offset_tolerance=0.5)
     assert given.params["offset_tolerance"] == 0.5
     with pytest.raises(ValueError, match="`offset_tolerance` applies to method='bp' only"):
@@ -293,12 +298,14 @@ def test_bps_tolerance_reaches_the_labels_and_the_reference_agrees():
     truth = 2.0 + 0.3 * cols + 0.2 * g.random((12, 14))
     partial = np.where(cols % 3 == 0, truth, np.nan)
     edges = np.zeros(partial.shape, dtype=bool)
-    out = {}
-    for tolerance in (2.0**-7, 2.0**-1):
-        fast = refsynth.synthesize(image, partial, method="bp", radius=3.0, edges=edges,
-                                   offset_tolerance=tolerance)
-        slow = ref.bp_reference(image[:, :, None], partial, edges, radius=3.0,
-                                offset_tolerance=tolerance)
-        np.testing.assert_array_equal(fast.range, slow.range)
-        out[tolerance] = fast.range
-    assert not np.array_equal(out[2.0**-7], out[2.0**-1])
+    for observation in ("np", "colorization"):   # NP's fill (the default, seed 0) or not
+        out = {}
+        for tolerance in (2.0**-7, 2.0**-1):
+            fast = refsynth.synthesize(image, partial, method="bp", radius=3.0, edges=edges,
+                                       offset_tolerance=tolerance, observation=observation)
+            slow = ref.bp_reference(image[:, :, None], partial, edges, radius=3.0,
+                                    offset_tolerance=tolerance, observation=observation,
+                                    rng=np.random.default_rng(0))
+            np.testing.assert_array_equal(fast.range, slow.range)
+            out[tolerance] = fast.range
+        assert not np.array_equal(out[2.0**-7], out[2.0**-1]), observation

@@ -263,7 +263,7 @@ def test_the_reference_observations_are_the_fill_on_the_measured_grid():
     measured = ref.bp_reference(image, partial, edges, neighbourhood=3, radius=2.0, k=2,
                                 iterations=2, observation="measured")
     default = ref.bp_reference(image, partial, edges, neighbourhood=3, radius=2.0, k=2,
-                               iterations=2)
+                               iterations=2, observation="colorization")
     q, low, span = ref.quantise_range(partial)
     np.testing.assert_array_equal(measured.observed, q)
     known = np.isfinite(partial)
@@ -275,3 +275,15 @@ def test_the_reference_observations_are_the_fill_on_the_measured_grid():
     # the labels stay measured pixels; the ranking moved
     assert np.all(known[default.candidates[..., 0], default.candidates[..., 1]])
     assert not np.array_equal(measured.unary, default.unary)
+    # the default since 0.9: NP's fill (the reference's, drawing on the same generator) on
+    # the measured grid; without a generator it is refused
+    with pytest.raises(TypeError, match="rng"):
+        ref.bp_reference(image, partial, edges, neighbourhood=3, radius=2.0, k=2, iterations=2)
+    on_np = ref.bp_reference(image, partial, edges, neighbourhood=3, radius=2.0, k=2,
+                             iterations=2, rng=np.random.default_rng(3))
+    filled = ref.np_reference(image, partial, edges, np.random.default_rng(3),
+                              neighbourhood=3, radius=2.0).range
+    np.testing.assert_array_equal(on_np.observed[known], q[known])
+    want = np.maximum(np.rint((filled - low) / span * 2.0**ref.RANGE_BITS), 0)
+    np.testing.assert_array_equal(on_np.observed[~known], want[~known])
+    assert np.all(known[on_np.candidates[..., 0], on_np.candidates[..., 1]])

@@ -120,8 +120,9 @@ def claims_02(text: str) -> None:
     edge = [float(p) for p in re.search(r"on an edge: P\(2 m\) = \[([\d., ]+)\]", text)
             .group(1).split(",")]
     assert edge[0] == sweeps[0][0] and edge[2] < 0.5 < edge[1]  # the ends keep their evidence
-    # section 4: per case NP, the nearest and colorization fills, then Fig. 6's BP and
-    # refsynth's default BP (MAR, sweeps, ceiling, error on the confident half and the rest)
+    # section 4: per case NP, the nearest and colorization fills, then Fig. 6's BP, refsynth's
+    # default BP over 3 seeds, and its seed 0 (MAR, sweeps, ceiling, error on the confident
+    # half and the rest)
     cases, bps, current = {}, {}, None
     for line in text.splitlines():
         if re.match(r"^\S+, [\d.]+ % unknown: ", line):
@@ -129,48 +130,55 @@ def claims_02(text: str) -> None:
             cases[current] = dict(zip(("np", "np_sd", "nearest", "colorization"), numbers(
                 r"NP: MAR {n} ± {n} \(3 seeds\); nearest: MAR {n}; colorization: MAR {n}$",
                 line)))
+        elif line.startswith("    BP, refsynth's defaults: "):
+            cases[current]["bp"], cases[current]["bp_sd"] = numbers(
+                r"MAR {n} ± {n} \(3 seeds; seed 0's details below\)$", line)
         elif line.startswith("    BP, "):
             label = "fig6" if line.startswith("    BP, Fig. 6 as printed: ") else "default"
-            assert label == "fig6" or line.startswith("    BP, refsynth's defaults: ")
+            assert label == "fig6" or line.startswith("    BP, refsynth's defaults (seed 0): ")
             bps[current, label] = dict(zip(("mar", "sweeps", "ceiling", "top", "rest"), numbers(
                 r"MAR {n} after {n} sweeps; candidate ceiling {n}; error on its 50 % most "
                 r"confident pixels {n}, on the rest {n}$", line)))
     bike, room = "motorcycle-128x128", "synthetic-room-3"
     assert set(cases) == {bike, room} and len(bps) == 4
     for bp in bps.values():
-        assert bp["sweeps"] == 50  # "All four BP runs go to the cap of 50 sweeps"
         assert bp["top"] < bp["rest"]  # the confidence is the right way round, all four
+    # Fig. 6's BP goes to the cap on both cases, refsynth's on the Motorcycle; it settles on
+    # the room
+    assert bps[bike, "fig6"]["sweeps"] == bps[room, "fig6"]["sweeps"] == 50
+    assert bps[bike, "default"]["sweeps"] == 50 and bps[room, "default"]["sweeps"] < 50
     b, b6, bd = cases[bike], bps[bike, "fig6"], bps[bike, "default"]
-    # the Motorcycle: refsynth's BP ties with NP (0.5's NP, the offset copy) and beats the
-    # nearest and colorization fills; Fig. 6's BP loses to NP beyond its spread and beats
-    # the nearest fill narrowly; both ceilings far below every method's error, refsynth's
-    # not the lower one (what improved is the pick, not the candidates)
-    assert abs(bd["mar"] - b["np"]) <= 2 * b["np_sd"]
-    assert bd["mar"] < b["nearest"] and bd["mar"] < b["colorization"]
+    # the Motorcycle: refsynth's BP beats NP beyond the two spreads and beats the nearest and
+    # colorization fills; Fig. 6's BP loses to NP beyond its spread and beats the nearest
+    # fill narrowly; both ceilings well below every method's error, refsynth's not the lower
+    # one (what improved is the pick, not the candidates)
+    assert b["np"] - b["bp"] > b["np_sd"] + b["bp_sd"]
+    assert b["bp"] < b["nearest"] and b["bp"] < b["colorization"]
     assert b6["mar"] - b["np"] > 2 * b["np_sd"]
     assert b6["mar"] < b["nearest"] < b6["mar"] + 0.02
-    errors = (b6["mar"], bd["mar"], b["np"], b["nearest"], b["colorization"])
-    assert max(b6["ceiling"], bd["ceiling"]) < 0.5 * min(errors)
+    errors = (b6["mar"], bd["mar"], b["bp"], b["np"], b["nearest"], b["colorization"])
+    assert max(b6["ceiling"], bd["ceiling"]) < 0.6 * min(errors)
     assert bd["ceiling"] >= b6["ceiling"]
     r, r6, rd = cases[room], bps[room, "fig6"], bps[room, "default"]
-    # the room: refsynth's BP beats the nearest and colorization fills but loses to NP far
-    # beyond its spread; Fig. 6's BP loses to NP and to the nearest fill; both ceilings are
-    # above NP's MAR, Fig. 6's the higher; BP's labels above its ceiling; refsynth's
-    # confident half better by a narrow margin
-    assert rd["mar"] < r["nearest"] and rd["mar"] < r["colorization"]
-    assert rd["mar"] - r["np"] > 10 * r["np_sd"]
+    # the room: refsynth's BP ties with NP and beats the nearest and colorization fills;
+    # Fig. 6's BP loses to NP and to the nearest fill; refsynth's ceiling below NP's MAR,
+    # Fig. 6's far above; refsynth's labels above its ceiling; its confident half better by
+    # a wider margin than Fig. 6's
+    assert abs(r["bp"] - r["np"]) <= r["np_sd"] + r["bp_sd"]
+    assert r["bp"] < 0.5 * min(r["nearest"], r["colorization"])
     assert r6["mar"] > r["np"] and r6["mar"] > r["nearest"]
-    assert r["np"] < rd["ceiling"] < r6["ceiling"]
-    assert rd["mar"] - rd["ceiling"] > 0.04
-    assert rd["rest"] - rd["top"] < r6["rest"] - r6["top"]
+    assert rd["ceiling"] < r["np"] < r6["ceiling"]
+    assert rd["mar"] - rd["ceiling"] > 0.005
+    assert rd["rest"] - rd["top"] > r6["rest"] - r6["top"]
     source = text_source("02")
-    for phrase in ("On the Motorcycle's vertical stripes refsynth's BP ties with NP",
+    for phrase in ("On the Motorcycle's vertical stripes refsynth's BP beats NP",
                    "Fig. 6's BP loses to NP",
-                   "but still loses to NP",
+                   "On the room's grid refsynth's BP ties with NP",
                    "Fig. 6's BP loses to NP and to the nearest fill too",
-                   "both are *above* NP's MAR",
+                   "refsynth's is *below* NP's MAR",
                    "refsynth's ceiling is not the lower one",
-                   "All four BP runs go to the cap of 50 sweeps"):
+                   "Fig. 6's BP goes to the cap of 50 sweeps on both cases",
+                   "On the room refsynth's BP settles in a few sweeps"):
         assert phrase in source, phrase
 
 

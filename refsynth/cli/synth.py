@@ -337,7 +337,8 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                        help="np: non-parametric sampling (§3.2.2); bp: belief propagation "
                        "(§3.2.3) (default np)")
     synth.add_argument("--seed", type=integer, default=0,
-                       help="seed of NP's random draws; the same seed gives the same output "
+                       help="seed of NP's random draws (BP's too: NP's fill completes its "
+                       "observations by default); the same seed gives the same output "
                        "(default 0)")
     synth.add_argument("--neighbourhood", type=integer, default=_DEFAULT_NEIGHBOURHOOD,
                        metavar="N", help="odd side of the NxN MRF neighbourhood (default 5)")
@@ -406,11 +407,12 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     bp_group.add_argument("--proposal-runs", type=integer, metavar="S",
                           help="with --proposals: this many NP fills propose (default 1)")
     bp_group.add_argument("--observation", choices=list(OBSERVATIONS),
-                          help="the observations' range for the candidates' ranking: "
-                          "colorization (the default, a departure from Fig. 6) completes it "
-                          "by the colorization fill, colorization-completed the training "
-                          "patches' too, np by NP's fill (another departure: NP's time on "
-                          "top, depends on --seed), measured is the paper's")
+                          help="the observations' range for the candidates' ranking: np "
+                          "(the default, a departure from Fig. 6) completes it by NP's fill "
+                          "(NP's time on top, depends on --seed), colorization by the "
+                          "colorization fill (0.4-0.8's default: faster, less accurate), "
+                          "colorization-completed the training patches' too, measured is "
+                          "the paper's")
     bp_group.add_argument("--training-radius", choices=list(TRAINING_RADII),
                           help="each node's training disc: gap (the default, a departure) "
                           "widens it by the node's distance to the nearest measured pixel, "
@@ -418,8 +420,8 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     bp_group.add_argument("--offset-tolerance", type=real, metavar="T",
                           help="with the offset copy: how closely the windows' range "
                           "differences must agree for a label to be shifted, a power of two "
-                          "fraction of the measured span (default 0.0078125 = 2**-7, NP's; "
-                          "0.125 = 2**-3 with --observation np)")
+                          "fraction of the measured span (default 0.125 = 2**-3 on NP's "
+                          "fill; 0.0078125 = 2**-7, NP's, with the other observations)")
     bp_group.add_argument("--compatibility", choices=list(COMPATIBILITIES),
                           help="a departure in Eq. 6: overlap-centres counts the two labels' "
                           "centres as one more shared pixel; default overlap, the paper's")

@@ -28,7 +28,7 @@ estimates the memory one case needs, so that a command can refuse an absurd
 size before it starts.
 
 :func:`build_cases` and :func:`grid_cases` expand lists of specs into cases
-(NP, which draws at random, over several seeds); :func:`load_scene` and
+(NP and BP on NP's fill, which draw at random, over several seeds); :func:`load_scene` and
 :func:`known_mask` turn a case's specs into the scene and the known-range
 mask that :mod:`refsynth.evaluation.runner` fills and scores.
 
@@ -54,6 +54,7 @@ from refsynth.acquisition.sampling import distance_driven, stripes, x_stripes_fo
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.scenes import load_middlebury, motorcycle, synthetic_room
 from refsynth.scenes.middlebury import MOTORCYCLE_CROP
+from refsynth.synthesis.options import BP_DEPARTURES
 
 __all__ = [
     "Case",
@@ -90,12 +91,16 @@ SYNTHESIS_METHODS: dict[str, dict] = {
     # disc (issue #10's departures, refsynth.synthesis.bp_observation / bp_gap_radius)
     "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
                 "range_copy": "value"},
-    # BP's observations completed by NP's fill instead (an option, 0.8): draws through NP
+    # BP's observations completed by NP's fill (an option in 0.8, BP's default since 0.9:
+    # the same as "bp" now, the name kept for 0.8's commands)
     "bp-obs-np": {"method": "bp", "observation": "np"},
+    # completed by the colorization fill instead: 0.4-0.8's default BP (no random choice)
+    "bp-obs-colorization": {"method": "bp", "observation": "colorization"},
 }
-#: Variants the default grid leaves out (a block's methods None): options that run
-#: another method first (``bp-obs-np`` runs NP, then BP), chosen by name with ``--methods``.
-OPTION_METHODS = ("bp-obs-np",)
+#: Variants the default grid leaves out (a block's methods None), chosen by name with
+#: ``--methods``: ``bp-obs-np`` is ``bp`` under its 0.8 name, ``bp-obs-colorization``
+#: 0.4–0.8's BP.
+OPTION_METHODS = ("bp-obs-np", "bp-obs-colorization")
 
 #: Every sampling of the paper's experiments: Table 1's grids, Table 4's
 #: x-stripes and Fig. 2's distance-driven columns.
@@ -509,8 +514,14 @@ def parse_list(text: str, parse: Callable[[str], str], what: str) -> list[str]:
 
 
 def _is_stochastic(method: str) -> bool:
-    """NP draws from the Eq. 5 set (so does BP on NP's fill); BP and the baselines do not."""
-    return method.startswith("np") or method == "bp-obs-np"
+    """NP draws from the Eq. 5 set, and so does BP on NP's fill (its default since 0.9);
+    BP on another fill and the baselines do not."""
+    options = SYNTHESIS_METHODS.get(method)
+    if options is None:  # a baseline
+        return False
+    if options.get("method", "np") == "np":
+        return True
+    return options.get("observation", BP_DEPARTURES["observation"]) == "np"
 
 
 def build_cases(
@@ -520,7 +531,7 @@ def build_cases(
     methods: Sequence[str],
     seeds: int = 3,
 ) -> list[Case]:
-    """The product scenes × sizes × samplings × methods (× seeds for NP), in that order.
+    """The product scenes × sizes × samplings × methods (× seeds if it draws), in that order.
 
     The grid of experiments of §3.3 (Tables 1–4), as :class:`Case` objects.
 
@@ -529,7 +540,8 @@ def build_cases(
     scenes, sizes, samplings, methods : sequence of str
         Specs, parsed with :func:`parse_scene` etc.
     seeds : int, default 3
-        NP variants run with seeds ``0 … seeds − 1``; the others once (seed 0).
+        NP's variants and BP's on NP's fill run with seeds ``0 … seeds − 1``; the
+        others once (seed 0).
 
     Returns
     -------

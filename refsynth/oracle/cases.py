@@ -12,10 +12,12 @@ intensity (exact ties in Eq. 2), grey and colour, edges on and off, and the opti
 must get right: ε, isophotes off, the onion order, ``missing_range="ignore"``, the widened
 search (``r = 1``: a front pixel whose filled neighbours are diagonal has an empty ``A_p``),
 both confidence updates, Eq. 2 on grey and with the channel mean, sum-product, both edge
-rules, the proximity prior on; BP's default observations (completed by the colorization
-fill, the prepared ``q_observation``), training disc (widened by the gap's depth) and
-shifted labels (``range_copy="offset"``), and Fig. 6 as printed (``observation="measured"``,
-``training_radius="fixed"``, ``range_copy="value"``) beside them.
+rules, the proximity prior on; BP's observations completed by the colorization fill (0.4–0.8's
+default, the prepared ``q_observation``) and by NP's fill (the default since 0.9: those cases
+carry NP's random numbers too, and ``q_observation`` is NP's result on the quantised grid),
+training disc (widened by the gap's depth) and shifted labels (``range_copy="offset"``), and
+Fig. 6 as printed (``observation="measured"``, ``training_radius="fixed"``,
+``range_copy="value"``) beside them.
 """
 
 from __future__ import annotations
@@ -31,7 +33,9 @@ from refsynth.oracle.runs import run_outputs
 __all__ = ["Case", "CASE_SET_VERSION", "build_cases", "expected_outputs", "select_cases"]
 
 #: The version of the case set (inputs and options); the format's is in export.py.
-CASE_SET_VERSION = 5  # 5: BP's offset copy (0.6); 4: NP's offset copy (0.5); 3: BP's
+CASE_SET_VERSION = 6  # 6: BP on NP's fill, the default (0.9): the cases of 0.4-0.8's default
+# name observation="colorization" and keep their outputs, two cases added;
+# 5: BP's offset copy (0.6); 4: NP's offset copy (0.5); 3: BP's
 # defaults of issue #10
 # 2: refsynth 0.3's defaults (Eq. 2's channel sum, BP without the prior)
 
@@ -117,6 +121,11 @@ def _planes_scene(seed: int, shape):
     return dict(intensity=image, partial_range=np.where(known, truth, np.nan), edges=edges)
 
 
+#: BP's observations completed by the colorization fill: 0.4–0.8's default, which the cases
+#: written then keep (their expected outputs are unchanged by 0.9's default, NP's fill).
+COLORIZATION = dict(observation="colorization")
+
+
 def _run_cases(large: bool) -> list[Case]:
     cases = []
     shapes = [(8, 8), (12, 10), (16, 16)]
@@ -140,7 +149,8 @@ def _run_cases(large: bool) -> list[Case]:
             np_options = dict(common, confidence_update="product", range_copy="value",
                               **np_extra)
             cases.append(Case(f"np-{tag}", "np", scene, np_options, seed))
-            bp = dict(common, candidates=3, iterations=8, range_copy="value", **bp_extra)
+            bp = dict(common, candidates=3, iterations=8, range_copy="value", **bp_extra,
+                      **COLORIZATION)
             cases.append(Case(f"bp-{tag}", "bp", scene, bp, seed))
     # the options a port must get right, one case each
     colour = _scene(11, (10, 12), 3, "noise", 0.5)
@@ -152,12 +162,12 @@ def _run_cases(large: bool) -> list[Case]:
              dict(neighbourhood=3, radius=3.0, use_edges=True, channels="mean"), 11),
         Case("bp-10x12-channel-mean", "bp", colour,
              dict(neighbourhood=3, radius=2.5, use_edges=False, candidates=4, iterations=8,
-                  channels="mean"), 11),
+                  channels="mean", **COLORIZATION), 11),
         Case("np-12x12-widened", "np", _scene(12, (12, 12), 1, "noise", 0.2),
              dict(neighbourhood=3, radius=1.0, use_edges=False, epsilon=0.0), 12),
         Case("bp-10x12-grey-k5", "bp", colour,
              dict(neighbourhood=3, radius=2.5, use_edges=True, candidates=5, iterations=12,
-                  colour=False, sigma_i=0.5, range_weight=4.0), 11),
+                  colour=False, sigma_i=0.5, range_weight=4.0, **COLORIZATION), 11),
     ]
     # BP as Fig. 6 prints it (the observations' measured range, the fixed disc), and the
     # training patches completed too, beside the defaults above
@@ -182,11 +192,19 @@ def _run_cases(large: bool) -> list[Case]:
         Case("np-14x18-planes-value-copy", "np", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True, range_copy="value"), 14),
         Case("bp-14x18-planes", "bp", planes,
-             dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10),
-             14),
+             dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10,
+                  **COLORIZATION), 14),
         Case("bp-14x18-planes-value-copy", "bp", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10,
-                  range_copy="value"), 14),
+                  range_copy="value", **COLORIZATION), 14),
+        # BP's default observations since 0.9: NP's fill (drawing on the case's seed; the
+        # case carries NP's random numbers) completes them, the labels shift within 2**-3
+        Case("bp-14x18-planes-np-fill", "bp", planes,
+             dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10),
+             14),
+        Case("bp-16x16-np-fill-tolerance", "bp", sparse,
+             dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=4, iterations=10,
+                  offset_tolerance=2.0**-7), 13),
     ]
     # larger: 32×32 with the priority order, 64×64 onion (the reference is slow beyond)
     big = _scene(32, (32, 32), 1, "noise", 0.75)
@@ -194,13 +212,13 @@ def _run_cases(large: bool) -> list[Case]:
                       dict(neighbourhood=5, radius=3.0, use_edges=True), 32))
     cases.append(Case("bp-32x32-noise", "bp", big,
                       dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=3,
-                           iterations=10), 32))
+                           iterations=10, **COLORIZATION), 32))
     huge = _scene(64, (64, 64), 3, "levels", 0.6)
     cases.append(Case("np-64x64-levels-onion", "np", huge,
                       dict(neighbourhood=3, radius=2.0, use_edges=False, ordering="onion"), 64))
     cases.append(Case("bp-64x64-levels", "bp", huge,
                       dict(neighbourhood=3, radius=2.0, use_edges=True, candidates=2,
-                           iterations=12), 64))
+                           iterations=12, **COLORIZATION), 64))
     if large:
         wide = _scene(65, (48, 64), 1, "ramp", 0.5)
         cases.append(Case("np-48x64-ramp", "np", wide,

@@ -108,12 +108,17 @@ def _np_run(inputs: dict, options: dict, seed: int, reference) -> dict:
                 **np_trace(run.trace, edges, numbers["tie"], run.range, tiered))
 
 
-def _bp_run(inputs: dict, options: dict, reference) -> dict:
+def _bp_run(inputs: dict, options: dict, seed, reference) -> dict:
     image = normalise_intensity(inputs["intensity"])
     partial = inputs["partial_range"]
     edges = inputs["edges"] & bool(options["use_edges"])
     settings = dict(options)
     k = settings["k"] = settings.pop("candidates")
+    numbers = {}
+    if settings.get("observation", "np") == "np":  # NP's fill first (BP's default): it draws
+        settings["rng"] = np.random.default_rng(seed)
+        numbers = _random_numbers(seed, partial.shape, {**options, "ordering": "priority"},
+                                  int(np.isnan(partial).sum()))
     run = reference.bp_reference(image, partial, edges, trace=True, **settings)
     done = len(run.trace)
     if partial.size <= ALL_SWEEPS_UP_TO:
@@ -122,7 +127,8 @@ def _bp_run(inputs: dict, options: dict, reference) -> dict:
         kept = sorted({s for s in KEPT_SWEEPS if s <= done} | ({done} if done else set()))
     sweeps = (np.stack([run.trace[s - 1][0] for s in kept]) if kept
               else np.zeros((0, 2 * len(run.pairs), k)))
-    return dict(q_observation=run.observed, range=run.range, confidence=run.confidence,
+    return dict(numbers, q_observation=run.observed, range=run.range,
+                confidence=run.confidence,
                 order=run.order, labels=run.labels, candidates=run.candidates,
                 candidate_values=run.candidate_values, unary=run.unary, pairs=run.pairs,
                 log_psi=run.log_psi, messages=run.messages, beliefs=run.beliefs,
@@ -142,4 +148,4 @@ def run_outputs(kind: str, inputs: dict, options: dict, seed, *, reference=None)
     prepared = prepared_arrays(inputs, options)
     if kind == "np":
         return dict(prepared, **_np_run(inputs, options, seed, reference))
-    return dict(prepared, **_bp_run(inputs, options, reference))
+    return dict(prepared, **_bp_run(inputs, options, seed, reference))

@@ -89,7 +89,7 @@ __all__ = [
 OBSERVATION_SHARE = 0.10
 #: The same with ``observation="np"``, NP's fill first: NP's wall time over BP-on-NP's, 0.55
 #: at 450×375 and 0.59 at 900×750 (``python benchmarks/bench_speed.py --sizes 450x375,900x750
-#: --no-rss --methods np,bp,bp-obs-np,colorization``).
+#: --no-rss --methods np,bp-colorization,bp,colorization``).
 NP_OBSERVATION_SHARE = 0.55
 
 @dataclass(frozen=True)
@@ -208,8 +208,10 @@ def synthesize(
     seed : int, numpy.random.Generator or None, default 0
         Source of every random choice of NP (the draw from the Eq. 5 set,
         ties in the fill order). The same seed gives bit-identical output.
-        BP makes no random choice: its output does not depend on the seed,
-        unless NP runs first (``proposals``, ``observation="np"``).
+        BP draws through NP's fill, which completes its observations by default
+        (``observation="np"``, since 0.9), so its output depends on the seed too;
+        with another ``observation`` and no ``proposals`` BP makes no random
+        choice and the seed does not matter.
     neighbourhood : int, default 5
         Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1).
     radius : float, default 10
@@ -288,10 +290,10 @@ def synthesize(
         How closely the two windows' range differences must agree for BP's
         labels to be shifted (``range_copy="offset"``), as a fraction of the
         measured span: a power of two from ``2**-16`` to 1. None: ``2**-3``
-        with ``observation="np"`` (0.8.4, chosen on the Motorcycle: with NP's
-        dense fill as the observation a looser agreement shifts more labels
-        and wins), else ``2**-7``, NP's own agreement (a looser one loses with
-        the colorization fill's observations). See
+        with ``observation="np"``, the default (0.8.4, chosen on the
+        Motorcycle: with NP's dense fill as the observation a looser agreement
+        shifts more labels and wins), else ``2**-7``, NP's own agreement (a
+        looser one loses with the colorization fill's observations). See
         :mod:`refsynth.synthesis.range_copy`.
     edges_last : bool, NP only, default True
         With ``use_edges``: pixels on an edge form a second tier, filled only
@@ -344,22 +346,23 @@ def synthesize(
         another from ``seed``'s generator).
     observation : {None, "colorization", "measured", "colorization-completed", "np"}, BP only
         Fig. 6, step 2's observations ``y_i`` (issue #10;
-        :mod:`refsynth.synthesis.bp_observation`). None or ``"colorization"``
-        (the default, **a departure from Fig. 6** that won on real data): the
-        colorization fill of the measured range
+        :mod:`refsynth.synthesis.bp_observation`). None or ``"np"`` (the
+        default since 0.9, **a departure from Fig. 6** that won on real data):
+        NP's fill (at NP's defaults, the result ``method="np"`` gives with the
+        same ``seed``; with ``proposals`` their first fill) completes every
+        observation (:func:`refsynth.synthesis.bp_observation.np_observation`),
+        so Eq. 2 ranks the candidates with a range term deep in a gap too; BP
+        then depends on ``seed`` and takes NP's time on top of its own (its
+        measured gain and cost are in :mod:`refsynth.synthesis.bp_observation`).
+        ``"colorization"`` (0.4–0.8's default, a departure): the colorization
+        fill of the measured range
         (:func:`refsynth.synthesis.bp_observation.observation_fill`: the
         portable solve, the same bits on every machine, of the quantised range
         guided by the quantised intensity, so the intensity convention below
-        holds for it too) completes every observation, so Eq. 2 ranks the
-        candidates with a range term deep in a gap too. ``"measured"``: the
-        observations hold the measured range only, as printed.
-        ``"colorization-completed"``: the training patches' range in Eq. 2 is
-        completed as well. ``"np"`` (**a departure**, an option): NP's fill
-        (at NP's defaults, the result ``method="np"`` gives with the same
-        ``seed``; with ``proposals`` their first fill) completes the
-        observations instead (:func:`refsynth.synthesis.bp_observation.np_observation`):
-        BP then depends on ``seed`` and takes NP's time on top of its own; its
-        measured gain and cost are in :mod:`refsynth.synthesis.bp_observation`.
+        holds for it too) completes them instead: cheaper, no seed, less
+        accurate. ``"colorization-completed"``: the training patches' range in
+        Eq. 2 is completed by it as well. ``"measured"``: the observations hold
+        the measured range only, as printed.
     compatibility : {None, "overlap", "overlap-centres"}, BP only
         **A departure in Eq. 6** (:mod:`refsynth.synthesis.bp_centres`). None
         or ``"overlap"``: the mean square over the shared measured pixels, Ψ = 1
@@ -414,7 +417,7 @@ def synthesize(
     ``confidence_update``    Eq. 11       —            ``"best"``
     ``edges_last``           Eq. 10       —            True
     ``range_copy``           Eq. 5        Eq. 8        ``"offset"`` (departure)
-    ``offset_tolerance``     —            Eq. 8        ``2**-7``; ``2**-3`` on NP's fill
+    ``offset_tolerance``     —            Eq. 8        ``2**-3``; ``2**-7`` on colorization
     ``candidates``           —            ``k``        8
     ``proximity``            —            μ            0
     ``sigma_i``              —            Eq. 7        0.1
@@ -425,7 +428,7 @@ def synthesize(
     ``edge_rule``            —            §3.2.3       ``"silent"``
     ``proposals``            —            departure    None
     ``proposal_runs``        —            departure    1
-    ``observation``          —            step 2       ``"colorization"`` (departure)
+    ``observation``          —            step 2       ``"np"`` (departure)
     ``compatibility``        —            Eq. 6        ``"overlap"``
     ``training_radius``      —            step 2       ``"gap"`` (departure)
     =======================  ===========  ===========  ================================
@@ -516,7 +519,8 @@ def synthesize(
     if np_first:  # NP runs first, at its own radius
         np_radius = search_radius("np", radius, 0.0, range_values.shape)[0]
         check_memory("np", image, range_values, neighbourhood=neighbourhood, radius=np_radius,
-                     colour=colour)
+                     colour=colour, before="`proposals`" if proposal_options
+                     else "`observation='np'`, BP's default")
     check_memory(method, image, range_values, neighbourhood=neighbourhood, radius=cut_radius,
                  candidates=options.get("candidates", 8) + extra_labels, colour=colour)
 

@@ -286,8 +286,9 @@ def bp_fill(
     """Fill the unknown range by the MRF-BP algorithm of Fig. 6.
 
     Called by :func:`refsynth.synthesize`, which validates the inputs and
-    documents the parameters at length (``k`` is its ``candidates``). BP is
-    deterministic: no random choice is made.
+    documents the parameters at length (``k`` is its ``candidates``). BP itself is
+    deterministic: no random choice is made here (with ``observation="np"``, the
+    default, the observations come from NP's fill, which draws before this is called).
 
     Parameters
     ----------

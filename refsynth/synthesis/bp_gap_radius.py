@@ -30,7 +30,7 @@ Measured (MAR in disparity px, the Motorcycle's x-stripes at 63 / 78 / 85 %
 unknown, one run each: BP is deterministic)::
 
     python benchmarks/audit_departures.py --split choose --seeds 0 --jobs 1 \
-        --variants bp-fig6,bp-gap-radius,bp-obs-colorization,bp
+        --variants bp-fig6,bp-gap-radius,bp-obs-colorization,bp-0.8
 
 Alone it helps only where the gaps are wide: 0.354 / 0.629 / 0.791 on the
 choosing split against Fig. 6's 0.328 / 0.597 / 0.848 (and on the room

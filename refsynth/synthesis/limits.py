@@ -402,7 +402,7 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
 
 def check_memory(method: str, image: np.ndarray, range_values: np.ndarray, *,
                  neighbourhood: int, radius: float, candidates: int = 8,
-                 colour: bool = True) -> None:
+                 colour: bool = True, before: str | None = None) -> None:
     """Refuse, before any work, a run that would need more memory than it may use.
 
     NP: :func:`np_memory` against the machine's physical memory; BP: its own
@@ -422,6 +422,9 @@ def check_memory(method: str, image: np.ndarray, range_values: np.ndarray, *,
         BP's ``k``.
     colour : bool, default True
         Eq. 2 on the colour channels (else one grey channel).
+    before : str, optional
+        NP only: why NP runs before BP (BP's ``observation="np"``, its
+        ``proposals``), named in the message with the way out.
 
     Raises
     ------
@@ -441,13 +444,16 @@ def check_memory(method: str, image: np.ndarray, range_values: np.ndarray, *,
     shape = range_values.shape
     channels = image.shape[2] if colour else 1
     if method == "np":
-        check_memory_need(
-            np_memory(shape, channels, neighbourhood, radius),
-            f"synthesize(method='np') on a {shape[1]}x{shape[0]} image with "
-            f"neighbourhood={neighbourhood}, radius={radius:g}",
-            f"lower `neighbourhood`, `radius` (radius {image_reach(shape)} already reaches "
-            "the whole image)",
-        )
+        what = f"synthesize(method='np') on a {shape[1]}x{shape[0]} image with "
+        advice = (f"lower `neighbourhood`, `radius` (radius {image_reach(shape)} already "
+                  "reaches the whole image)")
+        if before is not None:
+            what = (f"synthesize(method='bp') runs NP first ({before}) on a "
+                    f"{shape[1]}x{shape[0]} image with ")
+            advice += (", or drop `proposals`" if "proposals" in before
+                       else ", or take `observation='colorization'`")
+        check_memory_need(np_memory(shape, channels, neighbourhood, radius),
+                          f"{what}neighbourhood={neighbourhood}, radius={radius:g}", advice)
         return
     unknown = np.isnan(range_values)
     pairs = np.count_nonzero(unknown[:, :-1] & unknown[:, 1:]) + np.count_nonzero(

@@ -148,9 +148,10 @@ def check_proposals(method: str, proposals, proposal_runs) -> dict:
 
 
 #: BP's readings of Fig. 6, step 2 and Eq. 6 when the caller names none: the observations
-#: completed by the colorization fill and the training disc widened by the gap's depth
-#: (departures that won on real data, issue #10; ``"measured"``, ``"fixed"`` are Fig. 6's).
-BP_DEPARTURES = MappingProxyType({"observation": "colorization", "compatibility": "overlap",
+#: completed by NP's fill (since 0.9; 0.4–0.8: the colorization fill) and the training disc
+#: widened by the gap's depth (departures that won on real data, issue #10; ``"measured"``,
+#: ``"fixed"`` are Fig. 6's).
+BP_DEPARTURES = MappingProxyType({"observation": "np", "compatibility": "overlap",
                                   "training_radius": "gap"})
 
 

@@ -51,15 +51,17 @@ report, 741×500    0.373 / 0.599 / 0.799                    0.243 / 0.485 / 0.7
 **BP's labels** (``method="bp"``, the default since 0.6): a label of Fig. 6 is a measured
 patch, and its centre is a value measured elsewhere, as Eq. 5's copy is. Each label ``l`` of
 node ``i`` gets the shift ``Δ_il`` above, between ``i``'s observation (the measured range
-around ``i`` or, with BP's default ``observation="colorization"``, that range completed by
-the colorization fill) and ``l``'s measured patch (:func:`offset_shifts`, all labels at
-once). Eq. 6 compares the two labels' patches each moved by its shift (Ψ sees differences
-only, so the shifts are added with a common lift that keeps every moved value ``≥ 0``:
-:data:`refsynth.synthesis.bp_model.SHIFT_LIFT`), a measured neighbour's term compares the
+around ``i`` or, with BP's default ``observation="np"``, that range completed by NP's fill;
+with ``"colorization"``, by the colorization fill) and ``l``'s measured patch
+(:func:`offset_shifts`, all labels at once). Eq. 6 compares the two labels' patches each
+moved by its shift (Ψ sees differences only, so the shifts are added with a common lift
+that keeps every moved value ``≥ 0``: :data:`refsynth.synthesis.bp_model.SHIFT_LIFT`), a
+measured neighbour's term compares the
 moved patch with the measured one, and the MAP label (Eq. 8) gives its centre plus its shift
 (:func:`shifted_values`, NP's arithmetic and clipping); the pooled confidence and
 ``candidate_values`` use the moved centres. Eq. 2's ranking and Φ are unchanged. Measured
-(BP is deterministic: one run; NP mean over seeds 0–2 in brackets)::
+in 0.6, on the colorization fill's observations (BP deterministic: one run; NP mean over
+seeds 0–2 in brackets)::
 
     python benchmarks/audit_departures.py --split choose --variants bp-value-copy,bp-offset-copy \
         --seeds 0
@@ -144,13 +146,16 @@ def check_offset_tolerance(value) -> float:
 
 
 def default_offset_tolerance(observation: str | None) -> float:
-    """BP's agreement for its ``observation``: :data:`NP_OBSERVATION_TOLERANCE` on NP's fill,
-    :data:`OFFSET_TOLERANCE` (NP's own) otherwise.
+    """BP's agreement for its ``observation``: :data:`NP_OBSERVATION_TOLERANCE` on NP's fill
+    (``"np"``, or None: BP's default observation since 0.9), :data:`OFFSET_TOLERANCE` (NP's
+    own) otherwise.
 
     >>> default_offset_tolerance("np"), default_offset_tolerance("colorization")
     (0.125, 0.0078125)
+    >>> default_offset_tolerance(None)
+    0.125
     """
-    return NP_OBSERVATION_TOLERANCE if observation == "np" else OFFSET_TOLERANCE
+    return NP_OBSERVATION_TOLERANCE if observation in (None, "np") else OFFSET_TOLERANCE
 
 
 def _slack(tolerance: float) -> int:

@@ -516,7 +516,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                  sigma_i=0.1, sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=0.0, colour=True, edge_rule="silent", channels="sum",
-                 observation="colorization", training_radius="gap", range_copy="offset",
+                 observation="np", training_radius="gap", range_copy="offset",
                  offset_tolerance=None, rng=None, trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
@@ -524,15 +524,15 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     2. Labels of node ``i``: its ``k`` closest training patches (:func:`_bp_candidates`),
        ranked by Eq. 2 against its observation ``y_i``. refsynth's defaults depart from
        Fig. 6 here (issue #10, measured in :mod:`refsynth.synthesis.bp_observation` and
-       :mod:`refsynth.synthesis.bp_gap_radius`): with ``observation="colorization"``
-       ``y_i``'s unknown range is completed by the colorization fill
-       (:func:`_observed_frame`; ``"colorization-completed"``: the training patches' too, in
-       Eq. 2 only), and with ``training_radius="gap"`` the disc's radius is
-       ``r + ⌊d_i⌋`` (:func:`gap_depth_reference`; the prior μ then divides by that radius
-       squared). ``observation="measured"``, ``training_radius="fixed"`` and
-       ``range_copy="value"`` (below) is Fig. 6 as printed. With ``observation="np"``
-       :func:`np_reference` (NP's defaults, drawing on ``rng``) fills the range first and
-       its result completes ``y_i`` instead of the colorization fill.
+       :mod:`refsynth.synthesis.bp_gap_radius`): with ``observation="np"`` (the default
+       since 0.9) :func:`np_reference` (NP's defaults, drawing on ``rng``) fills the range
+       first and its result completes ``y_i``'s unknown range (:func:`_observed_frame`);
+       with ``"colorization"`` (0.4–0.8's default) the colorization fill completes it
+       (``"colorization-completed"``: the training patches' too, in Eq. 2 only); and with
+       ``training_radius="gap"`` the disc's radius is ``r + ⌊d_i⌋``
+       (:func:`gap_depth_reference`; the prior μ then divides by that radius squared).
+       ``observation="measured"``, ``training_radius="fixed"`` and ``range_copy="value"``
+       (below) is Fig. 6 as printed.
     3. Eq. 7, ``log Φ(x_i^l, y_i) = −d_l / 2σ_i²`` with ``d_l`` the ranking distance.
     4. Eq. 6, ``log Ψ = −|d^l − d^m|² / 2σ_s²`` (:func:`overlap_mean_square`) for each pair
        of unknown 4-neighbours; a measured neighbour adds ``log Ψ`` against its own patch to
