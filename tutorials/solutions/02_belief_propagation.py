@@ -54,10 +54,11 @@ def exercise_2() -> None:
 
     The candidate ceiling falls steadily with k — more candidates, more
     chances that one is right — but BP's MAR hardly moves: the inference
-    keeps (nearly) the same labels, and for almost 90 % of the pixels that is
+    keeps (nearly) the same labels, and for about 94 % of the pixels that is
     the first-ranked candidate under refsynth's defaults (Φ with σ_i = 0.1 is
-    sharp, and Ψ between partly measured patches says little; with Fig. 6's
-    BP it is about 83 %). The gap between ceiling and MAR is the inference's
+    sharp, and Ψ between partly measured patches says little; on the
+    colorization fill's observations, 0.8's default, it was about 90 %, with
+    Fig. 6's BP about 83 %). The gap between ceiling and MAR is the inference's
     share of the error, and it grows with k: the extra candidates are there,
     and BP does not find them.
     """
@@ -87,13 +88,13 @@ def room_case():
     return room, known, np.where(known, room.range, np.nan)
 
 
-READINGS = {  # Fig. 6 as printed, each departure alone, all three (refsynth's default)
+READINGS = {  # Fig. 6 as printed, each departure alone, all three (0.6-0.8's default)
     "Fig. 6": {"observation": "measured", "training_radius": "fixed", "range_copy": "value"},
     "completed": {"observation": "colorization", "training_radius": "fixed",
                   "range_copy": "value"},
     "gap": {"observation": "measured", "training_radius": "gap", "range_copy": "value"},
     "offset copy": {"observation": "measured", "training_radius": "fixed"},
-    "completed + gap + offset (default)": {},
+    "completed + gap + offset (0.8's default)": {"observation": "colorization"},
 }
 
 
@@ -158,7 +159,7 @@ def exercise_2b() -> None:
 
 
 def exercise_2c() -> None:
-    """The observations completed by NP's fill (``observation="np"``).
+    """The observations completed by NP's fill (``observation="np"``, the default since 0.9).
 
     On the room BP's MAR falls by more than half (0.195 → 0.085 m) and the
     candidate ceiling (0.071 m) is below NP's MAR (0.085 m): ranked and
@@ -169,20 +170,22 @@ def exercise_2c() -> None:
     it ties NP. On the Motorcycle's narrow gaps BP on NP's fill is lower than
     both NP and the default BP (0.268 against 0.287 and 0.286 px), though the
     ceiling rises a little: the candidates are no nearer the truth, the first
-    one is better shifted. Since 0.8.4 the shift's agreement is looser with
+    one is better shifted. (The colorization fill's observations were BP's
+    default from 0.4 to 0.8; 0.9 made NP's fill the default, on the
+    Motorcycle's evidence.) Since 0.8.4 the shift's agreement is looser with
     NP's fill (``offset_tolerance`` 2**-3 of the span, not NP's 2**-7: the
     README's "BP on NP's fill"): that is the whole change from 0.8's figures
     (0.099 m on the room, a tie on the Motorcycle), which
     ``offset_tolerance=2**-7`` gives again. On real data at 450×375 and
-    741×500 the same option puts BP below NP at every fraction, at the price
+    741×500 the same reading puts BP below NP at every fraction, at the price
     of NP's time.
     """
     for scene, known, partial in (bike_case(), room_case()):
         np_mar = np.mean([mar(refsynth.synthesize(scene.intensity, partial, seed=s).range,
                               scene.range, known) for s in range(3)])
         scores = {}
-        for name, options, seeds in (("default", {}, (0,)),
-                                     ("np", {"observation": "np"}, (0, 1, 2))):
+        for name, options, seeds in (("colorization", {"observation": "colorization"}, (0,)),
+                                     ("np (the default)", {}, (0, 1, 2))):
             runs = []
             for seed in seeds:
                 bp = refsynth.synthesize(scene.intensity, partial, method="bp", seed=seed,
@@ -197,7 +200,7 @@ def exercise_2c() -> None:
             print(f"2c. {scene.name}, BP {name}: MAR {scores[name][0]:.3f}, candidate ceiling "
                   f"{scores[name][1]:.3f}, {100 * scores[name][2]:.1f} % keep the first-ranked "
                   f"candidate (NP: MAR {np_mar:.3f})")
-        default, on_np = scores["default"], scores["np"]
+        default, on_np = scores["colorization"], scores["np (the default)"]
         assert on_np[2] > 0.9  # BP keeps Eq. 2's first-ranked candidate almost everywhere
         if scene.name.startswith("synthetic-room"):
             assert on_np[0] < 0.5 * default[0]  # BP's error more than halves
@@ -211,7 +214,10 @@ def exercise_2c() -> None:
 def exercise_3() -> None:
     """Turn off the edge-constraint rule.
 
-    For BP (refsynth's defaults) the rule changes MAR by a few thousandths,
+    With BP's default observations, NP's fill, ``use_edges=False`` also takes
+    the edges out of that fill, so the rule alone is seen with observations
+    that do not use the edges: the colorization fill's
+    (``observation="colorization"``). There the rule changes MAR by a few thousandths,
     and it even costs a little on both cases: without it MAR is lower by
     about 0.004 on the Motorcycle and 0.003 on the room. NP's edge term
     matters far more on the Motorcycle — without it NP's MAR rises by more
@@ -225,6 +231,7 @@ def exercise_3() -> None:
     changes, np_changes = {}, {}
     for scene, known, partial in (bike_case(), room_case()):
         on, off = (mar(refsynth.synthesize(scene.intensity, partial, method="bp",
+                                           observation="colorization",
                                            use_edges=flag).range, scene.range, known)
                    for flag in (True, False))
         changes[scene.name] = off - on
