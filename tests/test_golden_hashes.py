@@ -97,46 +97,23 @@ GOLDEN_02 = {
 }
 
 
-@pytest.mark.parametrize(("scene", "method"), list(GOLDEN))
-def test_the_golden_hash_holds(scene, method):
-    intensity, partial = SCENES[scene]()
-    result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0)
-    assert _digest(result) == GOLDEN[scene, method], (
-        f"{scene}/{method}: the output changed; new hash {_digest(result)}")
+#: Every pinned reading: its name, its options by method and its hashes.
+PINNED = [
+    ("the defaults", {"np": {}, "bp": {}}, GOLDEN),
+    ("0.2's readings", READINGS_02, GOLDEN_02),
+    ("Eq. 5's value copy", VALUE_COPY, GOLDEN_VALUE_COPY),
+    ("Fig. 6", {"bp": FIG6}, GOLDEN_FIG6),
+    ("the colorization fill's observations", {"bp": COLORIZATION}, GOLDEN_COLORIZATION),
+]
+CASES = [pytest.param(reading, scene, method, options[method], golden[scene, method],
+                      id=f"{reading}-{scene}-{method}")
+         for reading, options, golden in PINNED for scene, method in golden]
 
 
-@pytest.mark.parametrize(("scene", "method"), list(GOLDEN_02))
-def test_the_golden_hash_of_the_earlier_readings_holds(scene, method):
-    intensity, partial = SCENES[scene]()
-    result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0,
-                                 **READINGS_02[method])
-    assert _digest(result) == GOLDEN_02[scene, method], (
-        f"{scene}/{method} (0.2's readings): the output changed; new hash {_digest(result)}")
-
-
-@pytest.mark.parametrize(("scene", "method"), list(GOLDEN_VALUE_COPY))
-def test_the_golden_hash_of_eq5s_value_copy_holds(scene, method):
+@pytest.mark.parametrize(("reading", "scene", "method", "options", "expected"), CASES)
+def test_the_golden_hash_holds(reading, scene, method, options, expected):
     intensity, partial = SCENES[scene]()
     result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0,
-                                 **VALUE_COPY[method])
-    assert _digest(result) == GOLDEN_VALUE_COPY[scene, method], (
-        f"{scene}/{method} (Eq. 5's value copy): the output changed; new hash "
-        f"{_digest(result)}")
-
-
-@pytest.mark.parametrize(("scene", "method"), list(GOLDEN_FIG6))
-def test_the_golden_hash_of_fig6s_bp_holds(scene, method):
-    intensity, partial = SCENES[scene]()
-    result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0, **FIG6)
-    assert _digest(result) == GOLDEN_FIG6[scene, method], (
-        f"{scene}/{method} (Fig. 6): the output changed; new hash {_digest(result)}")
-
-
-@pytest.mark.parametrize(("scene", "method"), list(GOLDEN_COLORIZATION))
-def test_the_golden_hash_of_bp_on_the_colorization_fill_holds(scene, method):
-    intensity, partial = SCENES[scene]()
-    result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0,
-                                 **COLORIZATION)
-    assert _digest(result) == GOLDEN_COLORIZATION[scene, method], (
-        f"{scene}/{method} (the colorization fill's observations): the output changed; new "
-        f"hash {_digest(result)}")
+                                 **options)
+    assert _digest(result) == expected, (
+        f"{scene}/{method} ({reading}): the output changed; new hash {_digest(result)}")
