@@ -130,6 +130,28 @@ def test_widened_search_case_widens(cases_dir):
     assert max(far) > 1.5   # beyond Eq. 3's radius: the search widened
 
 
+def test_bp_on_nps_fill_carries_nps_random_numbers_and_fill(cases_dir):
+    """BP's default (0.9): the case's ``tie`` and ``draws`` are those of NP at BP's
+    ``neighbourhood``, ``radius`` and edges with the case's seed, and ``q_observation`` is
+    that NP's result on the measured range's grid; the cases on the colorization fill carry
+    no random numbers."""
+    from refsynth.numeric import quantise_range
+
+    case = next(c for c in build_cases() if c.name == "bp-14x18-planes-np-fill")
+    arrays = _golden(cases_dir, case.name)
+    shared = {k: case.options[k] for k in ("neighbourhood", "radius", "use_edges")}
+    np_case = run_outputs("np", case.inputs, shared, case.seed)
+    np.testing.assert_array_equal(arrays["tie"], np_case["tie"])
+    np.testing.assert_array_equal(arrays["draws"], np_case["draws"])
+    partial = case.inputs["partial_range"]
+    q, low, span = quantise_range(partial)
+    want = np.maximum(np.rint((np_case["range"] - low) / span * 2.0**16), 0)
+    unknown = np.isnan(partial)
+    np.testing.assert_array_equal(arrays["q_observation"][unknown], want[unknown])
+    np.testing.assert_array_equal(arrays["q_observation"][~unknown], q[~unknown])
+    assert "tie" not in _golden(cases_dir, "bp-14x18-planes")
+
+
 def test_bp_trace_layout(cases_dir):
     arrays = _golden(cases_dir, "bp-12x10-noise")
     messages = arrays["sweep_messages"]
