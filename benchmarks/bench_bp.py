@@ -59,7 +59,7 @@ import time
 import numpy as np
 from audit_departures import VARIANTS  # this script's folder: one variant table
 
-from refsynth.synthesis.options import BP_DEPARTURES
+from refsynth.synthesis.options import draws_at_random
 
 
 def _rss_mb() -> float:
@@ -137,9 +137,7 @@ def _case(args):
 PROPOSAL_VARIANTS = {name: kw for name, kw in VARIANTS.items()
                      if name == "np" or kw["method"] == "bp"}
 #: Section 3's variants that make no random choice: one seed is enough.
-DETERMINISTIC = {name for name, kw in PROPOSAL_VARIANTS.items()
-                 if kw["method"] == "bp" and "proposals" not in kw
-                 and kw.get("observation", BP_DEPARTURES["observation"]) != "np"}
+DETERMINISTIC = {name for name, kw in PROPOSAL_VARIANTS.items() if not draws_at_random(kw)}
 CLASSICAL = ("nearest", "colorization", "joint-bilateral")
 
 

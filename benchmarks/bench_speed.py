@@ -41,7 +41,8 @@ Run::
     python benchmarks/bench_speed.py --fill-solvers --room   # the same on the room's grids
     python benchmarks/bench_speed.py --memory 2048x2048  # item 3: NP and both BPs, ~20 min
 
-``--memory SIZE`` runs NP and BP once each at ``SIZE`` in a fresh subprocess and prints,
+``--memory SIZE`` runs NP, BP and BP on the colorization fill once each at ``SIZE`` in a
+fresh subprocess and prints,
 beside each one's memory estimate (the one ``synthesize`` refuses a run by), its peak
 resident memory, the subprocess's peak with the scene alone, and its wall time (scene
 included): issue #15 item 3, an image up to 2048×2048 within 4 GB or refused up front.

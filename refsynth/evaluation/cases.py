@@ -54,7 +54,7 @@ from refsynth.acquisition.sampling import distance_driven, stripes, x_stripes_fo
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.scenes import load_middlebury, motorcycle, synthetic_room
 from refsynth.scenes.middlebury import MOTORCYCLE_CROP
-from refsynth.synthesis.options import BP_DEPARTURES
+from refsynth.synthesis.options import draws_at_random
 
 __all__ = [
     "Case",
@@ -517,11 +517,7 @@ def _is_stochastic(method: str) -> bool:
     """NP draws from the Eq. 5 set, and so does BP on NP's fill (its default since 0.9);
     BP on another fill and the baselines do not."""
     options = SYNTHESIS_METHODS.get(method)
-    if options is None:  # a baseline
-        return False
-    if options.get("method", "np") == "np":
-        return True
-    return options.get("observation", BP_DEPARTURES["observation"]) == "np"
+    return options is not None and draws_at_random(options)   # None: a baseline
 
 
 def build_cases(

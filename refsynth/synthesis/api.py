@@ -88,8 +88,8 @@ __all__ = [
 #: 900×750 since 0.7's cascade; 0.6's Gauss–Seidel alone took about a quarter).
 OBSERVATION_SHARE = 0.10
 #: The same with ``observation="np"``, NP's fill first: NP's wall time over BP-on-NP's, 0.55
-#: at 450×375 and 0.59 at 900×750 (``python benchmarks/bench_speed.py --sizes 450x375,900x750
-#: --no-rss --methods np,bp-colorization,bp,colorization``).
+#: at 450×375 and 0.59 at 900×750 in 0.8's run, 0.59 and 0.60 in 0.9's (``python
+#: benchmarks/bench_speed.py --sizes 450x375,900x750 --methods np,bp``).
 NP_OBSERVATION_SHARE = 0.55
 
 @dataclass(frozen=True)
@@ -519,8 +519,7 @@ def synthesize(
     if np_first:  # NP runs first, at its own radius
         np_radius = search_radius("np", radius, 0.0, range_values.shape)[0]
         check_memory("np", image, range_values, neighbourhood=neighbourhood, radius=np_radius,
-                     colour=colour, before="`proposals`" if proposal_options
-                     else "`observation='np'`, BP's default")
+                     colour=colour, before="proposals" if proposal_options else "observation")
     check_memory(method, image, range_values, neighbourhood=neighbourhood, radius=cut_radius,
                  candidates=options.get("candidates", 8) + extra_labels, colour=colour)
 

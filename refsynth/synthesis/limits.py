@@ -400,6 +400,14 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     return table + inputs + max(build, fill)
 
 
+#: Why NP runs before BP (``check_memory``'s ``before``): how the message names it, and the way
+#: out it offers.
+NP_FIRST = {
+    "observation": ("`observation='np'`, BP's default", "take `observation='colorization'`"),
+    "proposals": ("`proposals`", "drop `proposals`"),
+}
+
+
 def check_memory(method: str, image: np.ndarray, range_values: np.ndarray, *,
                  neighbourhood: int, radius: float, candidates: int = 8,
                  colour: bool = True, before: str | None = None) -> None:
@@ -422,9 +430,9 @@ def check_memory(method: str, image: np.ndarray, range_values: np.ndarray, *,
         BP's ``k``.
     colour : bool, default True
         Eq. 2 on the colour channels (else one grey channel).
-    before : str, optional
+    before : {None, "observation", "proposals"}
         NP only: why NP runs before BP (BP's ``observation="np"``, its
-        ``proposals``), named in the message with the way out.
+        ``proposals``; :data:`NP_FIRST`), named in the message with the way out.
 
     Raises
     ------
@@ -448,10 +456,10 @@ def check_memory(method: str, image: np.ndarray, range_values: np.ndarray, *,
         advice = (f"lower `neighbourhood`, `radius` (radius {image_reach(shape)} already "
                   "reaches the whole image)")
         if before is not None:
-            what = (f"synthesize(method='bp') runs NP first ({before}) on a "
+            reason, way_out = NP_FIRST[before]
+            what = (f"synthesize(method='bp') runs NP first ({reason}) on a "
                     f"{shape[1]}x{shape[0]} image with ")
-            advice += (", or drop `proposals`" if "proposals" in before
-                       else ", or take `observation='colorization'`")
+            advice += f", or {way_out}"
         check_memory_need(np_memory(shape, channels, neighbourhood, radius),
                           f"{what}neighbourhood={neighbourhood}, radius={radius:g}", advice)
         return

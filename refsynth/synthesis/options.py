@@ -40,7 +40,7 @@ from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
 __all__ = [
     "METHODS", "PRODUCTS", "ORDERINGS", "NP_OPTIONS", "BP_OPTIONS", "OPTIONS", "BP_DEPARTURES",
     "OPTION_CHECKS", "at_least", "bounded", "check_method_options", "check_proposals",
-    "check_bp_departures", "random_source",
+    "check_bp_departures", "draws_at_random", "random_source",
 ]
 
 METHODS = ("np", "bp")
@@ -176,6 +176,25 @@ def check_bp_departures(method: str, observation, compatibility, training_radius
                                  f"method={method!r} does not use it")
         return {}
     return {**BP_DEPARTURES, **given}
+
+
+def draws_at_random(options: dict) -> bool:
+    """Whether ``synthesize(..., **options)`` depends on its ``seed``.
+
+    NP always does (Eq. 5's draw, the fill order's ties); BP when NP runs first: on NP's fill
+    (``observation="np"``, BP's default since 0.9) or with ``proposals``.
+
+    >>> draws_at_random({}), draws_at_random({"method": "bp"})
+    (True, True)
+    >>> draws_at_random({"method": "bp", "observation": "colorization"})
+    False
+    >>> draws_at_random({"method": "bp", "observation": "measured", "proposals": "np"})
+    True
+    """
+    if options.get("method", "np") == "np":
+        return True
+    return (options.get("proposals") is not None
+            or options.get("observation", BP_DEPARTURES["observation"]) == "np")
 
 
 def random_source(seed) -> np.random.Generator:
