@@ -2,6 +2,7 @@
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 
@@ -370,6 +371,50 @@ def test_local_processes_give_the_same_rows_as_one_process():
     one = aggregate(run_cases(cases, jobs=1))
     two = aggregate(run_cases(cases, jobs=2))
     assert without_timing(one) == without_timing(two)
+
+
+_ORPHAN_SCRIPT = """
+import os, sys, time
+from refsynth.evaluation.runner import _executor
+pool, _ = _executor(2, None)
+pids = {pool.submit(os.getpid).result() for _ in range(8)}
+busy = [pool.submit(time.sleep, 600) for _ in range(2)]
+time.sleep(1.0)
+print(" ".join(map(str, sorted(pids))), flush=True)
+time.sleep(600)
+"""
+
+
+def _running(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as stat:
+            return stat.read().rsplit(")", 1)[1].split()[0] != "Z"  # a zombie has ended
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_local_workers_end_when_the_runner_is_killed():
+    # a kill runs no finally: the workers must notice their parent's end on their own
+    import signal
+    import time
+
+    runner = subprocess.Popen([sys.executable, "-c", _ORPHAN_SCRIPT], stdout=subprocess.PIPE,
+                              text=True)
+    try:
+        pids = [int(pid) for pid in runner.stdout.readline().split()]
+        assert pids and all(_running(pid) for pid in pids)
+    finally:
+        runner.send_signal(signal.SIGKILL)
+        runner.wait()
+        runner.stdout.close()
+    deadline = time.monotonic() + 30.0
+    while any(_running(pid) for pid in pids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    left = [pid for pid in pids if _running(pid)]
+    for pid in left:  # do not leave them behind, whatever the outcome
+        os.kill(pid, signal.SIGKILL)
+    assert not left
 
 
 def test_dask_cluster_gives_the_same_rows_as_local_runs():

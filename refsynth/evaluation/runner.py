@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import concurrent.futures
 import multiprocessing
+import os
+import threading
 import time
 from collections.abc import Callable, Sequence
 
@@ -205,10 +207,30 @@ def _executor(jobs: int, scheduler: str | None):
     if jobs > 1:
         # spawn, not fork: a forked child of a process with threads (BLAS, Dask) can deadlock
         pool = concurrent.futures.ProcessPoolExecutor(
-            max_workers=jobs, mp_context=multiprocessing.get_context("spawn")
+            max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
+            initializer=_exit_with_parent,
         )
         return pool, lambda cancel: pool.shutdown(wait=True, cancel_futures=cancel)
     return None, None
+
+
+def _exit_with_parent() -> None:
+    """A worker's initializer: end the worker when the process that spawned it ends.
+
+    A worker computing a case would otherwise outlive a parent killed by a signal
+    (``kill``, ``pkill``: no ``finally`` runs there) and keep computing, an orphan.
+    A daemon thread waits on the parent's sentinel, which the operating system
+    signals when the parent ends, however it ends.
+    """
+    parent = multiprocessing.parent_process()
+    if parent is None:  # not a multiprocessing child
+        return
+
+    def watch() -> None:
+        parent.join()
+        os._exit(1)
+
+    threading.Thread(target=watch, name="refsynth-exit-with-parent", daemon=True).start()
 
 
 def run_cases(
