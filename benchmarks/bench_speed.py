@@ -341,7 +341,7 @@ def np_steps(sizes, out=sys.stdout) -> dict:
     """What NP's steps do at each size: the shortlist's work, which the data decides.
 
     NP's step costs more when more of Eq. 3's candidates survive the shortlist's bound
-    (:meth:`refsynth.synthesis.filltable.FillTable.shortlist`: their range term is then
+    (:attr:`refsynth.synthesis.filltable.FillTable.shortlist_step`: their range term is then
     evaluated and Eq. 5 draws among them) and less when only the candidate that set the
     bound survives (no second gather, no draw). Counted on NP's default fill (the same
     bits as ``synthesize``: the counting wraps the method and changes nothing it
@@ -364,7 +364,7 @@ def np_steps(sizes, out=sys.stdout) -> dict:
     print("| size | unknown pixels | candidates per step | kept per step | steps keeping one "
           "| kept per step where more than one | CPU µs per unknown pixel |", file=out)
     print("|---|---|---|---|---|---|---|", file=out)
-    shortlist = FillTable.shortlist
+    init = FillTable.__init__
     results = {}
     for size in sizes:
         image, partial, _ = _case(size)
@@ -374,16 +374,22 @@ def np_steps(sizes, out=sys.stdout) -> dict:
         cpu = time.process_time() - start
         counts = []
 
-        def counted(self, p, candidates, scale, counts=counts):
-            kept, distances = shortlist(self, p, candidates, scale)
-            counts.append((candidates.size, kept.size))
-            return kept, distances
+        def counting(self, *args, counts=counts, **kwargs):
+            init(self, *args, **kwargs)
+            shortlist = self.shortlist_step  # what NP's loop calls, wrapped on this table
 
-        FillTable.shortlist = counted
+            def counted(p, candidates, scale, every=False):
+                kept, distances = shortlist(p, candidates, scale, every)
+                counts.append((candidates.size, kept.size))
+                return kept, distances
+
+            self.shortlist_step = counted
+
+        FillTable.__init__ = counting
         try:
             refsynth.synthesize(image, partial, method="np")
         finally:
-            FillTable.shortlist = shortlist
+            FillTable.__init__ = init
         steps = np.array(counts, dtype=np.float64).reshape(-1, 2)
         many = steps[steps[:, 1] > 1, 1]
         row = dict(unknown=unknown, steps=len(counts), candidates=float(steps[:, 0].mean()),

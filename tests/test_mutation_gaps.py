@@ -64,7 +64,7 @@ def test_every_pop_is_the_order_of_eq10_clipped_with_ties(seed, n):
     Every pop must be the front voxel of lowest tier, highest Eq. 10 priority (recomputed
     from the running sums by :meth:`FillFront.priorities`) and smallest tie rank, and after
     every fill the queue must hold each voxel's key (:func:`encode_keys` of that priority,
-    in its tier) bit for bit: the re-prioritised keys of ``_block_priority`` equal those of
+    in its tier) bit for bit: the re-prioritised keys of ``fill_step`` equal those of
     ``_priority``."""
     from refsynth.synthesis.frontqueue import ABSENT
     from refsynth.synthesis.priority import FillFront

@@ -71,6 +71,8 @@ Torres-Méndez & Dudek (2008), §3.2.2, Eq. 2, doi:10.1007/s11263-007-0108-2.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.lib.stride_tricks import as_strided, sliding_window_view
 
@@ -292,26 +294,24 @@ class FillTable:
             self.perm.size :]
         # views of the weights, made once: support
         self.g_v = self.range_weights[1, v0 : v0 + nn]  # G V_p w
-        self.ones = np.ones(nn)
         # offset_shift's operands: p's R and V (from the product above, float64, exact), the
         # last gathered range rows and their [a w; b w] (rows 1 and 2 of the products), and
         # buffers for the window's terms
         self._rp, self._vp = self.product[r0:v0], self.product[3 * width :]
         self.rows = np.zeros((0, width))
-        self._row = self.ranges[:1]  # one candidate's range row (_distance_of: a view)
-        self._single = np.zeros(1)  # the shortlist's distances when it keeps one candidate
-        self._single_mv = memoryview(self._single)
-        self._ab_single = np.zeros((2, 1))  # _distance_of's [a w; b w]
+        self._ab_single = np.zeros((2, 1))  # the bound's candidate's [a w; b w]
         self._ab_single_mv = memoryview(self._ab_single.reshape(-1))
         self._ab_rows = self._ab_single
         self._delta, self._support = np.empty(nn), np.empty(nn)
-        self._square = np.empty(nn)  # _distance_of's G V_p u R_q
+        self._square = np.empty(nn)  # the bound's G V_p u R_q
         self.lam = float(range_weight)
         self.missing_range = missing_range
         # _combine's scalar operands as 0-d arrays, made once: a ufunc takes a Python scalar
         # by a slower path (about 0.3 µs a call); the same float64 values, the same bits
         self._scalars = (np.array(float(self.divisor)), np.array(self.lam),
                          np.array(self.lam * SUPPORT_PRIOR), np.array(SUPPORT_PRIOR))
+        self._single = np.zeros(1)  # the shortlist's distances when it keeps one candidate
+        self._single_mv = memoryview(self._single)
         self._bound = np.zeros(())  # the shortlist's bound, written per step
         self._wa = np.zeros(())  # w_a w_unit, written per step
         # set_range writes p's range into the rows p - o (o an offset of the window, k its
@@ -334,6 +334,8 @@ class FillTable:
         # float32 item is set by C's conversion, rounding to nearest as numpy's
         self._values_mv = memoryview(self._values)
         self._w_si_mv, self._self_mv = memoryview(self.w_si), memoryview(self.self_unit)
+        #: :meth:`shortlist` as ``shortlist_step(p, candidates, scale)``, which NP's loop calls
+        self.shortlist_step = self._shortlister()
 
     @property
     def table(self) -> np.ndarray:
@@ -342,16 +344,6 @@ class FillTable:
         The constant columns are 1 on the image's pixels, the only rows that are read, and 0
         on the padding."""
         return np.concatenate([self.intensity, self.ranges], axis=1)
-
-    def _target(self, p: int) -> None:
-        """Write ``p``'s weights (intensity, range, support) and ``w_a``."""
-        np.multiply(self.intensity[p, : self.base], self.coef_i, out=self._w_i)  # -2 G I_p u
-        self._w_si_mv[self.one] = self._self_mv[p]  # s_p u, exact
-        self.ranges[p].take(self._both, out=self._taken, mode="clip")
-        w = np.multiply(self._by_perm, self._by_square, out=self.product,
-                        dtype=np.float64)  # R_p, R_p², V_p: exact
-        np.multiply(w, self.coef, out=self.weights)
-        np.dot(self.g_v, self.ones, out=self._wa)  # w_a w_unit, exact
 
     def distances(self, p: int, candidates: np.ndarray) -> np.ndarray:
         """Eq. 2 between ``N_p`` and each candidate, as ``PatchTable.distances``.
@@ -382,10 +374,7 @@ class FillTable:
         >>> bool(np.array_equal(fast.distances(33, q), wide.distances(33, q)))
         True
         """
-        self._target(p)
-        si = self._intensity_term(candidates)
-        self.rows = self.ranges.take(candidates, axis=0).astype(np.float64)
-        return self._finish(si)
+        return self.shortlist_step(p, candidates, 1.0, True)[1]
 
     def shortlist(self, p: int, candidates: np.ndarray, scale: float
                   ) -> tuple[np.ndarray, np.ndarray]:
@@ -439,34 +428,7 @@ class FillTable:
         >>> bool(set(q[every <= 1.1 * every.min()]) <= set(kept))
         True
         """
-        self._target(p)
-        si = self._intensity_term(candidates)
-        k = int(si.argmin())
-        bound = self._bound
-        bound[()] = scale * (best := self._distance_of(int(candidates[k]), float(si[k])))
-        keep = np.less_equal(si, bound)
-        kept = candidates.compress(keep)
-        if kept.size == 1:  # k alone (D_k <= scale D_k keeps it): its distance is known
-            self.rows = self._row  # k's row (float32), for offset_shift
-            self._ab_rows = self._ab_single
-            self._single_mv[0] = best
-            return kept, self._single
-        self.rows = self.ranges.take(kept, axis=0).astype(np.float64)
-        return kept, self._finish(si.compress(keep))
-
-    def _intensity_term(self, candidates: np.ndarray) -> np.ndarray:
-        """Eq. 2's intensity term of each candidate (p's weights written)."""
-        rows = self.intensity.take(candidates, axis=0)  # float64, or float32 the product widens
-        # exact: every product and partial sum is an integer below 2**53 times the
-        # power of two its weights carry, so this is the integer sum times its unit.
-        # The positive terms (s_q's parts and s_p) add up to at most
-        # s_p + s_q <= 2 C ΣG 2**32, the negative ones (-2 G I_p I_q) to at least
-        # -2 sqrt(s_p s_q) >= -2 C ΣG 2**32 (Cauchy–Schwarz), so every partial sum, in any
-        # order, lies within ±2 C ΣG 2**32 < 1.6 2**52 (C <= 3, ΣG <= 262151 < 1.01 2**18)
-        si = _matvec(rows, self.w_si)  # (s_p + s_q - 2 Σ G Σ_c I_p I_q) u
-        if self.divisor != 1:  # x / 1 is x exactly: skipped
-            np.divide(si, self._scalars[0], out=si)
-        return si
+        return self.shortlist_step(p, candidates, scale)
 
     def _finish(self, si: np.ndarray) -> np.ndarray:
         """Eq. 2 from the intensity terms ``si`` and the gathered range rows (in place)."""
@@ -481,21 +443,87 @@ class FillTable:
         return _combine(si, sr, ws, self._wa, 1, self.lam, self.missing_range,
                         self._scalars, keep_ws=True)
 
-    def _distance_of(self, q: int, si: float) -> float:
-        """Eq. 2 of one candidate ``q`` with intensity term ``si``: :func:`_combine`'s
-        operations on Python floats (the same IEEE operations, so the same bits). Leaves
-        ``q``'s range row in ``self._row`` (a float32 view of the table)."""
-        self._row = row = self.ranges[q : q + 1]
-        sr, ws, b = np.dot(self.range_weights, row[0]).tolist()  # widened by dot: exact
-        r = row[0, : self.nn]
-        sr = sr + float(np.dot(np.multiply(self.square_weights, r, out=self._square), r))
-        self._ab_single_mv[0], self._ab_single_mv[1] = ws, b  # offset_shift's a w, b w
-        if self.lam != 1.0:
-            sr = sr * self.lam
-        if self.missing_range != "mean":
-            return si + sr
-        ws = ws + SUPPORT_PRIOR
-        return si + (sr + self.lam * SUPPORT_PRIOR) * (float(self._wa) / ws)
+    def _shortlister(self) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
+        """:meth:`shortlist` (and, with ``every``, :meth:`distances`) as a closure.
+
+        ``shortlist_step(p, candidates, scale, every=False)``. A step is some twenty numpy
+        calls on small arrays, so the Python around them counts: the closure reads its
+        operands from local names, where methods would look each one up on ``self`` at
+        every step. It writes ``p``'s weights, forms the intensity terms of every candidate,
+        then the whole distance of the one with the smallest (the bound), then that of the
+        candidates the bound keeps (:meth:`_finish`); it leaves the rows
+        :meth:`offset_shift` reads on ``self``.
+        """
+        intensity, ranges = self.intensity, self.ranges
+        own_intensity = intensity[:, : self.base]  # p's I, by one integer index
+        coef_i, w_i, w_si = self.coef_i, self._w_i, self.w_si
+        w_si_mv, self_mv, one = self._w_si_mv, self._self_mv, self.one
+        both, taken, by_perm, by_square = self._both, self._taken, self._by_perm, self._by_square
+        product, coef, weights = self.product, self.coef, self.weights
+        g_v, wa = self.g_v, self._wa
+        range_weights, square_weights, square = (self.range_weights, self.square_weights,
+                                                 self._square)
+        nn, bound, finish = self.nn, self._bound, self._finish
+        ab_single, ab_single_mv = self._ab_single, self._ab_single_mv
+        divisor = None if self.divisor == 1 else self._scalars[0]  # x / 1 is x: skipped
+        single, single_mv = self._single, self._single_mv
+        lam, mean = self.lam, self.missing_range == "mean"
+        wa_mv = memoryview(wa.reshape(1))  # w_a w_unit, written as a Python float
+        multiply, less_equal, divide, float64 = np.multiply, np.less_equal, np.divide, np.float64
+
+        def shortlist(p: int, candidates: np.ndarray, scale: float, every: bool = False):
+            # p's weights. Intensity: -2 G I_p u on I, s_p u on the constant 1. Range: R_p,
+            # R_p², V_p (exact products) times the coefficients; w_a w_unit (exact)
+            multiply(own_intensity[p], coef_i, out=w_i)
+            w_si_mv[one] = self_mv[p]
+            ranges[p].take(both, out=taken, mode="clip")
+            multiply(multiply(by_perm, by_square, out=product, dtype=float64), coef,
+                     out=weights)
+            # w_a w_unit: integers times a power of two, so the sum is exact in any order
+            wa_mv[0] = support = sum(g_v.tolist())
+            # Eq. 2's intensity term of each candidate, exact: every product and partial
+            # sum is an integer below 2**53 times the power of two its weights carry (the
+            # positive terms, s_q's parts and s_p, add up to at most s_p + s_q <= 2 C ΣG
+            # 2**32, the negative ones, -2 G I_p I_q, to at least -2 sqrt(s_p s_q) >= -2 C
+            # ΣG 2**32 by Cauchy–Schwarz: every partial sum, in any order, lies within
+            # ±2 C ΣG 2**32 < 1.6 2**52, as C <= 3 and ΣG <= 262151 < 1.01 2**18); float32
+            # rows are widened by the product
+            si = _matvec(intensity.take(candidates, axis=0), w_si)
+            if divisor is not None:
+                divide(si, divisor, out=si)
+            if every:  # distances(): every candidate's range term
+                self.rows = ranges.take(candidates, axis=0).astype(float64)
+                return candidates, finish(si)
+            # the bound: the whole Eq. 2 of the candidate k with the smallest intensity
+            # term, _combine's operations on Python floats (the same IEEE operations, so
+            # the same bits); its range row (float32) stays for offset_shift
+            k = int(si.argmin())
+            t = float(si[k])
+            q = int(candidates[k])
+            row = ranges[q : q + 1]
+            sr, ws, b = range_weights.dot(row[0]).tolist()  # widened by dot: exact
+            r = row[0, :nn]
+            sr = sr + float(multiply(square_weights, r, out=square).dot(r))
+            ab_single_mv[0], ab_single_mv[1] = ws, b  # offset_shift's a w, b w
+            if lam != 1.0:
+                sr = sr * lam
+            if mean:
+                ws = ws + SUPPORT_PRIOR
+                best = t + (sr + lam * SUPPORT_PRIOR) * (support / ws)
+            else:
+                best = t + sr
+            bound[()] = scale * best
+            keep = less_equal(si, bound)
+            kept = candidates.compress(keep)
+            if kept.size == 1:  # k alone (D_k <= scale D_k keeps it): its distance is known
+                self.rows = row  # k's row (float32), for offset_shift
+                self._ab_rows = ab_single
+                single_mv[0] = best
+                return kept, single
+            self.rows = ranges.take(kept, axis=0).astype(float64)
+            return kept, finish(si.compress(keep))
+
+        return shortlist
 
     def offset_shift(self, j: int) -> int:
         """The offset copy's ``Δ`` between ``N_p`` and the last :meth:`distances`' candidate ``j``.

@@ -261,7 +261,8 @@ def np_fill(
     draws = memoryview(draws)  # Python floats one at a time (a list of them: 32 bytes each)
     scale = 1.0 + epsilon
     update = ordering != "onion"
-    pop, fill, shortlist, set_range = front.queue.pop, front.fill, table.shortlist, table.set_range
+    pop, fill, set_range = front.queue.pop, front.fill_step, table.set_range
+    shortlist = table.shortlist_step
     # single values through memoryviews (Python scalars, cheaper than numpy's indexing)
     values_at, original_at, order_at = memoryview(values), memoryview(original), memoryview(order)
     confidence_of = front.confidence_of
@@ -305,7 +306,7 @@ def np_fill(
         if confidence_update == "product":
             confidence = confidence_of(p) * confidence
         # on_confidence_grid: round half to even onto multiples of 2**-40
-        fill(p, value, round(confidence * grid) * unit, update=update)
+        fill(p, value, round(confidence * grid) * unit, update)
         set_range(p, value)
         order_at[step] = p
         if progress is not None and (step + 1) % tick == 0:

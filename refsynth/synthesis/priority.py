@@ -55,6 +55,8 @@ inpainting", CVPR 2003 (the notation and the confidence/data-term scheme).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from scipy import ndimage
 
@@ -528,7 +530,8 @@ class FillFront:
         side = 2 * k + 1
         self.scratch = [np.empty((_FIELDS, side, side)), np.empty((7, side, side)), np.ones(
             (7, side, side)), np.empty((4, side, side)), np.empty((2, side, side))]  # field-major
-        # the views _block_priority reads and writes, made once (a view costs about a µs)
+        # the views the re-prioritising step reads and writes, made once (a view costs about
+        # a µs)
         fields, quotient, divisors, products, pair = self.scratch
         self._views = (fields, fields[_COUNT : _VCOL + 1], divisors[:3],
                        fields[_CONF : _NMROW + 1], divisors, quotient, quotient[1:5],
@@ -548,13 +551,6 @@ class FillFront:
         self.open = self.inside & ~self.filled
         self.tier_offset = np.ascontiguousarray(np.where(self.tier != 0, ABSENT, 0), np.int64)
         self.queue = FrontQueue(self.tie.ravel())
-        self._shift = np.array(self.queue.shift)  # a slot's block: slot >> shift
-        # flat views
-        self.tie_flat = flat_view(self.tie)
-        self.tier_offset_flat = flat_view(self.tier_offset)
-        # the flat offsets of the block a fill changes (raster order) from its top-left pixel
-        self.block_offsets = (np.arange(side)[:, None] * self.shape[1]
-                              + np.arange(side)[None, :]).ravel()
 
         # the front (unknown voxels with a filled 8-neighbour) is where _NEIGH > 0
         np.subtract(state[..., _NEIGH], _CLOSED, out=state[..., _NEIGH], where=~self.open)
@@ -563,8 +559,8 @@ class FillFront:
         # strided view (element p - offset: the block centred on p), and the single values
         # through memoryviews (Python floats and bools, the same values as numpy's scalars)
         self._offset, self._state_blocks = block_views(state, side)
-        # the blocks and a fill's change field-major, (fields, side, side), as _block_priority
-        # reads them
+        # the blocks and a fill's change field-major, (fields, side, side), as the step reads
+        # them
         self._field_blocks = self._state_blocks.transpose(0, 3, 1, 2)
         self._change_fields = self.change_block.transpose(2, 0, 1)
         self._neigh = self._views[0][_NEIGH].reshape(-1)  # the block's _NEIGH, field-major
@@ -573,11 +569,13 @@ class FillFront:
             memoryview(flat_view(a)) for a in (self.filled, self.open, self.range_norm,
                                             self.confidence))
         self._state_mv = memoryview(flat_view(state).reshape(-1))
-        self._keys = self._views[-1].reshape(-1)  # _block_priority's result, as int64
-        self._at = np.zeros((), dtype=np.int64)  # the block's top-left pixel, as a 0-d array
+        self._keys = self._views[-1].reshape(-1)  # the block's priorities, as int64
         flat = np.flatnonzero(front)
         p = self._priority(self.flat_state[flat])  # Eq. 10 on the front only (elementwise)
         self.queue.set(flat, p.view(np.int64) + self.tier_offset.ravel()[flat])
+        #: :meth:`fill` as ``fill_step(p, value, confidence, update=True)``, which NP's loop
+        #: calls
+        self.fill_step = self._stepper()
 
     # -- Eq. 10 on a block of the state ---------------------------------------
     def _priority(self, block: np.ndarray) -> np.ndarray:
@@ -622,71 +620,103 @@ class FillFront:
         """Record that padded flat index ``p`` received range ``value`` (normalised).
 
         Adds the change to every running sum on the windows that contain ``p``
-        and, when ``update`` is True, re-prioritises the front around it.
+        and, when ``update`` is True, re-prioritises the front around it
+        (:attr:`fill_step`, which NP's loop calls directly).
         """
-        width = self.shape[1]
+        self.fill_step(p, value, confidence, update)
+
+    def _stepper(self) -> Callable[[int, float, float, bool], None]:
+        """:meth:`fill` as a closure over its arrays, views and constants.
+
+        A step runs about thirty numpy calls on a few dozen numbers, so the Python around
+        them counts: the closure reads its operands from local names, where methods would
+        look each one up on ``self`` at every step. Re-prioritising the block is
+        :meth:`_priority` (Eqs. 10–12) on it, field-major, in buffers: the same operations.
+        """
+        width, side = self.shape[1], 2 * self.reach + 1
         filled, r = self._filled_mv, self._range_mv  # flat, by memoryview
-        coef = [confidence, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
-        # the pairs (i, j-1)-(i, j), (i, j)-(i, j+1), (i-1, j)-(i, j), (i, j)-(i+1, j)
-        if filled[p - 1]:
-            coef[1], coef[2] = value - r[p - 1], 1.0
-        if filled[p + 1]:
-            coef[3], coef[4] = r[p + 1] - value, 1.0
-        if filled[p - width]:
-            coef[5], coef[6] = value - r[p - width], 1.0
-        if filled[p + width]:
-            coef[7], coef[8] = r[p + width] - value, 1.0
-        filled[p] = True
-        self._open_mv[p] = False
-        r[p] = value
-        self._confidence_mv[p] = confidence
-        # the templates' support: the central max(n, 3)² of the (n+2)² block, so no
-        # other voxel's sums, and hence priority, change
-        at = p - self._offset
-        block = self._field_blocks[at]
-        np.dot(np.array(coef), self.templates, out=self.change)
-        block += self._change_fields
-        if update:
-            self._reprioritise(block, at)
-
-    def _reprioritise(self, block: np.ndarray, at: int) -> None:
-        # every voxel of the block gets its key afresh: Eq. 10 on the front, absent elsewhere;
-        # the block's pixels by flat index (raster order, as the block), so that the queue
-        # scatters through contiguous 1-d indices (much cheaper than a 2-d strided index)
-        self._at[()] = at  # the block's top-left pixel
-        pixels = np.add(self.block_offsets, self._at)
-        if self.use_isophotes:
-            self._block_priority(block)  # copies the block's fields
-            keys, on = self._keys, np.greater(self._neigh, self._zeros)  # on the front
-        else:
-            keys = self._priority(block.transpose(1, 2, 0)).view(np.int64).ravel()
-            on = (block[_NEIGH] > 0).ravel()
-        keys += self.tier_offset_flat.take(pixels)
-        slots = self.tie_flat.take(pixels)
-        self.queue.set_in_blocks(slots, np.right_shift(slots, self._shift),
-                                 np.where(on, keys, self._absent))
-
-    def _block_priority(self, block: np.ndarray) -> np.ndarray:
-        """:meth:`_priority` on the block a fill changed: the same operations, in buffers.
-
-        ``block`` is field-major, ``(fields, side, side)``. Field-major copies; one product
-        forms ``g · m`` and ``m²`` (``m_c² − (−m_r²)``, exact). Only with isophotes
-        (:meth:`_reprioritise` calls :meth:`_priority` otherwise).
-        """
+        is_open, confidences = self._open_mv, self._confidence_mv
+        # the coefficients of the templates' rows (a fill's change): the confidence, the
+        # four pairs' difference and count, the mask (always 1)
+        coef = np.zeros(10)
+        coef[9] = 1.0
+        c_mv = memoryview(coef)
+        templates, change, change_fields = self.templates, self.change, self._change_fields
+        offset, field_blocks = self._offset, self._field_blocks
+        add, maximum, divide, multiply = np.add, np.maximum, np.divide, np.multiply
+        subtract, sqrt, absolute, greater, where = (np.subtract, np.sqrt, np.abs, np.greater,
+                                                    np.where)
+        # the flat offsets of the block (raster order) from its top-left pixel: the queue
+        # scatters through contiguous 1-d indices (much cheaper than 2-d strided ones)
+        block_offsets = (np.arange(side)[:, None] * width + np.arange(side)[None, :]).ravel()
+        at_array = np.zeros((), dtype=np.int64)  # the block's top-left pixel, as a 0-d array
+        take_tier, take_tie = flat_view(self.tier_offset).take, flat_view(self.tie).take
+        shift = np.array(self.queue.shift)  # a slot's block: slot >> shift
+        right_shift, neigh, zeros, absent = np.right_shift, self._neigh, self._zeros, self._absent
+        set_in_blocks = self.queue.set_in_blocks
         (fields, counts, count_divisors, numerators, divisors, quotient, gradient, normal,
          products, left, right, pair, flow, norm, c, edge, _) = self._views
+        keys = self._keys
         ones3, one, zero = self._constants  # 1.0, 1.0, 0.0
-        np.copyto(fields, block)
-        # [C, Δ_row, Δ_col, m] / [|N_p|, pairs_row, pairs_col, 1, ...]: c, the gradient, m
-        np.maximum(counts, ones3, out=count_divisors)
-        np.divide(numerators, divisors, out=quotient)
-        np.multiply(gradient, normal, out=products)  # g_r m_c, g_c m_r, m_c², −m_r²
-        np.subtract(left, right, out=pair)  # the flow, the squared norm
-        np.maximum(norm, one, out=norm)
-        np.sqrt(norm, out=norm)
-        np.abs(flow, out=flow)
-        np.divide(flow, norm, out=flow)
-        np.subtract(one, flow, out=flow)
-        np.maximum(flow, zero, out=flow)
-        np.multiply(c, flow, out=flow)
-        return np.add(flow, edge, out=flow)
+        isophotes, priority = self.use_isophotes, self._priority
+
+        def step(p: int, value: float, confidence: float, update: bool = True) -> None:
+            c_mv[0] = confidence
+            # the pairs (i, j-1)-(i, j), (i, j)-(i, j+1), (i-1, j)-(i, j), (i, j)-(i+1, j)
+            if filled[p - 1]:
+                c_mv[1], c_mv[2] = value - r[p - 1], 1.0
+            else:
+                c_mv[1] = c_mv[2] = 0.0
+            if filled[p + 1]:
+                c_mv[3], c_mv[4] = r[p + 1] - value, 1.0
+            else:
+                c_mv[3] = c_mv[4] = 0.0
+            if filled[p - width]:
+                c_mv[5], c_mv[6] = value - r[p - width], 1.0
+            else:
+                c_mv[5] = c_mv[6] = 0.0
+            if filled[p + width]:
+                c_mv[7], c_mv[8] = r[p + width] - value, 1.0
+            else:
+                c_mv[7] = c_mv[8] = 0.0
+            filled[p] = True
+            is_open[p] = False
+            r[p] = value
+            confidences[p] = confidence
+            # the templates' support: the central max(n, 3)² of the (n+2)² block, so no
+            # other voxel's sums, and hence priority, change
+            at = p - offset
+            block = field_blocks[at]
+            coef.dot(templates, out=change)
+            add(block, change_fields, out=block)
+            if not update:
+                return
+            # every voxel of the block gets its key afresh: Eq. 10 on the front, absent
+            # elsewhere; the block's pixels by flat index
+            at_array[()] = at
+            pixels = add(block_offsets, at_array)
+            if isophotes:
+                # one product forms g · m and m² (m_c² − (−m_r²), exact)
+                fields[...] = block
+                # [C, Δ_row, Δ_col, m] / [|N_p|, pairs_row, pairs_col, 1, ...]: c, g, m
+                maximum(counts, ones3, out=count_divisors)
+                divide(numerators, divisors, out=quotient)
+                multiply(gradient, normal, out=products)  # g_r m_c, g_c m_r, m_c², −m_r²
+                subtract(left, right, out=pair)  # the flow, the squared norm
+                maximum(norm, one, out=norm)
+                sqrt(norm, out=norm)
+                absolute(flow, out=flow)
+                divide(flow, norm, out=flow)
+                subtract(one, flow, out=flow)
+                maximum(flow, zero, out=flow)
+                multiply(c, flow, out=flow)
+                add(flow, edge, out=flow)  # Eq. 10, its bits read as the keys
+                block_keys, on = keys, greater(neigh, zeros)  # on the front
+            else:
+                block_keys = priority(block.transpose(1, 2, 0)).view(np.int64).ravel()
+                on = (block[_NEIGH] > 0).ravel()
+            block_keys += take_tier(pixels)
+            slots = take_tie(pixels)
+            set_in_blocks(slots, right_shift(slots, shift), where(on, block_keys, absent))
+
+        return step
