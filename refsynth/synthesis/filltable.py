@@ -435,7 +435,7 @@ class FillTable:
         sums = _by_rows(self.range_weights, self.rows)  # [s_r u; w_s w; b w], exact
         r = self.rows[:, : self.nn]
         sr, ws, _ = sums
-        np.add(sr, _matvec(np.multiply(r, r), self.square_weights), out=sr)  # + Σ G V_p R_q² u
+        np.add(sr, _matvec(np.multiply(r, r), self.square_weights), sr)  # + Σ G V_p R_q² u
         self._ab_rows = sums[1:]  # the offset copy's a and b (w_s is a)
         if self.missing_range != "mean":
             return _combine(si, sr, None, None, 1, self.lam, self.missing_range,
@@ -474,11 +474,10 @@ class FillTable:
         def shortlist(p: int, candidates: np.ndarray, scale: float, every: bool = False):
             # p's weights. Intensity: -2 G I_p u on I, s_p u on the constant 1. Range: R_p,
             # R_p², V_p (exact products) times the coefficients; w_a w_unit (exact)
-            multiply(own_intensity[p], coef_i, out=w_i)
+            multiply(own_intensity[p], coef_i, w_i)
             w_si_mv[one] = self_mv[p]
             ranges[p].take(both, out=taken, mode="clip")
-            multiply(multiply(by_perm, by_square, out=product, dtype=float64), coef,
-                     out=weights)
+            multiply(multiply(by_perm, by_square, product, dtype=float64), coef, weights)
             # w_a w_unit: integers times a power of two, so the sum is exact in any order
             wa_mv[0] = support = sum(g_v.tolist())
             # Eq. 2's intensity term of each candidate, exact: every product and partial
@@ -490,7 +489,7 @@ class FillTable:
             # rows are widened by the product
             si = _matvec(intensity.take(candidates, axis=0), w_si)
             if divisor is not None:
-                divide(si, divisor, out=si)
+                divide(si, divisor, si)
             if every:  # distances(): every candidate's range term
                 self.rows = ranges.take(candidates, axis=0).astype(float64)
                 return candidates, finish(si)
@@ -503,7 +502,7 @@ class FillTable:
             row = ranges[q : q + 1]
             sr, ws, b = range_weights.dot(row[0]).tolist()  # widened by dot: exact
             r = row[0, :nn]
-            sr = sr + float(multiply(square_weights, r, out=square).dot(r))
+            sr = sr + float(multiply(square_weights, r, square).dot(r))
             ab_single_mv[0], ab_single_mv[1] = ws, b  # offset_shift's a w, b w
             if lam != 1.0:
                 sr = sr * lam
@@ -573,8 +572,8 @@ class FillTable:
             return 0
         row = self.rows[j]
         # δ = R_p − R_q on the shared support (V_p V_q = 1; a > 0, so it is not empty)
-        delta = np.subtract(self._rp, row[self.r0 : self.v0], out=self._delta).compress(
-            np.multiply(self._vp, row[self.v0 : -1], out=self._support)).tolist()
+        delta = np.subtract(self._rp, row[self.r0 : self.v0], self._delta).compress(
+            np.multiply(self._vp, row[self.v0 : -1], self._support)).tolist()
         # max |δ a − b| over it is at its largest or smallest δ (a > 0; each product and
         # difference exact): the same test as on every δ
         slack = _SLACK * a
@@ -641,12 +640,12 @@ def _combine(si, sr, ws, wa, channels: int, range_weight: float, missing_range: 
     """
     divisor, lam, lam_prior, prior = scalars[:4]
     if channels != 1:  # x / 1 and x * 1 are x exactly: skipped
-        np.divide(si, divisor, out=si)
+        np.divide(si, divisor, si)
     if range_weight != 1.0:
-        np.multiply(sr, lam, out=sr)
+        np.multiply(sr, lam, sr)
     if missing_range == "mean":
-        np.add(sr, lam_prior, out=sr)
-        ws = np.add(ws, prior) if keep_ws else np.add(ws, prior, out=ws)
-        np.divide(wa, ws, out=ws)
-        np.multiply(sr, ws, out=sr)
-    return np.add(si, sr, out=si)
+        np.add(sr, lam_prior, sr)
+        ws = np.add(ws, prior) if keep_ws else np.add(ws, prior, ws)
+        np.divide(wa, ws, ws)
+        np.multiply(sr, ws, sr)
+    return np.add(si, sr, si)

@@ -688,7 +688,7 @@ class FillFront:
             at = p - offset
             block = field_blocks[at]
             coef.dot(templates, out=change)
-            add(block, change_fields, out=block)
+            add(block, change_fields, block)
             if not update:
                 return
             # every voxel of the block gets its key afresh: Eq. 10 on the front, absent
@@ -700,17 +700,17 @@ class FillFront:
                 fields[...] = block
                 # [C, Δ_row, Δ_col, m] / [|N_p|, pairs_row, pairs_col, 1, ...]: c, g, m
                 maximum(counts, ones3, out=count_divisors)
-                divide(numerators, divisors, out=quotient)
-                multiply(gradient, normal, out=products)  # g_r m_c, g_c m_r, m_c², −m_r²
-                subtract(left, right, out=pair)  # the flow, the squared norm
+                divide(numerators, divisors, quotient)
+                multiply(gradient, normal, products)  # g_r m_c, g_c m_r, m_c², −m_r²
+                subtract(left, right, pair)  # the flow, the squared norm
                 maximum(norm, one, out=norm)
-                sqrt(norm, out=norm)
-                absolute(flow, out=flow)
-                divide(flow, norm, out=flow)
-                subtract(one, flow, out=flow)
+                sqrt(norm, norm)
+                absolute(flow, flow)
+                divide(flow, norm, flow)
+                subtract(one, flow, flow)
                 maximum(flow, zero, out=flow)
-                multiply(c, flow, out=flow)
-                add(flow, edge, out=flow)  # Eq. 10, its bits read as the keys
+                multiply(c, flow, flow)
+                add(flow, edge, flow)  # Eq. 10, its bits read as the keys
                 block_keys, on = keys, greater(neigh, zeros)  # on the front
             else:
                 block_keys = priority(block.transpose(1, 2, 0)).view(np.int64).ravel()
