@@ -298,10 +298,13 @@ class FillTable:
         # last gathered range rows and their [a w; b w] (rows 1 and 2 of the products), and
         # buffers for the window's terms
         self._rp, self._vp = self.product[r0:v0], self.product[3 * width :]
-        self.rows = np.zeros((0, width))
         self._ab_single = np.zeros((2, 1))  # the bound's candidate's [a w; b w]
         self._ab_single_mv = memoryview(self._ab_single.reshape(-1))
-        self._ab_rows = self._ab_single
+        # the rows the last step gathered and their [a w; b w], in a list that the step's
+        # closure shares with offset_shift: the closure holds no reference to the table,
+        # whose cycle through it would keep the table (most of NP's memory) alive after NP
+        # until the garbage collector ran
+        self._last = [np.zeros((0, width)), self._ab_single]
         self._delta, self._support = np.empty(nn), np.empty(nn)
         self._square = np.empty(nn)  # the bound's G V_p u R_q
         self.lam = float(range_weight)
@@ -430,19 +433,6 @@ class FillTable:
         """
         return self.shortlist_step(p, candidates, scale)
 
-    def _finish(self, si: np.ndarray) -> np.ndarray:
-        """Eq. 2 from the intensity terms ``si`` and the gathered range rows (in place)."""
-        sums = _by_rows(self.range_weights, self.rows)  # [s_r u; w_s w; b w], exact
-        r = self.rows[:, : self.nn]
-        sr, ws, _ = sums
-        np.add(sr, _matvec(np.multiply(r, r), self.square_weights), sr)  # + Σ G V_p R_q² u
-        self._ab_rows = sums[1:]  # the offset copy's a and b (w_s is a)
-        if self.missing_range != "mean":
-            return _combine(si, sr, None, None, 1, self.lam, self.missing_range,
-                            self._scalars)
-        return _combine(si, sr, ws, self._wa, 1, self.lam, self.missing_range,
-                        self._scalars, keep_ws=True)
-
     def _shortlister(self) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
         """:meth:`shortlist` (and, with ``every``, :meth:`distances`) as a closure.
 
@@ -451,8 +441,8 @@ class FillTable:
         operands from local names, where methods would look each one up on ``self`` at
         every step. It writes ``p``'s weights, forms the intensity terms of every candidate,
         then the whole distance of the one with the smallest (the bound), then that of the
-        candidates the bound keeps (:meth:`_finish`); it leaves the rows
-        :meth:`offset_shift` reads on ``self``.
+        candidates the bound keeps; it leaves the rows :meth:`offset_shift` reads in
+        ``self._last``. The closure refers to the table's arrays, never to the table.
         """
         intensity, ranges = self.intensity, self.ranges
         own_intensity = intensity[:, : self.base]  # p's I, by one integer index
@@ -463,13 +453,25 @@ class FillTable:
         g_v, wa = self.g_v, self._wa
         range_weights, square_weights, square = (self.range_weights, self.square_weights,
                                                  self._square)
-        nn, bound, finish = self.nn, self._bound, self._finish
+        nn, bound, last, scalars = self.nn, self._bound, self._last, self._scalars
+        missing = self.missing_range
         ab_single, ab_single_mv = self._ab_single, self._ab_single_mv
         divisor = None if self.divisor == 1 else self._scalars[0]  # x / 1 is x: skipped
         single, single_mv = self._single, self._single_mv
         lam, mean = self.lam, self.missing_range == "mean"
         wa_mv = memoryview(wa.reshape(1))  # w_a w_unit, written as a Python float
         multiply, less_equal, divide, float64 = np.multiply, np.less_equal, np.divide, np.float64
+
+        def finish(si: np.ndarray, rows: np.ndarray) -> np.ndarray:
+            # Eq. 2 from the intensity terms si and the gathered range rows (in place)
+            sums = _by_rows(range_weights, rows)  # [s_r u; w_s w; b w], exact
+            r = rows[:, :nn]
+            sr, ws, _ = sums
+            np.add(sr, _matvec(np.multiply(r, r), square_weights), sr)  # + Σ G V_p R_q² u
+            last[0], last[1] = rows, sums[1:]  # the offset copy's rows, a and b (w_s is a)
+            if not mean:
+                return _combine(si, sr, None, None, 1, lam, missing, scalars)
+            return _combine(si, sr, ws, wa, 1, lam, missing, scalars, keep_ws=True)
 
         def shortlist(p: int, candidates: np.ndarray, scale: float, every: bool = False):
             # p's weights. Intensity: -2 G I_p u on I, s_p u on the constant 1. Range: R_p,
@@ -491,8 +493,7 @@ class FillTable:
             if divisor is not None:
                 divide(si, divisor, si)
             if every:  # distances(): every candidate's range term
-                self.rows = ranges.take(candidates, axis=0).astype(float64)
-                return candidates, finish(si)
+                return candidates, finish(si, ranges.take(candidates, axis=0).astype(float64))
             # the bound: the whole Eq. 2 of the candidate k with the smallest intensity
             # term, _combine's operations on Python floats (the same IEEE operations, so
             # the same bits); its range row (float32) stays for offset_shift
@@ -515,12 +516,11 @@ class FillTable:
             keep = less_equal(si, bound)
             kept = candidates.compress(keep)
             if kept.size == 1:  # k alone (D_k <= scale D_k keeps it): its distance is known
-                self.rows = row  # k's row (float32), for offset_shift
-                self._ab_rows = ab_single
+                last[0], last[1] = row, ab_single  # k's row (float32), for offset_shift
                 single_mv[0] = best
                 return kept, single
-            self.rows = ranges.take(kept, axis=0).astype(float64)
-            return kept, finish(si.compress(keep))
+            return kept, finish(si.compress(keep),
+                                ranges.take(kept, axis=0).astype(float64))
 
         return shortlist
 
@@ -567,10 +567,11 @@ class FillTable:
         >>> table.offset_shift(0) == 2 * 2**16 // 8   # R_p - R_q: two steps of the ramp
         True
         """
-        a, b = self._ab_rows[:, j].tolist()  # a u and b u, from Eq. 2's products
+        rows, ab_rows = self._last
+        a, b = ab_rows[:, j].tolist()  # a u and b u, from Eq. 2's products
         if a == 0.0:  # no shared support
             return 0
-        row = self.rows[j]
+        row = rows[j]
         # δ = R_p − R_q on the shared support (V_p V_q = 1; a > 0, so it is not empty)
         delta = np.subtract(self._rp, row[self.r0 : self.v0], self._delta).compress(
             np.multiply(self._vp, row[self.v0 : -1], self._support)).tolist()

@@ -421,6 +421,23 @@ def _update_templates(n: int) -> np.ndarray:
     return t.reshape(10, -1)
 
 
+def _eq10(block: np.ndarray, isophotes: bool) -> np.ndarray:
+    """Eq. 10 on FillFront's state (fields on the last axis); ``isophotes``: Eq. 12's D."""
+    c = block[..., _CONF] / block[..., _COUNT]
+    if not isophotes:
+        return c + block[..., _EDGE]
+    # (g_row, g_col): the pair sums over their counts (a zero count has a zero sum)
+    g_row = block[..., _DROW] / np.maximum(block[..., _VROW], 1.0)
+    g_col = block[..., _DCOL] / np.maximum(block[..., _VCOL], 1.0)
+    m_row, m_col = block[..., _MROW], block[..., _MCOL]
+    # the Sobel sums are integers: the norm is 0 (taken as 1) or at least 1
+    norm = np.sqrt(np.maximum(m_row * m_row + m_col * m_col, 1.0))
+    # Eq. 12 with alpha = 1; the isophote is the gradient turned by 90 degrees
+    flow = g_row * m_col - g_col * m_row
+    d = 1.0 - np.abs(flow) / norm  # <= 1 by construction
+    return c * np.maximum(d, 0.0) + block[..., _EDGE]
+
+
 class FillFront:
     """The fill front with its priorities (Eqs. 10–12), updated incrementally.
 
@@ -579,19 +596,7 @@ class FillFront:
 
     # -- Eq. 10 on a block of the state ---------------------------------------
     def _priority(self, block: np.ndarray) -> np.ndarray:
-        c = block[..., _CONF] / block[..., _COUNT]
-        if not self.use_isophotes:
-            return c + block[..., _EDGE]
-        # (g_row, g_col): the pair sums over their counts (a zero count has a zero sum)
-        g_row = block[..., _DROW] / np.maximum(block[..., _VROW], 1.0)
-        g_col = block[..., _DCOL] / np.maximum(block[..., _VCOL], 1.0)
-        m_row, m_col = block[..., _MROW], block[..., _MCOL]
-        # the Sobel sums are integers: the norm is 0 (taken as 1) or at least 1
-        norm = np.sqrt(np.maximum(m_row * m_row + m_col * m_col, 1.0))
-        # Eq. 12 with alpha = 1; the isophote is the gradient turned by 90 degrees
-        flow = g_row * m_col - g_col * m_row
-        d = 1.0 - np.abs(flow) / norm  # <= 1 by construction
-        return c * np.maximum(d, 0.0) + block[..., _EDGE]
+        return _eq10(block, self.use_isophotes)
 
     def priorities(self) -> np.ndarray:
         """Eq. 10 over the padded frame (NaN off the front), for tests and figures."""
@@ -658,7 +663,7 @@ class FillFront:
          products, left, right, pair, flow, norm, c, edge, _) = self._views
         keys = self._keys
         ones3, one, zero = self._constants  # 1.0, 1.0, 0.0
-        isophotes, priority = self.use_isophotes, self._priority
+        isophotes = self.use_isophotes
 
         def step(p: int, value: float, confidence: float, update: bool = True) -> None:
             c_mv[0] = confidence
@@ -713,7 +718,7 @@ class FillFront:
                 add(flow, edge, flow)  # Eq. 10, its bits read as the keys
                 block_keys, on = keys, greater(neigh, zeros)  # on the front
             else:
-                block_keys = priority(block.transpose(1, 2, 0)).view(np.int64).ravel()
+                block_keys = _eq10(block.transpose(1, 2, 0), False).view(np.int64).ravel()
                 on = (block[_NEIGH] > 0).ravel()
             block_keys += take_tier(pixels)
             slots = take_tie(pixels)
