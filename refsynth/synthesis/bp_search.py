@@ -13,13 +13,17 @@ most of their training patches, so :func:`search_candidates` instead
 
 1. groups the nodes into square tiles (16 pixels, or ``r`` when the search has
    widened), and takes as candidate rows ``U`` only the *measured* pixels
-   within ``r`` of the tile;
+   within ``r`` of some node of the tile;
 2. evaluates the expanded sums of Eq. 2 for every (candidate, node) pair of
    the tile as three matrix products — ``[I]·(−2 G I_p)``,
    ``[V | R | R²]·[G R_p² | −2 G R_p | G V_p]`` and ``[V]·(G V_p)`` — on
-   patch rows built on the fly from the quantised image (no table);
+   patch rows gathered on the fly through sliding-window views of the
+   quantised image's padded planes (no table);
 3. reads each node's disc from those products (a measured offset only) and
-   ranks it as :func:`~refsynth.synthesis.bp.candidates` does.
+   ranks it as :func:`~refsynth.synthesis.bp.candidates` does, on the node's
+   measured offsets alone, packed in their raster order (every other offset
+   is ∞, so cannot come first while ``k`` finite ones remain; a node with
+   fewer is ranked over its whole disc).
 
 The same numbers: under the numeric contract (:mod:`refsynth.numeric`) the
 intensity and range are integers on ``2**-16`` grids and the window is the
@@ -29,8 +33,8 @@ order in which BLAS adds it up; :func:`~refsynth.numeric.combine_eq2` then
 makes the distance from the same four sums by the same IEEE operations. The
 ranking is the stable sort's (ties in the raster order of the disc offsets),
 found with a partition: the ``k`` smallest are those below the ``k``-th
-value and the first of those equal to it, sorted. So the candidates and
-their distances are bit for bit those of
+value and the first of those equal to it, sorted (:func:`stable_smallest`).
+So the candidates and their distances are bit for bit those of
 :func:`~refsynth.synthesis.bp.candidates` (and of the literal reference).
 
 References
@@ -44,6 +48,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import NO_RANGE, combine_eq2, window_weights
 from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
@@ -62,8 +67,9 @@ def stable_smallest(values: np.ndarray, count: int) -> np.ndarray:
 
     The ``count`` smallest of a row in the stable order are those below its
     ``count``-th value and, of those equal to it, the first in index order;
-    sorted stably by value, they are the sort's first ``count``. Rows holding a
-    NaN are sorted outright.
+    sorted stably by value, they are the sort's first ``count`` (the index order
+    is looked at only in the rows with ties at that value). Rows with fewer than
+    ``count`` values that are not NaN are sorted outright.
 
     Parameters
     ----------
@@ -87,20 +93,33 @@ def stable_smallest(values: np.ndarray, count: int) -> np.ndarray:
     if count >= m:
         return np.argsort(values, axis=1, kind="stable")[:, :count]
     kth = np.partition(values, count - 1, axis=1)[:, count - 1 : count]
-    less = values < kth
-    equal = values == kth
-    need = count - less.sum(axis=1)
-    take = less | (equal & (np.cumsum(equal, axis=1) <= need[:, None]))
-    nan_rows = np.isnan(kth[:, 0]) | (take.sum(axis=1) != count)
+    take = values <= kth
+    surplus = take.sum(axis=1) - count  # ties at the count-th value, or a NaN (below 0)
+    if surplus.any():
+        tied = np.flatnonzero(surplus > 0)
+        equal = values[tied] == kth[tied]
+        # of those equal to it, the first in index order
+        need = count - (values[tied] < kth[tied]).sum(axis=1)
+        take[tied] &= ~equal | (np.cumsum(equal, axis=1) <= need[:, None])
+        nan_rows = np.isnan(kth[:, 0]) | (surplus < 0)
+    else:
+        nan_rows = np.zeros(b, dtype=bool)
     out = np.empty((b, count), dtype=np.int64)
     ok = ~nan_rows
-    if ok.any():
-        cols = np.nonzero(take[ok])[1].reshape(-1, count)  # in index order
-        order = np.argsort(np.take_along_axis(values[ok], cols, axis=1), axis=1, kind="stable")
-        out[ok] = np.take_along_axis(cols, order, axis=1)
+    if ok.all():
+        out = _sorted_by_value(values, take, count)
+    elif ok.any():
+        out[ok] = _sorted_by_value(values[ok], take[ok], count)
     if nan_rows.any():
         out[nan_rows] = np.argsort(values[nan_rows], axis=1, kind="stable")[:, :count]
     return out
+
+
+def _sorted_by_value(values, take, count):
+    """The columns ``take`` marks (``count`` a row), in index order, sorted stably by value."""
+    rows = np.arange(take.shape[0])[:, None]
+    cols = np.nonzero(take)[1].reshape(-1, count)  # in index order
+    return cols[rows, np.argsort(values[rows, cols], axis=1, kind="stable")]
 
 
 class _Features:
@@ -108,35 +127,48 @@ class _Features:
 
     The rows are those of :class:`~refsynth.synthesis.similarity.PatchTable`: the
     intensity window (mirror-extended) and the range window's has-range ``V``, range
-    ``R`` (0 where unknown) and ``R²``, all integers held in float64.
+    ``R`` (0 where unknown) and ``R²``, all integers held in float64. They are read
+    through sliding-window views of the padded planes, one gather per pixel set.
+    ``intensity``: another :class:`_Features` of the same ``levels`` and ``n``, whose
+    intensity planes are shared (the observations' rows differ from the training
+    rows only in range).
     """
 
-    def __init__(self, levels: np.ndarray, rq: np.ndarray, n: int) -> None:
+    def __init__(self, levels: np.ndarray, rq: np.ndarray, n: int,
+                 intensity: _Features | None = None) -> None:
         h = n // 2
         self.h = h
+        self.nn = n * n
         self.channels = levels.shape[2]
-        self.g = window_weights(n).ravel().astype(np.float64)
+        self.g = window_weights(n).ravel().astype(np.float64)  # raster order of the window
         self.gi = np.repeat(self.g, self.channels)  # intensity columns: (offset, channel)
-        self.ipad = np.pad(levels.astype(np.float64), ((h, h), (h, h), (0, 0)),
-                           mode="symmetric")
-        rf = np.where(rq != NO_RANGE, rq, 0).astype(np.float64)
-        self.rpad = np.pad(rf, h)
-        self.vpad = np.pad((rq != NO_RANGE).astype(np.float64), h)
         wr, wc = window_offsets(n)
-        self.wr, self.wc = wr + h, wc + h
+        wr, wc = wr + h, wc + h
         H, W = rq.shape
-        # Σ_v G_v Σ_c I² and Σ_v G_v V of every pixel: integer sums, exact in any order
-        self.self_term = np.zeros((H, W))
+        if intensity is None:
+            ipad = np.pad(levels.astype(np.float64), ((h, h), (h, h), (0, 0)),
+                          mode="symmetric")
+            # (H, W, n, n, C): the window of every pixel, row-major, channels last
+            self.iwin = sliding_window_view(ipad, (n, n), axis=(0, 1)).transpose(0, 1, 3, 4, 2)
+            # Σ_v G_v Σ_c I² of every pixel: an integer sum, exact in any order
+            self.self_term = np.zeros((H, W))
+            for g, r, c in zip(self.g, wr, wc, strict=True):
+                self.self_term += g * (ipad[r : r + H, c : c + W] ** 2).sum(axis=2)
+        else:
+            self.iwin, self.self_term = intensity.iwin, intensity.self_term
+        rf = np.where(rq != NO_RANGE, rq, 0).astype(np.float64)
+        # the planes V, R, R² side by side: (H, W, 3, n, n), one row (V | R | R²) per pixel
+        vrr = np.pad(np.stack([(rq != NO_RANGE).astype(np.float64), rf, rf * rf], axis=2),
+                     ((h, h), (h, h), (0, 0)))
+        self.rwin = sliding_window_view(vrr, (n, n), axis=(0, 1))
+        # Σ_v G_v V of every pixel: an integer sum, exact in any order
         self.support = np.zeros((H, W))
-        for g, r, c in zip(self.g, self.wr, self.wc, strict=True):
-            sq = self.ipad[r : r + H, c : c + W] ** 2
-            self.self_term += g * sq.sum(axis=2)
-            self.support += g * self.vpad[r : r + H, c : c + W]
+        for g, r, c in zip(self.g, wr, wc, strict=True):
+            self.support += g * vrr[r : r + H, c : c + W, 0]
 
     def rows(self, r: np.ndarray, c: np.ndarray):
-        """``(I, V, R)`` rows of the pixels ``(r, c)``: (P, nn·C), (P, nn), (P, nn)."""
-        rr, cc = r[:, None] + self.wr, c[:, None] + self.wc
-        return (self.ipad[rr, cc].reshape(r.size, -1), self.vpad[rr, cc], self.rpad[rr, cc])
+        """``(I, [V | R | R²])`` rows of the pixels ``(r, c)``: (P, nn·C) and (P, 3·nn)."""
+        return self.iwin[r, c].reshape(r.size, -1), self.rwin[r, c].reshape(r.size, -1)
 
 
 def search_features(
@@ -173,7 +205,9 @@ def search_features(
     (True, [[True, False], [True, False]])
     """
     features = _Features(levels, rq if training is None else training, n)
-    return features, features if observed is None else _Features(levels, observed, n)
+    if observed is None:
+        return features, features
+    return features, _Features(levels, observed, n, intensity=features)
 
 
 def search_candidates(
@@ -323,21 +357,25 @@ def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, opt
     ur, uc = np.nonzero(known[t0 : top + bh, l0 : left + bw])
     uid = np.full((bh, bw), -1, dtype=np.int64)
     uid[ur + (t0 - top), uc + (l0 - left)] = np.arange(ur.size)
-    ur, uc = ur + t0, uc + l0
     u = uid.ravel()[((rows - top) * bw + (cols - left))[:, None] + (dr * bw + dc)[None, :]]
-    bi, mi = np.nonzero(u >= 0)  # the measured offsets, node by node in raster order
-    d = np.full(u.shape, np.inf)
+    pairs = np.flatnonzero(u >= 0)  # the measured offsets, node by node in raster order
+    bi, mi = np.divmod(pairs, max(dr.size, 1))
+    u_valid = u.ravel()[pairs]
+    # the candidate rows: the measured pixels some node of the tile reaches
+    reached = np.zeros(ur.size, dtype=bool)
+    reached[u_valid] = True
+    ur, uc = ur[reached] + t0, uc[reached] + l0
+    u_valid = (np.cumsum(reached) - 1)[u_valid]
+    values = np.zeros(0)
     if bi.size:
-        values = _distances(features, rows, cols, ur, uc, bi, u[bi, mi], options)
+        values = _distances(features, rows, cols, ur, uc, bi, u_valid, options)
         if options["proximity"]:
             radius = options["radius"]
             prior = (options["proximity"] / (radius * radius)) * (dr * dr + dc * dc).astype(
                 np.float64)
             values = values + prior[mi]
-        d[bi, mi] = values
-    kk = min(k, d.shape[1])
-    best = stable_smallest(d, kk) if kk else np.zeros((rows.size, 0), dtype=np.int64)
-    bd = np.take_along_axis(d, best, axis=1)
+    kk = min(k, dr.size)
+    best, bd = _smallest_measured(values, bi, mi, rows.size, dr.size, kk)
     enough = np.isfinite(bd[:, -1]) if kk == k else np.zeros(bd.shape[0], bool)
     exhausted = int(np.ceil(r)) >= options["frame"] or options["total_known"] <= np.isfinite(
         bd).sum(axis=1)
@@ -353,41 +391,81 @@ def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, opt
     return members[take]
 
 
+def _smallest_measured(values, bi, mi, b, m, count):
+    """:func:`stable_smallest` of the rows ``d`` (B, M) that are ∞ but ``d[bi, mi] = values``.
+
+    Returns ``best = stable_smallest(d, count)`` and ``d``'s values there, ranking each
+    row's measured entries alone: ``(bi, mi)`` run node by node in raster order, so a
+    row's measured entries packed to the left keep their order, and when a row holds at
+    least ``count`` of them, all finite, its ``count`` smallest are among them (every
+    other entry is ∞). Any other row (a short or non-finite one) is ranked in full.
+    """
+    best = np.zeros((b, count), dtype=np.int64)
+    bd = np.full((b, count), np.inf)
+    if count == 0:
+        return best, bd
+    counts = np.bincount(bi, minlength=b)
+    full = counts < count
+    if not np.isfinite(values).all():
+        full[bi[~np.isfinite(values)]] = True
+    if not full.all():
+        # each row's measured entries, packed to the left in their order (∞ after)
+        starts = np.cumsum(counts) - counts
+        width = int(counts.max())
+        packed = np.full(b * width, np.inf)
+        packed[bi * width + (np.arange(bi.size) - np.repeat(starts, counts))] = values
+        packed = packed.reshape(b, width)
+        ok = ~full
+        if full.any():
+            packed, starts = packed[ok], starts[ok]
+        at = starts[:, None] + stable_smallest(packed, count)  # the entries chosen
+        best[ok], bd[ok] = mi[at], values[at]
+    if full.any():
+        # the rows in full: ∞ at every unmeasured offset
+        row = np.cumsum(full) - 1
+        mine = full[bi]
+        d = np.full((int(full.sum()), m), np.inf)
+        d[row[bi[mine]], mi[mine]] = values[mine]
+        chosen = stable_smallest(d, count)
+        best[full] = chosen
+        bd[full] = np.take_along_axis(d, chosen, axis=1)
+    return best, bd
+
+
 def _distances(features, rows, cols, ur, uc, b_index, u_valid, options):
     """Eq. 2 of every (node, candidate) pair: three exact matrix products per block of ``U``."""
+    nn, g = features.nn, features.g
     si_u = features.self_term[ur, uc]
     nodes = options.get("node_features", features)  # the observations' rows
-    bi, bv, brr = nodes.rows(rows, cols)
-    w0 = bi * (-2.0 * features.gi)
-    w1 = np.concatenate([brr * brr * features.g, brr * (-2.0 * features.g),
-                         bv * features.g], axis=1)
-    w2 = bv * features.g
+    ni, nvr = nodes.rows(rows, cols)  # nvr: [V_p | R_p | R_p²]
+    b = rows.size
+    w0 = ni * (-2.0 * features.gi)
+    # against a candidate's [V | R | R²]: [G R_p² | −2 G R_p | G V_p]
+    w1 = (nvr.reshape(b, 3, nn)[:, ::-1] * (g * np.array([[1.0], [-2.0], [1.0]]))).reshape(b, -1)
+    w2 = nvr[:, :nn] * g
     node_self = features.self_term[rows, cols]
     support = nodes.support[rows, cols]
     out = np.empty(u_valid.size)
-    step = max(1, _BLOCK // max(rows.size, w0.shape[1] + 3 * bv.shape[1]))
+    step = max(1, _BLOCK // max(b, w0.shape[1] + w1.shape[1]))
     for start in range(0, ur.size, step):
         stop = min(start + step, ur.size)
-        ui, uv, urr = features.rows(ur[start:stop], uc[start:stop])
-        uvr = np.concatenate([uv, urr, urr * urr], axis=1)
-        t0 = np.empty((stop - start, rows.size))
-        t1 = np.empty_like(t0)
-        t2 = np.empty_like(t0)
+        ui, uvr = features.rows(ur[start:stop], uc[start:stop])
+        t = np.empty((3, stop - start, b))
         # products small enough for BLAS to run them on one thread (OpenBLAS splits
         # m·n·k above 4·65536 over threads, which on a busy machine is far slower)
-        cols_step = max(1, _ONE_THREAD // ((stop - start) * w0.shape[1]))
-        for j in range(0, rows.size, cols_step):
-            sl = slice(j, j + cols_step)
-            t0[:, sl] = ui @ w0[sl].T
-            t1[:, sl] = uvr @ w1[sl].T
-            t2[:, sl] = uv @ w2[sl].T
+        for term, left, right in ((0, ui, w0), (1, uvr, w1), (2, uvr[:, :nn], w2)):
+            cols_step = max(1, _ONE_THREAD // ((stop - start) * right.shape[1]))
+            for j in range(0, b, cols_step):
+                sl = slice(j, j + cols_step)
+                np.matmul(left, right[sl].T, out=t[term, :, sl])
         if start == 0 and stop == ur.size:
             uu, bb, sel = u_valid, b_index, slice(None)
         else:
             sel = (u_valid >= start) & (u_valid < stop)
             uu, bb = u_valid[sel] - start, b_index[sel]
-        si = t0[uu, bb] + (si_u[uu + start] + node_self[bb])
-        out[sel] = combine_eq2(si, t1[uu, bb], t2[uu, bb], support[bb], options["divisor"],
+        t0, t1, t2 = np.take(t.reshape(3, -1), uu * b + bb, axis=1)
+        si = t0 + (si_u[uu + start] + node_self[bb])
+        out[sel] = combine_eq2(si, t1, t2, support[bb], options["divisor"],
                                options["range_weight"], options["missing_range"])
     return out
 
