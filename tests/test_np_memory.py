@@ -80,9 +80,9 @@ def test_np_memory_bounds_the_traced_peak_with_either_rows(wide, monkeypatch):
 def test_np_frees_its_table_and_front_by_reference_counting(monkeypatch):
     """NP's table (most of its memory) and its fill front are freed when the fill returns,
     with the garbage collector off: no reference cycle holds them. BP's default runs NP
-    first, and a cycle through a step closure (0.9.1's first closures held their table)
-    kept the table alive through BP's own stage: BP's peak at 900×750 rose from 820 MB
-    to 1335 MB."""
+    first, and a cycle through a step closure (a first draft of 0.9.1's closures held
+    their table) kept the table alive through BP's own stage: BP's peak at 900×750 rose
+    from 820 MB to 1335 MB."""
     import gc
     import importlib
     import weakref
