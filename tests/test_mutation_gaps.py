@@ -65,7 +65,7 @@ def test_every_pop_is_the_order_of_eq10_clipped_with_ties(seed, n):
     from the running sums by :meth:`FillFront.priorities`) and smallest tie rank, and after
     every fill the queue must hold each voxel's key (:func:`encode_keys` of that priority,
     in its tier) bit for bit: the re-prioritised keys of ``fill_step`` equal those of
-    ``_priority``."""
+    ``_eq10``."""
     from refsynth.synthesis.frontqueue import ABSENT
     from refsynth.synthesis.priority import FillFront
 

@@ -545,22 +545,6 @@ class FillFront:
         assert np.count_nonzero(templates) == np.count_nonzero(centre)
         self.templates = centre.reshape(10, -1).copy()
         side = 2 * k + 1
-        self.scratch = [np.empty((_FIELDS, side, side)), np.empty((7, side, side)), np.ones(
-            (7, side, side)), np.empty((4, side, side)), np.empty((2, side, side))]  # field-major
-        # the views the re-prioritising step reads and writes, made once (a view costs about
-        # a µs)
-        fields, quotient, divisors, products, pair = self.scratch
-        self._views = (fields, fields[_COUNT : _VCOL + 1], divisors[:3],
-                       fields[_CONF : _NMROW + 1], divisors, quotient, quotient[1:5],
-                       quotient[3:7], products, products[0::2], products[1::2], pair, pair[0],
-                       pair[1], quotient[0], fields[_EDGE], pair[0].view(np.int64))
-        # the constants of Eq. 10-12 as arrays of the block's shape: a ufunc takes a Python
-        # scalar by a slower path (about 0.3 µs a call); the same float64 values, the same bits
-        self._constants = (np.ones((3, side, side)), np.ones((side, side)),
-                           np.zeros((side, side)))
-        self._absent = np.full(side * side, ABSENT, dtype=np.int64)
-        self.change = np.empty(self.templates.shape[1])  # a fill's change to the block
-        self.change_block = self.change.reshape(side, side, _FIELDS)
         tiered = use_edges and edges_last
         self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
         self.tie = np.ascontiguousarray(rng.permutation(self.inside.size).reshape(self.shape))
@@ -576,31 +560,21 @@ class FillFront:
         # strided view (element p - offset: the block centred on p), and the single values
         # through memoryviews (Python floats and bools, the same values as numpy's scalars)
         self._offset, self._state_blocks = block_views(state, side)
-        # the blocks and a fill's change field-major, (fields, side, side), as the step reads
-        # them
+        # the blocks field-major, (fields, side, side), as the step reads them
         self._field_blocks = self._state_blocks.transpose(0, 3, 1, 2)
-        self._change_fields = self.change_block.transpose(2, 0, 1)
-        self._neigh = self._views[0][_NEIGH].reshape(-1)  # the block's _NEIGH, field-major
-        self._zeros = np.zeros(side * side)
         self._filled_mv, self._open_mv, self._range_mv, self._confidence_mv = (
             memoryview(flat_view(a)) for a in (self.filled, self.open, self.range_norm,
                                             self.confidence))
         self._state_mv = memoryview(flat_view(state).reshape(-1))
-        self._keys = self._views[-1].reshape(-1)  # the block's priorities, as int64
         flat = np.flatnonzero(front)
-        p = self._priority(self.flat_state[flat])  # Eq. 10 on the front only (elementwise)
+        p = _eq10(self.flat_state[flat], use_isophotes)  # Eq. 10 on the front only
         self.queue.set(flat, p.view(np.int64) + self.tier_offset.ravel()[flat])
-        #: :meth:`fill` as ``fill_step(p, value, confidence, update=True)``, which NP's loop
-        #: calls
+        #: :meth:`fill` as ``fill_step(p, value, confidence, update=True)`` (NP's loop calls it)
         self.fill_step = self._stepper()
-
-    # -- Eq. 10 on a block of the state ---------------------------------------
-    def _priority(self, block: np.ndarray) -> np.ndarray:
-        return _eq10(block, self.use_isophotes)
 
     def priorities(self) -> np.ndarray:
         """Eq. 10 over the padded frame (NaN off the front), for tests and figures."""
-        p = self._priority(self.state)
+        p = _eq10(self.state, self.use_isophotes)
         front = self.inside & ~self.filled & (self.state[..., _NEIGH] > 0)
         return np.where(front, p, np.nan)
 
@@ -636,54 +610,47 @@ class FillFront:
         A step runs about thirty numpy calls on a few dozen numbers, so the Python around
         them counts: the closure reads its operands from local names, where methods would
         look each one up on ``self`` at every step. Re-prioritising the block is
-        :meth:`_priority` (Eqs. 10–12) on it, field-major, in buffers: the same operations.
+        :func:`_eq10` (Eqs. 10–12) on it, field-major, in buffers: the same operations.
         """
         width, side = self.shape[1], 2 * self.reach + 1
         filled, r = self._filled_mv, self._range_mv  # flat, by memoryview
         is_open, confidences = self._open_mv, self._confidence_mv
-        # the coefficients of the templates' rows (a fill's change): the confidence, the
-        # four pairs' difference and count, the mask (always 1)
-        coef = np.zeros(10)
-        coef[9] = 1.0
+        # the templates' coefficients: confidence, 4 pairs' difference and count, mask (1)
+        coef = np.array([0.0] * 9 + [1.0])
         c_mv = memoryview(coef)
-        templates, change, change_fields = self.templates, self.change, self._change_fields
-        offset, field_blocks = self._offset, self._field_blocks
+        offset, field_blocks, templates = self._offset, self._field_blocks, self.templates
+        change = np.empty(templates.shape[1])  # a fill's change to the block
+        change_fields = change.reshape(side, side, _FIELDS).transpose(2, 0, 1)  # field-major
         add, maximum, divide, multiply = np.add, np.maximum, np.divide, np.multiply
         subtract, sqrt, absolute, greater, where = (np.subtract, np.sqrt, np.abs, np.greater,
                                                     np.where)
-        # the flat offsets of the block (raster order) from its top-left pixel: the queue
-        # scatters through contiguous 1-d indices (much cheaper than 2-d strided ones)
+        # the block's flat offsets from its top-left pixel (1-d indices: cheap to scatter)
         block_offsets = (np.arange(side)[:, None] * width + np.arange(side)[None, :]).ravel()
         at_array = np.zeros((), dtype=np.int64)  # the block's top-left pixel, as a 0-d array
         take_tier, take_tie = flat_view(self.tier_offset).take, flat_view(self.tie).take
         shift = np.array(self.queue.shift)  # a slot's block: slot >> shift
-        right_shift, neigh, zeros, absent = np.right_shift, self._neigh, self._zeros, self._absent
-        set_in_blocks = self.queue.set_in_blocks
-        (fields, counts, count_divisors, numerators, divisors, quotient, gradient, normal,
-         products, left, right, pair, flow, norm, c, edge, _) = self._views
-        keys = self._keys
-        ones3, one, zero = self._constants  # 1.0, 1.0, 0.0
-        isophotes = self.use_isophotes
+        right_shift, set_in_blocks = np.right_shift, self.queue.set_in_blocks
+        # Eq. 10's buffers on the block, field-major, and their views (about a µs each)
+        fields, products = np.empty((_FIELDS, side, side)), np.empty((4, side, side))
+        quotient, divisors, pair = (np.empty((7, side, side)), np.ones((7, side, side)),
+                                    np.empty((2, side, side)))
+        counts, count_divisors = fields[_COUNT : _VCOL + 1], divisors[:3]
+        numerators, gradient, normal = fields[_CONF : _NMROW + 1], quotient[1:5], quotient[3:7]
+        left, right, flow, norm = products[0::2], products[1::2], pair[0], pair[1]
+        c, edge, neigh = quotient[0], fields[_EDGE], fields[_NEIGH].reshape(-1)
+        keys = pair[0].view(np.int64).reshape(-1)  # the block's priorities, as int64
+        # the constants as arrays: a ufunc takes a Python scalar by a slower path (0.3 µs)
+        ones3, one, zero = np.ones((3, side, side)), np.ones((side, side)), np.zeros((side, side))
+        zeros, absent = np.zeros(side * side), np.full(side * side, ABSENT, dtype=np.int64)
+        isophotes = self.use_isophotes  # else Eq. 10 by _eq10, D = 1
 
         def step(p: int, value: float, confidence: float, update: bool = True) -> None:
             c_mv[0] = confidence
             # the pairs (i, j-1)-(i, j), (i, j)-(i, j+1), (i-1, j)-(i, j), (i, j)-(i+1, j)
-            if filled[p - 1]:
-                c_mv[1], c_mv[2] = value - r[p - 1], 1.0
-            else:
-                c_mv[1] = c_mv[2] = 0.0
-            if filled[p + 1]:
-                c_mv[3], c_mv[4] = r[p + 1] - value, 1.0
-            else:
-                c_mv[3] = c_mv[4] = 0.0
-            if filled[p - width]:
-                c_mv[5], c_mv[6] = value - r[p - width], 1.0
-            else:
-                c_mv[5] = c_mv[6] = 0.0
-            if filled[p + width]:
-                c_mv[7], c_mv[8] = r[p + width] - value, 1.0
-            else:
-                c_mv[7] = c_mv[8] = 0.0
+            c_mv[1], c_mv[2] = (value - r[p - 1], 1.0) if filled[p - 1] else (0.0, 0.0)
+            c_mv[3], c_mv[4] = (r[p + 1] - value, 1.0) if filled[p + 1] else (0.0, 0.0)
+            c_mv[5], c_mv[6] = (value - r[p - width], 1.0) if filled[p - width] else (0.0, 0.0)
+            c_mv[7], c_mv[8] = (r[p + width] - value, 1.0) if filled[p + width] else (0.0, 0.0)
             filled[p] = True
             is_open[p] = False
             r[p] = value
