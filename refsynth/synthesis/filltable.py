@@ -468,10 +468,8 @@ class FillTable:
         calls on small arrays, so the closure reads its operands from local names (methods
         would look each one up on ``self``). It writes ``p``'s weights, picks the bound's
         candidate (the smallest lower bound, or intensity term), forms its whole distance,
-        then that of the candidates the bound keeps; it leaves the rows
-        :meth:`offset_shift` reads in ``self._last``. It refers to the table's arrays,
-        never to the table.
-        """
+        then that of the candidates the bound keeps; it leaves the rows :meth:`offset_shift`
+        reads in ``self._last``. It refers to the table's arrays, never to the table."""
         intensity, ranges = self.intensity, self.ranges
         own_intensity = intensity[:, : self.base]  # p's I, by one integer index
         coef_i, w_i, w_si = self.coef_i, self._w_i, self.w_si
@@ -492,10 +490,10 @@ class FillTable:
         # window_bound's expanded bound: p's weights [-2 w S(p) | 1], Q_p, the margin
         lower_rows, bound_lower, divisor_value = self.bound_rows, np.zeros(()), self.divisor
         if lower_rows is not None:
-            m = lower_rows.shape[1] - 1
-            lower_weights = np.ones(m + 1)
+            m, m1 = lower_rows.shape[1] - 1, lower_rows.shape[1]
+            lower_weights = np.ones(m1)
             lower_head, minus_2w = lower_weights[:m], -2.0 * self.bound_weights
-            q_mv = memoryview(lower_rows.reshape(-1))  # Q_x at x (m + 1) + m
+            q_mv = memoryview(lower_rows.reshape(-1))  # Q_x at x m1 + m
             lower_margin, bound_slack = margin(lower_rows), 1.0 + SLACK
 
         def finish(si: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -555,20 +553,21 @@ class FillTable:
                 best = t + sr
             bound[()] = scale * best
             if lower_rows is not None:  # the intensity terms of the candidates the bounds keep
-                bound_lower[()] = (bound_slack * float(bound[()]) + lower_margin
-                                   - q_mv[p * (m + 1) + m])
+                bound_lower[()] = bound_slack * float(bound[()]) + lower_margin - q_mv[p * m1 + m]
                 candidates = candidates.compress(less_equal(lower, bound_lower))
-                si = _matvec(intensity.take(candidates, axis=0), w_si)
-                if divisor is not None:
-                    divide(si, divisor, si)
-            keep = less_equal(si, bound)
-            kept = candidates.compress(keep)
-            if kept.size == 1:  # k alone (D_k <= scale D_k keeps it): its distance is known
-                last[0], last[1] = row, ab_single  # k's row (float32), for offset_shift
+                if candidates.size > 1:  # (alone, it is q: kept below, t known)
+                    si = _matvec(intensity.take(candidates, axis=0), w_si)
+                    if divisor is not None:
+                        divide(si, divisor, si)
+            if candidates.size > 1:
+                keep = less_equal(si, bound)
+                candidates = candidates.compress(keep)
+            if candidates.size == 1:  # q alone (D_q <= scale D_q keeps it): its D is known
+                last[0], last[1] = row, ab_single  # q's row (float32), for offset_shift
                 single_mv[0] = best
-                return kept, single
-            return kept, finish(si.compress(keep),
-                                ranges.take(kept, axis=0).astype(float64))
+                return candidates, single
+            return candidates, finish(si.compress(keep),
+                                      ranges.take(candidates, axis=0).astype(float64))
 
         return shortlist
 
