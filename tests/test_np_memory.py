@@ -39,7 +39,8 @@ def test_np_memory_bounds_the_traced_peak(shape, channels, neighbourhood, radius
 @pytest.mark.parametrize("side", [200, 1600])  # float64 intensity rows, float32
 def test_np_memory_grows_with_the_frame_and_the_window(side):
     small = np_memory((side, side), 3, 5, 10.0)
-    assert np_memory((2 * side, 2 * side), 3, 5, 10.0) > 3.5 * small  # past the fixed part
+    # the padded frame grows 3.6 times (200 -> 400) or 3.9 (1600 -> 3200), past a fixed part
+    assert np_memory((2 * side, 2 * side), 3, 5, 10.0) > 3.4 * small
     assert np_memory((side, side), 3, 7, 10.0) > small
     assert np_memory((side, side), 1, 5, 10.0) < small
     assert np_memory((side, side), 3, 5, 20.0) > small  # a wider padding

@@ -17,6 +17,7 @@ from refsynth.synthesis.window_bound import (
     expanded_lower_bounds,
     lower_bounds,
     margin,
+    part_sums,
     part_sums_matrix,
     pinwheel_parts,
 )
@@ -43,6 +44,15 @@ def test_part_sums_are_the_weighted_sums_of_each_part_and_channel(n, channels, s
                 for p in range(PARTS) for c in range(channels)]
     got = levels.reshape(-1).astype(np.float64) @ part_sums_matrix(n, channels)
     assert got.tolist() == [float(v) for v in expected]  # exact
+
+
+@given(st.sampled_from([1, 3, 5, 7]), st.sampled_from([1, 3]), st.integers(0, 2**32 - 1))
+def test_part_sums_by_reduceat_are_the_matrix_product(n, channels, seed):
+    """FillTable builds the sums by part_sums (on its thread): exactly the product with
+    part_sums_matrix, in every part and channel."""
+    levels = np.random.default_rng(seed).integers(0, 2**16 + 1, (7, n * n * channels))
+    levels = levels.astype(np.float64)
+    assert np.array_equal(part_sums(levels, n, channels), levels @ part_sums_matrix(n, channels))
 
 
 def _exact_intensity_term(a, b, n):

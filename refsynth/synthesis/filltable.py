@@ -96,7 +96,7 @@ from refsynth.synthesis.window_bound import (
     bound_rows,
     bound_weights,
     margin,
-    part_sums_matrix,
+    part_sums,
 )
 
 __all__ = ["FillTable", "WIDE_TABLE_BYTES", "intensity_dtype"]
@@ -243,7 +243,6 @@ class FillTable:
         self.bound_weights = bound_weights(n, C, self.divisor)
         if self.intensity.dtype == np.float64:
             self.bound_rows = np.zeros((pixels, PARTS * C + 1))
-            to_sums = part_sums_matrix(n, C)
             bound_frame = self.bound_rows.reshape(self.shape + (PARTS * C + 1,))
         g = window_weights(n).ravel().astype(np.float64)
         g_int = np.repeat(g, C)  # intensity columns are (offset, channel) raveled
@@ -265,8 +264,7 @@ class FillTable:
             out[:, :, s0:one] = _split(s, 3, self.intensity.dtype)
             if self.bound_rows is not None:  # the sums exact: integers below 2**53
                 bound_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = bound_rows(
-                    ints.reshape(-1, base) @ to_sums, self.bound_weights).reshape(-1, W,
-                                                                             PARTS * C + 1)
+                    part_sums(ints, n, C), self.bound_weights).reshape(-1, W, PARTS * C + 1)
             out = frame_r[pad + rows.start : pad + rows.stop, pad : pad + W]
             r = rp[rows].reshape(-1, W, nn)
             has = np.isfinite(r)

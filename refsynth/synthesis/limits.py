@@ -384,7 +384,7 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     --------
     >>> from refsynth._checks import format_bytes
     >>> [format_bytes(np_memory(shape, 3, 5, 10.0)) for shape in ((12, 12), (375, 450))]
-    ['1.2 MiB', '213.4 MiB']
+    ['1.3 MiB', '213.4 MiB']
     """
     n2 = neighbourhood * neighbourhood
     rows = _padded_rows(shape, neighbourhood, radius)
@@ -396,8 +396,11 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     inputs = pixels * (_FLOAT * (channels + 1) + 1)  # synthesize's copies
     # the quantised levels and range, image-sized; each block of the table's rows (about
     # 4096 pixels, filltable._CHUNK_PIXELS) as float64 patches and their squares, or the
-    # patches beside the range's two columns and their temporaries
+    # patches beside the range's two columns and their temporaries; with the bound's rows,
+    # one more copy of the patches
     block = min(pixels, 4096) * _FLOAT * (2 * n2 * channels + 3 * n2)
+    if item == _FLOAT:  # and window_bound's part sums: the patches reordered, then weighted
+        block += min(pixels, 4096) * _FLOAT * n2 * channels
     build = 3 * _FLOAT * pixels * channels + 2 * _FLOAT * pixels + block
     # the front, four frames of its temporaries while it is built, the copied range; order, draws
     fill = rows * (_NP_FRONT_BYTES + 5 * _FLOAT) + pixels * (2 * _FLOAT + 1)
