@@ -35,7 +35,7 @@ BP_MEMORY_LIMIT = 4 * 2**30
 
 _FLOAT = 8
 _BLOCKS = 96 * 2**20  # the bounded blocks of the search, Ψ and the sends
-_PSI_CACHE = 1 << 26  # Ψ's rows kept between sweeps (messages._PSI_CACHE), when E k² fills it
+_PSI_CACHE = 1 << 27  # Ψ's rows kept between sweeps (messages._PSI_CACHE), when E k² fills it
 #: Float64 per node that BP holds beyond the arrays counted below, found by calibration
 #: (tracemalloc's peak and the resident peak, the Motorcycle at x-stripes 78 %, 225×188 to
 #: 2048×2048): 0.7's 2048×2048 run held 235 MiB more than the count and the cache, 9 float64
