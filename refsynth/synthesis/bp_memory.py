@@ -80,11 +80,12 @@ def bp_memory_estimate(
 
     Examples
     --------
-    2048×2048 with 80 % unknown fits in 4 GiB (about 3.0 GiB; the run's resident peak
-    is 2955 MiB, 2.9 GiB, above the process before it):
+    2048×2048 with 80 % unknown fits in 4 GiB (about 3.1 GiB with Ψ's 128 MiB cache, 3.0
+    until 0.9.1's 64 MiB; the run's resident peak is 2955 MiB, 2.9 GiB, above the process
+    before it, in 0.9.1 and in 0.9.2):
 
     >>> round(bp_memory_estimate((2048, 2048), 3_356_000, n_pairs=6_418_000) / 2**30, 1)
-    3.0
+    3.1
     """
     H, W = (int(v) for v in shape)
     n = int(n_unknown)
