@@ -15,6 +15,10 @@ Run::
 
     git worktree add /tmp/refsynth-base <commit>      # the version to compare against
     python benchmarks/compare_trees.py /tmp/refsynth-base . --size 450x375 --rounds 3
+    python benchmarks/compare_trees.py /tmp/refsynth-base . --method bp-colorization
+
+(``--method``: ``np``, ``bp`` (BP's default, NP's fill first) or ``bp-colorization``, BP
+on the colorization fill's observations.)
 
 The README's alternating runs (0.8.1–0.8.3, *Speed and memory*) are this comparison.
 Needs scikit-image (the Motorcycle).
@@ -42,6 +46,8 @@ import numpy as np
 import refsynth
 case = np.load(sys.argv[1])
 options = {"method": sys.argv[2], "seed": 0}
+if sys.argv[2] == "bp-colorization":  # BP on the colorization fill's observations
+    options = {"method": "bp", "observation": "colorization"}
 start = time.process_time()
 result = refsynth.synthesize(case["image"], case["partial"], **options)
 seconds = time.process_time() - start
@@ -110,7 +116,7 @@ def main(argv=None) -> int:
     parser.add_argument("b", type=_tree, help="the second source tree (e.g. this checkout)")
     parser.add_argument("--size", type=_size, default=(450, 375), help="WIDTHxHEIGHT")
     parser.add_argument("--rounds", type=int, default=3, help="A B B A rounds (default 3)")
-    parser.add_argument("--method", choices=("np", "bp"), default="np")
+    parser.add_argument("--method", choices=("np", "bp", "bp-colorization"), default="np")
     try:
         args = parser.parse_args(argv)
     except SystemExit as stop:
