@@ -254,6 +254,15 @@ def bound_rows(sums: np.ndarray, weights: np.ndarray) -> np.ndarray:
 def margin(rows: np.ndarray) -> float:
     """``SLACK max Q``: the absolute part of the margin (:data:`SLACK`) for these rows.
 
+    Parameters
+    ----------
+    rows : ndarray of shape (N, 5 C + 1)
+        :func:`bound_rows`.
+
+    Returns
+    -------
+    float
+
     Examples
     --------
     >>> margin(np.array([[2.0, 3.0, 8.5], [1.0, 1.0, 1.5]])) == 8.5 * SLACK
