@@ -58,7 +58,7 @@ in Eq. 5's set): on the Motorcycle about 12 of 190 candidates, the same decision
 distances bit for bit. Since 0.9.2, beside float64 intensity rows, it gathers the intensity
 rows only of the candidates that a lower bound on their intensity term, from five weighted
 sums of each window (:mod:`refsynth.synthesis.window_bound`: 16 numbers a row for a colour
-image, against 79), does not already rule out by the same test: about one in eight. At 43 %
+image, against 79), does not already rule out by the same test: about one in nine. At 43 %
 of the steps (the Motorcycle at 450×375) only the candidate that set the bound is left: its
 distance, computed for the bound, is returned as it is, and NP takes it without Eq. 5's draw
 (a set of one). The cost is a few numpy calls: the products use ``numpy.matvec`` where numpy

@@ -16,9 +16,9 @@ window over ``P``. By Cauchy–Schwarz on each part and channel,
           \qquad G_P = \sum_{v \in P} G_v .
 
 A candidate with ``L_q`` above the bound on Eq. 2 is ruled out without gathering its
-intensity row (``n² C + 4`` numbers). On the Motorcycle at 225×188 (x-stripes 78 %) about
-one candidate in eight survives the five parts, against two in five for the window's plain
-weighted mean (one part).
+intensity row (``n² C + 4`` numbers). On the Motorcycle (x-stripes 78 %) about one
+candidate in nine survives the five parts: 21.6 of 184 a step at 225×188, 21.0 of 188 at
+450×375, the median 7 (``python benchmarks/bench_speed.py --np-steps``).
 
 Per step the bound costs one gather of short rows and one product: each pixel's row holds
 its sums and ``Q_x = Σ_j w_j S_j(x)²`` (``j`` runs over the ``5 C`` sums, ``w_j = u / G_P``
