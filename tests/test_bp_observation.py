@@ -357,6 +357,79 @@ def test_gap_radius_is_the_search_at_each_nodes_own_radius(seed):
         np.testing.assert_array_equal(dist[i], want[1][0])
 
 
+def _per_depth_search(levels, rq, rows, cols, radius, pad, n, proximity, **opts):
+    """The gap-radius search as 0.9.2 ran it: search_candidates once per depth."""
+    import math
+
+    from refsynth.synthesis.bp_gap_radius import gap_depth
+    from refsynth.synthesis.limits import search_radius
+
+    depth = gap_depth(rq, rows, cols)
+    labels = np.zeros((rows.size, opts["k"]), dtype=np.int64)
+    dist = np.zeros((rows.size, opts["k"]))
+    for extra in np.unique(depth):
+        mine = np.flatnonzero(depth == extra)
+        run, mu = search_radius("bp", radius + float(extra), proximity, rq.shape)
+        labels[mine], dist[mine] = search_candidates(
+            levels, rq, rows[mine], cols[mine], n=n, radius=run, proximity=mu,
+            pad=max(pad, math.ceil(run), n // 2 + 1), **opts)
+    return labels, dist
+
+
+@settings(deadline=None, max_examples=25)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([1.0, 1.5, 3.0]),
+       st.sampled_from([0.0, 0.7, 1e300]), st.sampled_from([1, 2, 6, 40]),
+       st.sampled_from(["stripes", "random", "corner"]), st.booleans())
+def test_gap_radius_in_one_pass_is_the_search_of_each_depth(seed, radius, proximity, k,
+                                                             sampling, observe):
+    """Every node's candidates and distances: those of search_candidates at its own depth's
+    radius and prior, bit for bit, whether its disc holds k candidates (one pass) or must
+    widen (its depth's search); beyond the image (k = 40, μ = 1e300) too."""
+    from refsynth.synthesis.bp_gap_radius import gap_radius_candidates
+
+    rng = np.random.default_rng(seed)
+    H, W = rng.integers(3, 12), rng.integers(3, 16)
+    image = np.round(rng.random((H, W, 3)) * 4) / 4  # few levels: ties in Eq. 2
+    if sampling == "stripes":
+        known = (np.arange(W) % 5 == 0) & np.ones((H, 1), bool)
+    elif sampling == "random":
+        known = rng.random((H, W)) < 0.3
+    else:
+        known = np.zeros((H, W), bool)
+        known[0, 0] = True
+    known[0, 0] = True
+    partial = np.where(known, np.round(rng.random((H, W)) * 8) / 8 + 1.0, np.nan)
+    rq, _, _ = quantise_range(partial)
+    levels = quantise_intensity(image)
+    rows, cols = np.nonzero(~known)
+    opts = dict(n=3, k=k, range_weight=1.0, missing_range="mean", channels="sum")
+    if observe:
+        observed = np.where(known, rq, rng.integers(0, 2**16, (H, W)))
+        opts["observed"] = observed
+    got = gap_radius_candidates(levels, rq, rows, cols, radius=radius, pad=2,
+                                proximity=proximity, **opts)
+    want = _per_depth_search(levels, rq, rows, cols, radius, 2, proximity=proximity, **opts)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1].view(np.int64), want[1].view(np.int64))
+
+
+def test_the_one_pass_leaves_short_discs_to_the_widening_search():
+    """search_at_radii stores a node only when its own disc holds k finite candidates."""
+    from refsynth.synthesis.bp_search import search_at_radii, search_features
+
+    rq = np.full((1, 9), -1)
+    rq[0, [0, 8]] = [0, 65536]
+    levels = np.zeros((1, 9, 1), dtype=np.int64)
+    cols = np.arange(1, 8)
+    radii = np.full(7, 6.5)  # from col c, the ends are c and 8 - c away
+    labels, dist, done = search_at_radii(
+        levels, rq, np.zeros(7, int), cols, radii, np.zeros(7), k=2, range_weight=1.0,
+        missing_range="mean", features=search_features(levels, rq, 1))
+    assert done.tolist() == [False, True, True, True, True, True, False]
+    assert all(sorted(row) == [0, 8] for row in labels[done].tolist())
+    assert np.isfinite(dist[done]).all()
+
+
 def test_bp_fill_training_radius():
     rng = np.random.default_rng(6)
     image = rng.random((10, 16, 3))

@@ -15,11 +15,15 @@ with the completed observations (``training_radius="gap"``,
 so that every node searches the same ``r`` beyond the edge of its gap. A node
 beside a measured pixel (``d_i = 1``) searches ``r + 1``. The rest of step 2 —
 the ranking by Eq. 2, the doubling when fewer than ``k`` are found — is
-unchanged; :func:`gap_radius_candidates` runs
+unchanged; :func:`gap_radius_candidates` ranks every node at its own radius
+in one pass (:func:`~refsynth.synthesis.bp_search.search_at_radii`, tiles
+holding nodes of every depth), then runs
 :func:`~refsynth.synthesis.bp_search.search_candidates` once per value of
-``⌊d_i⌋`` on those nodes, from patch rows built once
+``⌊d_i⌋`` on the nodes whose disc held fewer than ``k`` candidates (which
+that search widens), all from patch rows built once
 (:func:`~refsynth.synthesis.bp_search.search_features`), so each node's
-candidates are exactly those of the search at its own radius. The distances are those of
+candidates are exactly those of the search at its own radius (until 0.9.2
+every node ran its depth's search, for the same bits). The distances are those of
 :func:`scipy.ndimage.distance_transform_edt` (square roots of integers,
 correctly rounded): exact, so the grouping is portable. A disc beyond the
 image runs at the image's reach with the prior's coefficient
@@ -70,7 +74,7 @@ import numpy as np
 from scipy import ndimage
 
 from refsynth.numeric import NO_RANGE
-from refsynth.synthesis.bp_search import search_candidates, search_features
+from refsynth.synthesis.bp_search import search_at_radii, search_candidates, search_features
 from refsynth.synthesis.limits import search_radius
 
 __all__ = ["TRAINING_RADII", "gap_depth", "gap_radius_candidates"]
@@ -150,22 +154,28 @@ def gap_radius_candidates(levels, rq, rows, cols, *, radius: float, pad: int, n:
     [0, 4]
     """
     rows, cols = np.asarray(rows), np.asarray(cols)
-    k = options["k"]
-    labels = np.zeros((rows.size, k), dtype=np.int64)
-    distances = np.zeros((rows.size, k))
     depth = gap_depth(rq, rows, cols)
     proximity = options.pop("proximity")
     # the patch rows once for every depth (each build is a pass over the whole image)
     options["features"] = search_features(levels, rq, n, observed=options.pop("observed", None),
                                           training=options.pop("training", None))
-    ranked = 0
-    for extra in np.unique(depth):
-        mine = np.flatnonzero(depth == extra)  # raster order kept
-        wide = float(radius) + float(extra)
-        # a disc beyond the image runs at the cut radius with the same prior, bit for bit
-        run, mu = search_radius("bp", wide, proximity, rq.shape)
+    # a disc beyond the image runs at the cut radius with the same prior, bit for bit
+    depths, which = np.unique(depth, return_inverse=True)
+    runs = np.array([search_radius("bp", float(radius) + float(extra), proximity, rq.shape)
+                     for extra in depths], dtype=np.float64).reshape(-1, 2)
+    # every node at its own radius in one pass; those whose disc lacks k candidates
+    # then run the search of their own depth, which widens it
+    labels, distances, done = search_at_radii(
+        levels, rq, rows, cols, runs[which, 0], runs[which, 1], k=options["k"],
+        range_weight=options["range_weight"], missing_range=options["missing_range"],
+        features=options["features"], channels=options.get("channels", "sum"),
+        progress=progress)
+    ranked = int(done.sum())
+    for at in np.unique(which[~done]):
+        mine = np.flatnonzero((which == at) & ~done)  # raster order kept
+        run, mu = float(runs[at, 0]), float(runs[at, 1])
         report = None if progress is None else (
-            lambda done, _, before=ranked: progress(before + done, rows.size))
+            lambda count, _, before=ranked: progress(before + count, rows.size))
         labels[mine], distances[mine] = search_candidates(
             levels, rq, rows[mine], cols[mine], n=n, radius=run, proximity=mu,
             pad=max(pad, math.ceil(run), n // 2 + 1), progress=report, **options)

@@ -54,11 +54,13 @@ from refsynth.numeric import NO_RANGE, combine_eq2, window_weights
 from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
 from refsynth.synthesis.similarity import PatchTable
 
-__all__ = ["search_candidates", "search_features", "candidates", "stable_smallest"]
+__all__ = ["search_candidates", "search_at_radii", "search_features", "candidates",
+           "stable_smallest"]
 
 _CHUNK_FLOATS = 1 << 24  # about 128 MB of float64 per block of the literal search
 _BLOCK = 1 << 21  # entries of a (candidate rows × nodes) or (nodes × offsets) block
 _TILE = 16  # the side of a tile of nodes in the first search
+_RADII_TILE = 12  # the same in search_at_radii, whose discs are wider
 _ONE_THREAD = 4 * 65536  # m·n·k of the largest matrix product run on one thread
 
 
@@ -151,9 +153,10 @@ class _Features:
             # (H, W, n, n, C): the window of every pixel, row-major, channels last
             self.iwin = sliding_window_view(ipad, (n, n), axis=(0, 1)).transpose(0, 1, 3, 4, 2)
             # Σ_v G_v Σ_c I² of every pixel: an integer sum, exact in any order
+            square = (ipad * ipad).sum(axis=2)  # Σ_c I² of every padded pixel, once
             self.self_term = np.zeros((H, W))
             for g, r, c in zip(self.g, wr, wc, strict=True):
-                self.self_term += g * (ipad[r : r + H, c : c + W] ** 2).sum(axis=2)
+                self.self_term += g * square[r : r + H, c : c + W]
         else:
             self.iwin, self.self_term = intensity.iwin, intensity.self_term
         rf = np.where(rq != NO_RANGE, rq, 0).astype(np.float64)
@@ -344,8 +347,116 @@ def search_candidates(
     return labels, dist
 
 
-def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, options):
-    """Eq. 2 over the disc of the nodes ``members`` (one tile); rank; store the complete."""
+def search_at_radii(
+    levels: np.ndarray,
+    rq: np.ndarray,
+    node_rows: np.ndarray,
+    node_cols: np.ndarray,
+    radii: np.ndarray,
+    proximities: np.ndarray,
+    *,
+    k: int,
+    range_weight: float,
+    missing_range: str,
+    features: tuple[_Features, _Features],
+    channels: str = "sum",
+    progress: Callable[[int, int], None] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The first pass of :func:`search_candidates` with a radius of each node's own, at once.
+
+    Node ``i`` is ranked on the measured offsets of ``disc_offsets(radii[i])``
+    with the prior ``proximities[i] (|p − q| / radii[i])²``, in tiles that hold
+    nodes of every radius (one block per tile and not one per radius: the
+    candidate rows of a tile are gathered once). Its candidates are those of
+    ``search_candidates`` at that radius and μ whenever its disc holds ``k``
+    measured pixels with finite distances — that search's first pass then
+    stores it, from the same measured offsets in the same order, the distances
+    of the same exact sums — and only those nodes are returned as ``done``;
+    the others (which that search would widen) are the caller's.
+
+    Parameters
+    ----------
+    levels, rq, node_rows, node_cols, k, range_weight, missing_range, channels
+        As :func:`search_candidates` takes them.
+    radii : ndarray of float, shape (N,)
+        Each node's search radius ``r`` (its disc stops at the image's diagonal, as
+        in :func:`search_candidates`; its prior keeps ``r``).
+    proximities : ndarray of float, shape (N,)
+        Each node's μ.
+    features : pair
+        :func:`search_features` of the image.
+    progress : callable, optional
+        ``progress(done, total)``: the nodes stored so far, of ``N``, after each tile.
+
+    Returns
+    -------
+    labels, distances : ndarray of shape (N, k)
+        As :func:`search_candidates` returns them, where ``done``.
+    done : ndarray of bool, shape (N,)
+
+    Examples
+    --------
+    Two nodes of a row measured at both ends, with radii 1 and 3: the first
+    finds one measured pixel (not done), the second both.
+
+    >>> rq = np.array([[0, -1, -1, -1, 65536]])
+    >>> levels = np.zeros((1, 5, 1), dtype=np.int64)
+    >>> labels, _, done = search_at_radii(
+    ...     levels, rq, np.array([0, 0]), np.array([1, 2]), np.array([1.0, 3.0]),
+    ...     np.zeros(2), k=2, range_weight=1.0, missing_range="mean",
+    ...     features=search_features(levels, rq, 1))
+    >>> done.tolist(), sorted(labels[1].tolist())
+    ([False, True], [0, 4])
+    """
+    H, W = rq.shape
+    features, node_features = features
+    known = rq != NO_RANGE
+    n_nodes = node_rows.size
+    labels = np.zeros((n_nodes, k), dtype=np.int64)
+    dist = np.full((n_nodes, k), np.inf)
+    radii = np.asarray(radii, dtype=np.float64)
+    proximities = np.asarray(proximities, dtype=np.float64)
+    # as in search_candidates: the disc stops at the image's diagonal, the prior does not
+    reach = np.minimum(radii, float(np.hypot(H, W)))
+    own = (reach * reach, proximities / (radii * radii), proximities != 0)
+    options = dict(k=k, range_weight=range_weight, missing_range=missing_range,
+                   divisor=levels.shape[2] if channels == "mean" else 1,
+                   node_features=node_features)
+    tile = max(_RADII_TILE, int(reach.min(initial=0)))
+    key = (node_rows // tile) * (W // tile + 1) + node_cols // tile
+    grouped = np.argsort(key, kind="stable")
+    bounds = np.flatnonzero(np.diff(key[grouped])) + 1
+    discs = {}
+    found = []
+    stored = 0
+    for members in np.split(grouped, bounds) if n_nodes else ():
+        widest = float(reach[members].max())
+        if widest not in discs:
+            discs[widest] = disc_offsets(widest)
+        dr, dc = discs[widest]
+        step = max(1, _BLOCK // max(dr.size, 1))
+        for start in range(0, members.size, step):
+            part = members[start : start + step]
+            found.append(_rank_block(features, known, node_rows[part], node_cols[part], part,
+                                     (dr, dc), widest, labels, dist, options,
+                                     own=tuple(x[part] for x in own)))
+            stored += found[-1].size
+        if progress is not None:
+            progress(stored, n_nodes)
+    done = np.zeros(n_nodes, dtype=bool)
+    if found:
+        done[np.concatenate(found)] = True
+    return labels, dist, done
+
+
+def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, options,
+                own=None):
+    """Eq. 2 over the disc of the nodes ``members`` (one tile); rank; store the complete.
+
+    ``own``: ``(r², μ / r², μ ≠ 0)`` of each node's own radius (:func:`search_at_radii`),
+    the disc ``disc`` holding all of theirs; a node is then stored only when its own
+    disc holds ``k`` finite candidates.
+    """
     H, W = known.shape
     dr, dc = disc
     k = options["k"]
@@ -358,7 +469,11 @@ def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, opt
     uid = np.full((bh, bw), -1, dtype=np.int64)
     uid[ur + (t0 - top), uc + (l0 - left)] = np.arange(ur.size)
     u = uid.ravel()[((rows - top) * bw + (cols - left))[:, None] + (dr * bw + dc)[None, :]]
-    pairs = np.flatnonzero(u >= 0)  # the measured offsets, node by node in raster order
+    square = dr * dr + dc * dc
+    measured = u >= 0
+    if own is not None:  # each node's own disc: disc_offsets' test, ‖v‖² ≤ r²
+        measured &= square[None, :] <= own[0][:, None]
+    pairs = np.flatnonzero(measured)  # the measured offsets, node by node in raster order
     bi, mi = np.divmod(pairs, max(dr.size, 1))
     u_valid = u.ravel()[pairs]
     # the candidate rows: the measured pixels some node of the tile reaches
@@ -369,17 +484,24 @@ def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, opt
     values = np.zeros(0)
     if bi.size:
         values = _distances(features, rows, cols, ur, uc, bi, u_valid, options)
-        if options["proximity"]:
+        if own is not None:
+            with_prior = own[2][bi]  # a μ of 0 adds no prior, as above
+            if with_prior.any():
+                values = np.where(with_prior, values + own[1][bi] * square.astype(
+                    np.float64)[mi], values)
+        elif options["proximity"]:
             radius = options["radius"]
-            prior = (options["proximity"] / (radius * radius)) * (dr * dr + dc * dc).astype(
-                np.float64)
+            prior = (options["proximity"] / (radius * radius)) * square.astype(np.float64)
             values = values + prior[mi]
     kk = min(k, dr.size)
     best, bd = _smallest_measured(values, bi, mi, rows.size, dr.size, kk)
     enough = np.isfinite(bd[:, -1]) if kk == k else np.zeros(bd.shape[0], bool)
-    exhausted = int(np.ceil(r)) >= options["frame"] or options["total_known"] <= np.isfinite(
-        bd).sum(axis=1)
-    take = enough | exhausted
+    if own is not None:
+        take = enough
+    else:
+        exhausted = int(np.ceil(r)) >= options["frame"] or options[
+            "total_known"] <= np.isfinite(bd).sum(axis=1)
+        take = enough | exhausted
     qr, qc = rows[:, None] + dr[best], cols[:, None] + dc[best]
     inside = (qr >= 0) & (qr < H) & (qc >= 0) & (qc < W)
     cand = np.where(inside, qr * W + qc, 0)[take]
