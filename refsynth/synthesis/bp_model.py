@@ -366,10 +366,11 @@ class Compatibilities:
         lifted = values + (self.shifts[nodes] + SHIFT_LIFT)[:, :, None]
         return np.where(values >= 0, lifted, -1.0)
 
-    def __call__(self, edges: np.ndarray) -> np.ndarray:
-        """``log Ψ`` of the pairs ``edges`` (indices into ``pairs``), (m, k, k)."""
+    def __call__(self, edges: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """``log Ψ`` of the pairs ``edges`` (indices into ``pairs``), (m, k, k), in ``out``."""
         edges = np.asarray(edges)
-        out = np.empty((edges.size, self.k, self.k))
+        if out is None:
+            out = np.empty((edges.size, self.k, self.k))
         for start in range(0, edges.size, _PSI_BLOCK):
             self._block(edges[start : start + _PSI_BLOCK], out[start : start + _PSI_BLOCK])
         return out
