@@ -121,22 +121,50 @@ def planes(draw):
     return plane, n, labels, w, pairs, n_h
 
 
+def _literal_mean_square(pi, pj, direction, centres):
+    """Eq. 6's mean square, label pair by label pair, over the pixels both patches have
+    (−1: none) where the two overlap, plus (``centres``) the two centres, on the grid."""
+    n = pi.shape[-1]
+    out = np.zeros((pi.shape[0], pj.shape[0]))
+    for a, left in enumerate(pi):
+        for b, right in enumerate(pj):
+            x, y = (left[:, 1:], right[:, :-1]) if direction == "h" else (left[1:], right[:-1])
+            pairs = [(u, v) for u, v in zip(x.ravel(), y.ravel()) if u >= 0 and v >= 0]
+            if centres and left[n // 2, n // 2] >= 0 and right[n // 2, n // 2] >= 0:
+                pairs.append((left[n // 2, n // 2], right[n // 2, n // 2]))
+            if pairs:
+                total = sum(int(u - v) ** 2 for u, v in pairs)  # exact integers
+                out[a, b] = total * 2.0**-32 / len(pairs)
+    return out
+
+
 @settings(max_examples=60, deadline=None)
-@given(planes(), st.sampled_from([1, 2, 7, 512]))
-def test_compatibilities_are_eq6_of_the_candidate_patches(case, block):
-    """Ψ from the plane's shared pixels equals Eq. 6 of the whole patches, in any blocks."""
+@given(planes(), st.sampled_from([1, 2, 7, 512]), st.booleans(), st.booleans())
+def test_compatibilities_are_eq6_of_the_candidate_patches(case, block, moved, centres):
+    """Ψ from the plane's shared pixels equals Eq. 6 of the whole patches, in any blocks;
+    with the offset copy's shifts, of the patches moved by them; with the centres too."""
     import refsynth.synthesis.bp_model as bp_model
 
     plane, n, labels, width, pairs, n_h = case
     patches = sliding_window_view(plane, (n, n))
     rows, cols = np.divmod(labels, width)
+    shifts = None
+    if moved:  # each label's patch moved by its shift (any value the span allows)
+        shifts = np.random.default_rng(labels.size).integers(-2**16, 2**16 + 1, labels.shape)
     want = np.empty((pairs.shape[0], labels.shape[1], labels.shape[1]))
     for e, (i, j) in enumerate(pairs):
         direction = "h" if e < n_h else "v"
-        ms = pair_compatibilities(patches[rows[i], cols[i]][None],
-                                  patches[rows[j], cols[j]][None], direction, quantised=True)
-        want[e] = psi(ms, 0.2)[0]
-    compat = Compatibilities(plane, n, labels, width, pairs, n_h, 0.2)
+        pi, pj = patches[rows[i], cols[i]][None], patches[rows[j], cols[j]][None]
+        if moved:  # lifted by 2**18, as Compatibilities does: a difference, unchanged
+            pi = np.where(pi >= 0, pi + shifts[i][None, :, None, None] + 2**18, -1.0)
+            pj = np.where(pj >= 0, pj + shifts[j][None, :, None, None] + 2**18, -1.0)
+        if centres:
+            ms = _literal_mean_square(pi[0], pj[0], direction, centres=True)
+        else:
+            ms = pair_compatibilities(pi, pj, direction, quantised=True)[0]
+        want[e] = psi(ms, 0.2)
+    compat = Compatibilities(plane, n, labels, width, pairs, n_h, 0.2, centres=centres,
+                             shifts=shifts)
     saved = bp_model._PSI_BLOCK
     bp_model._PSI_BLOCK = block
     try:

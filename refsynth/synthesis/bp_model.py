@@ -120,6 +120,13 @@ def _overlap_mean_square(a: np.ndarray, b: np.ndarray, quantised: bool = False,
         # rint of the finite values only (rint of NaN is slow); 0 where missing
         a0 = np.rint(np.where(va, a, 0.0) * 2.0**RANGE_BITS)
         b0 = np.rint(np.where(vb, b, 0.0) * 2.0**RANGE_BITS)
+    return _overlap_sums(a0, va, b0, vb, centres)
+
+
+def _overlap_sums(a0: np.ndarray, va: np.ndarray, b0: np.ndarray, vb: np.ndarray,
+                  centres: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """:func:`_overlap_mean_square` of rows on the grid, 0 where missing (``a0``, ``b0``),
+    with their masks of present entries (``va``, ``vb``, bool)."""
     va = va.astype(np.float64)
     vb = vb.astype(np.float64)
     bt = np.swapaxes(b0, 1, 2)
@@ -355,16 +362,19 @@ class Compatibilities:
         self._views()
 
     def _of(self, nodes, offsets):
-        """The shared pixels of the candidates' patches of ``nodes``: (m, k, n(n − 1))."""
-        rows, cols = np.divmod(self.labels[nodes], self.width)
-        corner = rows * self.plane.shape[1] + cols
-        values = self._flat[corner[:, :, None] + offsets]
+        """The shared pixels of the candidates' patches of ``nodes``, (m, k, n(n − 1)):
+        their values on the grid, 0 where missing, and where they are present."""
+        labels = self.labels[nodes]
+        # a label's patch corner in the plane: row · (W + n − 1) + col
+        corner = labels + (labels // self.width) * (self.plane.shape[1] - self.width)
+        values = np.take(self._flat, corner[:, :, None] + offsets)
+        present = values >= 0
         if self.shifts is None:
-            return values
+            return np.maximum(values, 0.0), present
         # the offset copy's labels: each patch moved by its shift, all lifted by SHIFT_LIFT
         # so that a moved value stays >= 0 (Eq. 6 compares differences: the lift cancels)
         lifted = values + (self.shifts[nodes] + SHIFT_LIFT)[:, :, None]
-        return np.where(values >= 0, lifted, -1.0)
+        return np.where(present, lifted, 0.0), present
 
     def __call__(self, edges: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """``log Ψ`` of the pairs ``edges`` (indices into ``pairs``), (m, k, k), in ``out``."""
@@ -387,10 +397,9 @@ class Compatibilities:
                 pair = None
                 if self.centres:  # the departure: the centres as one more shared pixel
                     middle = np.array([(self.n // 2) * (self.plane.shape[1] + 1)])
-                    pair = (self._of(self.pairs[block[s], 0], middle)[:, :, 0],
-                            self._of(self.pairs[block[s], 1], middle)[:, :, 0])
-                out[s] = psi(_overlap_mean_square(pj, pk, quantised=True, centres=pair),
-                             sigma_s)
+                    pair = tuple(np.where(present, value, -1.0)[:, :, 0] for value, present in (
+                        self._of(self.pairs[block[s], end], middle) for end in (0, 1)))
+                out[s] = psi(_overlap_sums(*pj, *pk, centres=pair), sigma_s)
 
     def all(self) -> np.ndarray:
         """The whole table, (E, k, k)."""
