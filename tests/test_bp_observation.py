@@ -413,6 +413,24 @@ def test_gap_radius_in_one_pass_is_the_search_of_each_depth(seed, radius, proxim
     np.testing.assert_array_equal(got[1].view(np.int64), want[1].view(np.int64))
 
 
+def test_gap_radius_beyond_the_image_keeps_each_depths_prior_in_one_pass():
+    """Discs r + d past the image's diagonal: cut to it, the prior still μ (|v| / (r + d))²."""
+    from refsynth.synthesis.bp_gap_radius import gap_radius_candidates
+
+    rng = np.random.default_rng(3)
+    levels = quantise_intensity(rng.random((5, 6, 1)))
+    partial = np.full((5, 6), np.nan)
+    partial[:, 0] = rng.random(5) + 1.0  # the first column measured: depths 1 to 5
+    rq, _, _ = quantise_range(partial)
+    rows, cols = np.nonzero(np.isnan(partial))
+    opts = dict(n=3, k=3, range_weight=1.0, missing_range="mean", channels="sum")
+    got = gap_radius_candidates(levels, rq, rows, cols, radius=10.0, pad=2, proximity=0.7,
+                                **opts)
+    want = _per_depth_search(levels, rq, rows, cols, 10.0, 2, proximity=0.7, **opts)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1].view(np.int64), want[1].view(np.int64))
+
+
 def test_the_one_pass_leaves_short_discs_to_the_widening_search():
     """search_at_radii stores a node only when its own disc holds k finite candidates."""
     from refsynth.synthesis.bp_search import search_at_radii, search_features
