@@ -418,7 +418,10 @@ def search_at_radii(
     proximities = np.asarray(proximities, dtype=np.float64)
     # as in search_candidates: the disc stops at the image's diagonal, the prior does not
     reach = np.minimum(radii, float(np.hypot(H, W)))
-    own = (reach * reach, proximities / (radii * radii), proximities != 0)
+    # r² as disc_offsets forms it (a Python float's ** 2), for each radius there is
+    values, which = np.unique(reach, return_inverse=True)
+    squared = np.array([float(x) ** 2 for x in values.tolist()])[which]
+    own = (squared, proximities / (radii * radii), proximities != 0)
     options = dict(k=k, range_weight=range_weight, missing_range=missing_range,
                    divisor=levels.shape[2] if channels == "mean" else 1,
                    node_features=node_features)
