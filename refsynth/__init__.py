@@ -8,4 +8,4 @@ doi:10.1007/s11263-007-0108-2.
 from refsynth.synthesis import SynthesisResult, synthesize
 
 __all__ = ["SynthesisResult", "synthesize", "__version__"]
-__version__ = "0.9.2"
+__version__ = "0.9.3"

@@ -88,9 +88,9 @@ __all__ = [
 #: 900×750 since 0.7's cascade; 0.6's Gauss–Seidel alone took about a quarter).
 OBSERVATION_SHARE = 0.10
 #: The same with ``observation="np"``, NP's fill first: NP's wall time over BP-on-NP's, 0.55
-#: at 450×375 and 0.59 at 900×750 in 0.8's run, 0.59 and 0.60 in 0.9's (``python
-#: benchmarks/bench_speed.py --sizes 450x375,900x750 --methods np,bp``).
-NP_OBSERVATION_SHARE = 0.55
+#: at 450×375 and 0.59 at 900×750 in 0.8's run, 0.59 and 0.60 in 0.9's, 0.67 and 0.69 in
+#: 0.9.3's (``python benchmarks/bench_speed.py``; 0.55 until 0.9.2).
+NP_OBSERVATION_SHARE = 0.67
 
 @dataclass(frozen=True)
 class SynthesisResult:
