@@ -267,7 +267,7 @@ class _PsiRows:
                 self.whole = True
                 self.filled = np.zeros(n_edges, dtype=bool)
                 self.buffer = np.empty((n_edges, k, k))
-                self.into = "out" in inspect.signature(self.function).parameters
+                self.into = _takes_out(self.function)
                 return
             self.slot = np.full(n_edges, -1, dtype=np.int64)  # an edge's row in the buffer
             self.owner = np.full(capacity, -1, dtype=np.int64)  # a row's edge (−1: free)
@@ -344,6 +344,14 @@ class _PsiRows:
             if free.size and free[-1] - free[0] == free.size - 1:  # a run of free rows
                 free = slice(int(free[0]), int(free[-1]) + 1)
             self.buffer[free] = rows if pick.size == edges.size else rows[pick]
+
+
+def _takes_out(function) -> bool:
+    """Whether ``function`` takes an ``out`` keyword (False when its signature is unknown)."""
+    try:
+        return "out" in inspect.signature(function).parameters
+    except (TypeError, ValueError):  # e.g. a builtin without a signature
+        return False
 
 
 def _sweep_block(messages, belief, log_psi, a, b, e, rows, idx, sends, marks, *, product,
