@@ -47,6 +47,7 @@ WINDOW_BOUND = "refsynth/synthesis/window_bound.py"
 FRONTQUEUE = "refsynth/synthesis/frontqueue.py"
 ONION = "refsynth/synthesis/onion.py"
 BP_SEARCH = "refsynth/synthesis/bp_search.py"
+BP_RANKING = "refsynth/synthesis/bp_ranking.py"
 BP_MODEL = "refsynth/synthesis/bp_model.py"
 MESSAGES = "refsynth/synthesis/messages.py"
 COMPLETION = "refsynth/synthesis/completion.py"
@@ -332,7 +333,7 @@ MUTATIONS = [
     Mutation("bp-silent-receivers", "bp", MESSAGES, "sends &= ~np.asarray(silent, dtype=bool)[src]",
              "sends &= ~np.asarray(silent, dtype=bool)[dst]",
              "the edge rule silences receivers instead of senders"),
-    Mutation("bp-unstable-rank", "bp", BP_SEARCH,
+    Mutation("bp-unstable-rank", "bp", BP_RANKING,
              "at = starts[:, None] + stable_smallest(packed, count)",
              "at = starts[:, None] + np.argsort(packed, axis=1)[:, :count]",
              "ties ranked by an unstable sort"),

@@ -51,6 +51,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import NO_RANGE, combine_eq2, window_weights
+from refsynth.synthesis.bp_ranking import smallest_measured, stable_smallest
 from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
 from refsynth.synthesis.similarity import PatchTable
 
@@ -63,65 +64,6 @@ _TILE = 16  # the side of a tile of nodes in the first search
 _RADII_TILE = 12  # the same in search_at_radii, whose discs are wider
 _ONE_THREAD = 4 * 65536  # m·n·k of the largest matrix product run on one thread
 
-
-def stable_smallest(values: np.ndarray, count: int) -> np.ndarray:
-    """``np.argsort(values, axis=1, kind="stable")[:, :count]``, by a partition.
-
-    The ``count`` smallest of a row in the stable order are those below its
-    ``count``-th value and, of those equal to it, the first in index order;
-    sorted stably by value, they are the sort's first ``count`` (the index order
-    is looked at only in the rows with ties at that value). Rows with fewer than
-    ``count`` values that are not NaN are sorted outright.
-
-    Parameters
-    ----------
-    values : ndarray of float, shape (B, M)
-    count : int
-        ``1 ≤ count ≤ M``.
-
-    Returns
-    -------
-    ndarray of int64, shape (B, count)
-
-    Examples
-    --------
-    >>> stable_smallest(np.array([[3.0, 1.0, 2.0, 1.0, np.inf]]), 3).tolist()
-    [[1, 3, 2]]
-    """
-    values = np.asarray(values)
-    b, m = values.shape
-    if b == 0:
-        return np.zeros((0, count), dtype=np.int64)
-    if count >= m:
-        return np.argsort(values, axis=1, kind="stable")[:, :count]
-    kth = np.partition(values, count - 1, axis=1)[:, count - 1 : count]
-    take = values <= kth
-    surplus = take.sum(axis=1) - count  # ties at the count-th value, or a NaN (below 0)
-    if surplus.any():
-        tied = np.flatnonzero(surplus > 0)
-        equal = values[tied] == kth[tied]
-        # of those equal to it, the first in index order
-        need = count - (values[tied] < kth[tied]).sum(axis=1)
-        take[tied] &= ~equal | (np.cumsum(equal, axis=1) <= need[:, None])
-        nan_rows = np.isnan(kth[:, 0]) | (surplus < 0)
-    else:
-        nan_rows = np.zeros(b, dtype=bool)
-    out = np.empty((b, count), dtype=np.int64)
-    ok = ~nan_rows
-    if ok.all():
-        out = _sorted_by_value(values, take, count)
-    elif ok.any():
-        out[ok] = _sorted_by_value(values[ok], take[ok], count)
-    if nan_rows.any():
-        out[nan_rows] = np.argsort(values[nan_rows], axis=1, kind="stable")[:, :count]
-    return out
-
-
-def _sorted_by_value(values, take, count):
-    """The columns ``take`` marks (``count`` a row), in index order, sorted stably by value."""
-    rows = np.arange(take.shape[0])[:, None]
-    cols = np.nonzero(take)[1].reshape(-1, count)  # in index order
-    return cols[rows, np.argsort(values[rows, cols], axis=1, kind="stable")]
 
 
 class _Features:
@@ -497,7 +439,7 @@ def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, opt
             prior = (options["proximity"] / (radius * radius)) * square.astype(np.float64)
             values = values + prior[mi]
     kk = min(k, dr.size)
-    best, bd = _smallest_measured(values, bi, mi, rows.size, dr.size, kk)
+    best, bd = smallest_measured(values, bi, mi, rows.size, dr.size, kk)
     enough = np.isfinite(bd[:, -1]) if kk == k else np.zeros(bd.shape[0], bool)
     if own is not None:
         take = enough
@@ -515,46 +457,6 @@ def _rank_block(features, known, rows, cols, members, disc, r, labels, dist, opt
     dist[members[take]] = cd
     return members[take]
 
-
-def _smallest_measured(values, bi, mi, b, m, count):
-    """:func:`stable_smallest` of the rows ``d`` (B, M) that are ∞ but ``d[bi, mi] = values``.
-
-    Returns ``best = stable_smallest(d, count)`` and ``d``'s values there, ranking each
-    row's measured entries alone: ``(bi, mi)`` run node by node in raster order, so a
-    row's measured entries packed to the left keep their order, and when a row holds at
-    least ``count`` of them, all finite, its ``count`` smallest are among them (every
-    other entry is ∞). Any other row (a short or non-finite one) is ranked in full.
-    """
-    best = np.zeros((b, count), dtype=np.int64)
-    bd = np.full((b, count), np.inf)
-    if count == 0:
-        return best, bd
-    counts = np.bincount(bi, minlength=b)
-    full = counts < count
-    if not np.isfinite(values).all():
-        full[bi[~np.isfinite(values)]] = True
-    if not full.all():
-        # each row's measured entries, packed to the left in their order (∞ after)
-        starts = np.cumsum(counts) - counts
-        width = int(counts.max())
-        packed = np.full(b * width, np.inf)
-        packed[bi * width + (np.arange(bi.size) - np.repeat(starts, counts))] = values
-        packed = packed.reshape(b, width)
-        ok = ~full
-        if full.any():
-            packed, starts = packed[ok], starts[ok]
-        at = starts[:, None] + stable_smallest(packed, count)  # the entries chosen
-        best[ok], bd[ok] = mi[at], values[at]
-    if full.any():
-        # the rows in full: ∞ at every unmeasured offset
-        row = np.cumsum(full) - 1
-        mine = full[bi]
-        d = np.full((int(full.sum()), m), np.inf)
-        d[row[bi[mine]], mi[mine]] = values[mine]
-        chosen = stable_smallest(d, count)
-        best[full] = chosen
-        bd[full] = np.take_along_axis(d, chosen, axis=1)
-    return best, bd
 
 
 def _distances(features, rows, cols, ur, uc, b_index, u_valid, options):
