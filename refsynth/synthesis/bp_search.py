@@ -33,9 +33,16 @@ order in which BLAS adds it up; :func:`~refsynth.numeric.combine_eq2` then
 makes the distance from the same four sums by the same IEEE operations. The
 ranking is the stable sort's (ties in the raster order of the disc offsets),
 found with a partition: the ``k`` smallest are those below the ``k``-th
-value and the first of those equal to it, sorted (:func:`stable_smallest`).
-So the candidates and their distances are bit for bit those of
-:func:`~refsynth.synthesis.bp.candidates` (and of the literal reference).
+value and the first of those equal to it, sorted
+(:mod:`refsynth.synthesis.bp_ranking`). So the candidates and their
+distances are bit for bit those of :func:`~refsynth.synthesis.bp.candidates`
+(and of the literal reference).
+
+:func:`search_at_radii` is the first pass of :func:`search_candidates` for
+nodes that each have a radius of their own (the gap radius,
+:mod:`refsynth.synthesis.bp_gap_radius`): one pass over tiles of 12 holding
+every radius, each node's disc cut from the tile's widest by the test of
+:func:`~refsynth.synthesis.neighbourhood.disc_offsets`, the same steps 1–3.
 
 References
 ----------
