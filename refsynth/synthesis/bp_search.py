@@ -374,7 +374,8 @@ def search_at_radii(
     options = dict(k=k, range_weight=range_weight, missing_range=missing_range,
                    divisor=levels.shape[2] if channels == "mean" else 1,
                    node_features=node_features)
-    tile = max(_RADII_TILE, int(reach.min(initial=0)))
+    # as in search_candidates, a tile no smaller than the discs (here the smallest)
+    tile = max(_RADII_TILE, int(reach.min()) if n_nodes else 0)
     key = (node_rows // tile) * (W // tile + 1) + node_cols // tile
     grouped = np.argsort(key, kind="stable")
     bounds = np.flatnonzero(np.diff(key[grouped])) + 1
