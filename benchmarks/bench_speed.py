@@ -36,6 +36,7 @@ Run::
     python benchmarks/bench_speed.py --sizes 450x375,900x750 --no-rss \
         --methods np,bp,bp-colorization,colorization    # BP on NP's fill and on colorization
     python benchmarks/bench_speed.py --bp-stages       # BP's stages, CPU time (~3 min)
+    python benchmarks/bench_speed.py --bp-stages --observation np   # BP's default's (~5 min)
     python benchmarks/bench_speed.py --np-steps        # NP's shortlist per step (~3 min)
     python benchmarks/bench_speed.py --fill-solvers    # BP's observations' fill (~3 min)
     python benchmarks/bench_speed.py --fill-solvers --room   # the same on the room's grids
@@ -74,6 +75,11 @@ UNKNOWN = 0.78  # x-stripes, as bench_np.py / bench_bp.py
 #: The fills ``--memory`` measures, beside their estimates.
 MEMORY_METHODS = ("np", "bp", "bp-colorization")
 LINEAR_TOLERANCE = 0.25  # issue #15 item 4: µs per unknown pixel within ±25 %
+#: Issue #15 item 2: BP within 6× the colorization fill at 450×375 and 5× at 900×750
+#: (``--bp-stages``' budget; 6× at any other size).
+BP_TARGETS = {(450, 375): 6.0, (900, 750): 5.0}
+#: The observations ``--bp-stages`` can time BP on (``--observation``).
+BP_STAGE_OBSERVATIONS = ("colorization", "np")
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -96,6 +102,12 @@ def _case(size: tuple[int, int]):
     known = x_stripes_for_fraction(scene.range.shape, UNKNOWN) & scene.has_truth
     partial = np.where(known, scene.range, np.nan)
     return scene.intensity, partial, 100.0 * unknown_fraction(known)
+
+
+def _bp_target(size: tuple[int, int]) -> float:
+    """Issue #15's bound on BP's time at ``size``, in colorization fills (6× where it names
+    none)."""
+    return BP_TARGETS.get(tuple(size), 6.0)
 
 
 def _fill(method: str):
@@ -274,35 +286,51 @@ def run(sizes, methods, repeat: int = 1, rss: bool = True, out=sys.stdout) -> di
     return results
 
 
-def bp_stages(sizes, out=sys.stdout) -> dict:
-    """CPU time of each of BP's stages (0.4–0.8's defaults: the observations completed by the
-    colorization fill), read from its progress reports.
+def bp_stages(sizes, out=sys.stdout, observation: str = "colorization") -> dict:
+    """CPU time of each of BP's stages, read from its progress reports, beside the
+    colorization fill's time and what the issue's 6× leaves.
 
-    BP reports per mille of its work, each stage within its share
-    (:data:`refsynth.synthesis.api.OBSERVATION_SHARE`, :data:`refsynth.synthesis.bp.BP_STAGES`);
-    a stage ends at the first report at or past the end of its share (the first stage's
-    time includes what comes before the fill: the checks, the quantisation and Canny).
-    Beside each stage's CPU time: µs per unknown pixel, its measured share of the whole and
-    the share assumed, and the sweeps of the colorization fill on the same input
-    (``portable_colorization``, the observations' solver, on the unquantised input: its
-    count, not its bits).
+    ``observation``: ``"colorization"`` (0.4–0.8's defaults: the observations completed by
+    the colorization fill) or ``"np"`` (BP's default since 0.9: NP's fill first). BP reports
+    per mille of its work, each stage within its share (the observations' fill's,
+    :data:`refsynth.synthesis.api.OBSERVATION_SHARE` or ``NP_OBSERVATION_SHARE``, then
+    :data:`refsynth.synthesis.bp.BP_STAGES`); a stage ends at the first report at or past the
+    end of its share (the first stage's time includes what comes before the fill: the
+    checks, the quantisation and Canny). Beside each stage's CPU time: µs per unknown pixel,
+    its measured share of the whole and the share assumed; with ``"colorization"``, the
+    sweeps of the colorization fill on the same input (``portable_colorization``, the
+    observations' solver, on the unquantised input: its count, not its bits).
+
+    Then, per size, the baseline :func:`refsynth.evaluation.baselines.colorization_fill`
+    timed in the same process (CPU, best of two) and the budget of issue #15's
+    BP target (:data:`BP_TARGETS`): what BP's own stages (all but the observations' fill) take
+    of it, and so how long the observations' fill may take for the whole to stay within it.
 
     Returns
     -------
     dict
-        ``{(width, height): {"unknown": int, "sweeps": int, "stages": {name: CPU s}}}``.
+        ``{(width, height): {"unknown": int, "sweeps": int | None, "stages": {name: CPU s},
+        "colorization": CPU s}}``.
     """
     import refsynth
-    from refsynth.synthesis.api import OBSERVATION_SHARE
+    from refsynth.evaluation.baselines import colorization_fill
+    from refsynth.synthesis.api import NP_OBSERVATION_SHARE, OBSERVATION_SHARE
     from refsynth.synthesis.bp import BP_STAGES
     from refsynth.synthesis.completion import portable_colorization
 
-    names = ["observations' fill"] + [name for name, _ in BP_STAGES]
+    if observation not in BP_STAGE_OBSERVATIONS:
+        raise ValueError(f"The parameter `observation` must be one of "
+                         f"{BP_STAGE_OBSERVATIONS}, got {observation!r}")
+    first, first_share = {"colorization": ("observations' fill", OBSERVATION_SHARE),
+                          "np": ("NP's fill (the observations)", NP_OBSERVATION_SHARE)}[
+        observation]
+    names = [first] + [name for name, _ in BP_STAGES]
     rest = sum(share for _, share in BP_STAGES)
-    shares = [OBSERVATION_SHARE] + [(1 - OBSERVATION_SHARE) * share / rest
-                                    for _, share in BP_STAGES]
+    shares = [first_share] + [(1 - first_share) * share / rest for _, share in BP_STAGES]
     ends = np.cumsum(shares) * 1000
-    print("BP's stages (0.4's defaults) in CPU time, from its progress reports; "
+    which = ("0.4's defaults" if observation == "colorization"
+             else "BP's default: NP's fill, then BP")
+    print(f"BP's stages ({which}) in CPU time, from its progress reports; "
           "Motorcycle, x-stripes 78 % unknown\n", file=out)
     print("| size | stage | CPU s | µs per unknown pixel | share measured | share assumed |",
           file=out)
@@ -311,23 +339,48 @@ def bp_stages(sizes, out=sys.stdout) -> dict:
     for size in sizes:
         image, partial, _ = _case(size)
         unknown = int(np.isnan(partial).sum())
-        _, sweeps = portable_colorization(image, partial, return_sweeps=True)
+        sweeps = None
+        if observation == "colorization":
+            _, sweeps = portable_colorization(image, partial, return_sweeps=True)
+            sweeps = int(sweeps)
         seen = []
         start = time.process_time()
-        refsynth.synthesize(image, partial, method="bp", observation="colorization",
+        refsynth.synthesize(image, partial, method="bp", observation=observation, seed=0,
                             progress=lambda done, total, seen=seen, start=start: seen.append(
                                 (time.process_time() - start, done)))
         # a stage's end, in whole per mille, is reached to within 2 (two roundings down)
         stamps = [next(t for t, done in seen if done >= end - 2) for end in ends]
         times = np.diff([0.0, *stamps])
         total = stamps[-1]
-        results[size] = dict(unknown=unknown, sweeps=int(sweeps),
-                             stages=dict(zip(names, (float(t) for t in times), strict=True)))
+        reference = np.inf
+        for _ in range(2):
+            begin = time.process_time()
+            colorization_fill(image, partial)
+            reference = min(reference, time.process_time() - begin)
+        results[size] = dict(unknown=unknown, sweeps=sweeps,
+                             stages=dict(zip(names, (float(t) for t in times), strict=True)),
+                             colorization=float(reference))
         for name, seconds, share in zip(names, times, shares, strict=True):
-            label = f"{name} ({sweeps} sweeps)" if name == names[0] else name
+            label = f"{name} ({sweeps} sweeps)" if sweeps is not None and name == names[0] \
+                else name
             print(f"| {size[0]}×{size[1]} | {label} | {seconds:.3f} | "
                   f"{1e6 * seconds / unknown:.3g} | {seconds / total:.0%} | {share:.0%} |",
                   file=out, flush=True)
+    print("\nThe budget of BP's target (issue #15: ≤ 6× the colorization fill at 450×375, "
+          "≤ 5× at 900×750; 6× elsewhere), CPU time in this process:", file=out)
+    for size, r in results.items():
+        target = _bp_target(size)
+        own = sum(list(r["stages"].values())[1:])
+        fill = r["stages"][names[0]]
+        budget = target * r["colorization"]
+        left = budget - own
+        print(f"- {size[0]}×{size[1]}: the colorization fill {r['colorization']:.3f} s, "
+              f"{target:g}× = {budget:.3f} s; BP's own stages {own:.3f} s "
+              f"({own / r['colorization']:.2g}×) leave {left:.3f} s "
+              f"({left / r['colorization']:.2g}×) to the observations' fill, which took "
+              f"{fill:.3f} s ({fill / r['colorization']:.2g}×): "
+              f"{(own + fill) / r['colorization']:.2g}× in all, "
+              f"{'within' if own + fill <= budget else 'over'} {target:g}×", file=out)
     if len(results) > 1:
         print("\nµs per unknown pixel by stage, smallest to largest size:", file=out)
         for name in names:
@@ -553,6 +606,9 @@ def main(argv=None) -> int:
     parser.add_argument("--bp-stages", action="store_true",
                         help="instead: the CPU time of each of BP's stages, read from its "
                         "progress reports, and the observations' fill's sweeps")
+    parser.add_argument("--observation", choices=BP_STAGE_OBSERVATIONS,
+                        help="with --bp-stages: BP on the colorization fill's observations "
+                        "(the default) or on NP's fill (BP's default since 0.9)")
     parser.add_argument("--fill-solvers", action="store_true",
                         help="instead: BP's observations' fill by the cascade and by "
                         "Gauss-Seidel alone, its time, sweeps and MAR")
@@ -579,8 +635,10 @@ def main(argv=None) -> int:
     if args.quick and args.sizes:
         parser.error("--quick and --sizes are exclusive")
     sizes = QUICK_SIZES if args.quick else (args.sizes or SIZES)
+    if args.observation is not None and not args.bp_stages:
+        parser.error("--observation goes with --bp-stages")
     if args.bp_stages:
-        bp_stages(sizes)
+        bp_stages(sizes, observation=args.observation or "colorization")
         return 0
     if args.np_steps:
         np_steps(sizes)

@@ -116,3 +116,42 @@ def test_np_steps_counts_every_step_and_leaves_the_fill_as_it_was(bench):
     assert int(np.isnan(partial).sum()) == row["unknown"]
     assert "| 32×27 |" in out.getvalue()
     assert np.isfinite(refsynth.synthesize(image, partial).range).all()
+
+
+@pytest.mark.parametrize("observation", ["colorization", "np"])
+def test_bp_stages_add_up_and_print_the_budget_of_six_times_the_colorization_fill(
+        bench, observation):
+    """``--bp-stages`` (``--observation np``: BP's default): the stages' times add up to the
+    run, each is non-negative, and the budget line is the arithmetic of the same numbers."""
+    out = io.StringIO()
+    results = bench.bp_stages([(32, 27)], out=out, observation=observation)
+    row = results[(32, 27)]
+    stages = list(row["stages"].values())
+    assert len(stages) == 6 and all(t >= 0 for t in stages) and sum(stages) > 0
+    assert row["colorization"] > 0
+    assert (row["sweeps"] is None) == (observation == "np")
+    own, fill = sum(stages[1:]), stages[0]
+    text = out.getvalue()
+    line = next(x for x in text.splitlines() if x.startswith("- 32×27: the colorization fill"))
+    assert f"6× = {6 * row['colorization']:.3f} s" in line
+    assert f"BP's own stages {own:.3f} s" in line
+    assert f"leave {6 * row['colorization'] - own:.3f} s" in line
+    assert f"took {fill:.3f} s" in line
+    verdict = "within" if own + fill <= 6 * row["colorization"] else "over"
+    assert line.endswith(f"{verdict} 6×")
+    first = "NP's fill (the observations)" if observation == "np" else "observations' fill"
+    assert f"| 32×27 | {first}" in text
+
+
+def test_bp_targets_are_the_issues(bench):
+    assert bench._bp_target((450, 375)) == 6.0 and bench._bp_target([900, 750]) == 5.0
+    assert bench._bp_target((32, 27)) == 6.0
+
+
+def test_bp_stages_refuse_an_unknown_observation(bench, capsys):
+    with pytest.raises(ValueError, match="`observation` must be one of"):
+        bench.bp_stages([(32, 27)], out=io.StringIO(), observation="nearest")
+    with pytest.raises(SystemExit) as exit_:
+        bench.main(["--observation", "np"])
+    assert exit_.value.code == 2
+    assert "--observation goes with --bp-stages" in capsys.readouterr().err
