@@ -288,7 +288,7 @@ def run(sizes, methods, repeat: int = 1, rss: bool = True, out=sys.stdout) -> di
 
 def bp_stages(sizes, out=sys.stdout, observation: str = "colorization") -> dict:
     """CPU time of each of BP's stages, read from its progress reports, beside the
-    colorization fill's time and what the issue's 6× leaves.
+    colorization fill's time and what issue #15's target leaves the observations' fill.
 
     ``observation``: ``"colorization"`` (0.4–0.8's defaults: the observations completed by
     the colorization fill) or ``"np"`` (BP's default since 0.9: NP's fill first). BP reports

@@ -121,8 +121,8 @@ def test_np_steps_counts_every_step_and_leaves_the_fill_as_it_was(bench):
 @pytest.mark.parametrize("observation", ["colorization", "np"])
 def test_bp_stages_add_up_and_print_the_budget_of_six_times_the_colorization_fill(
         bench, observation):
-    """``--bp-stages`` (``--observation np``: BP's default): the stages' times add up to the
-    run, each is non-negative, and the budget line is the arithmetic of the same numbers."""
+    """``--bp-stages`` (``--observation np``: BP's default): six stages, none negative, the
+    first named for its fill, and the budget line the arithmetic of the same numbers."""
     out = io.StringIO()
     results = bench.bp_stages([(32, 27)], out=out, observation=observation)
     row = results[(32, 27)]
