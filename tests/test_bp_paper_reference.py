@@ -154,6 +154,16 @@ def test_hand_built_edges_agree(rule, product):
     assert_same_bits(fast, ref)
 
 
+@pytest.mark.parametrize("radius", [1.0, 40.0])
+def test_hand_built_radius_extremes_agree(radius):
+    """A disc too small for ``k`` (the radius doubles) and one far beyond the image (the fast
+    code runs it as the next power of two at or above the image's reach): fast == reference."""
+    g = np.random.default_rng(11)
+    image, partial = g.integers(0, 3, (6, 7, 3)).astype(np.float64), 1.0 + g.random((6, 7))
+    partial[:, 1:5] = np.nan
+    assert_same_bits(*fast_and_reference(image, partial, radius=radius, iterations=4))
+
+
 # -- the paper's edge rule ----------------------------------------------------------------
 
 
