@@ -1,4 +1,4 @@
-"""The oracle (issue #11): golden cases, ``oracle export`` and ``oracle check``, both ways.
+"""The oracle: golden cases, ``oracle export`` and ``oracle check``, both ways.
 
 refsynth's own functions pass (the literal reference; the fast code through
 :func:`refsynth.synthesize`), and deliberately perturbed copies of the reference fail at the
@@ -131,7 +131,7 @@ def test_widened_search_case_widens(cases_dir):
 
 
 def test_bp_on_nps_fill_carries_nps_random_numbers_and_fill(cases_dir):
-    """BP's default (0.9): the case's ``tie`` and ``draws`` are those of NP at BP's
+    """BP's default observations: the case's ``tie`` and ``draws`` are those of NP at BP's
     ``neighbourhood``, ``radius`` and edges with the case's seed, and ``q_observation`` is
     that NP's result on the measured range's grid; the cases on the colorization fill carry
     no random numbers."""

@@ -31,8 +31,8 @@ import numpy as np
 
 __all__ = ["DEFAULT_TIMEOUT", "Outcome", "Runner", "check_timeout", "resolve_function"]
 
-#: Seconds one case's call may take (``oracle check --timeout``): some 40 times the
-#: literal reference's slowest default case.
+#: Seconds one case's call may take (``oracle check --timeout``): room for a port in plain
+#: Python, which may be many times slower than the literal reference on the largest cases.
 DEFAULT_TIMEOUT = 120.0
 #: The largest time limit accepted, in seconds (a week).
 MAX_TIMEOUT = 7 * 24 * 3600.0
