@@ -54,6 +54,11 @@ REFERENCE = "        from refsynth.oracle import refsynth_reference\n"
     ("return [1, 2]", "the function returned a list, not a dict of arrays"),
     ("return {1: 2}", "the keys must be the arrays' names"),
     ("import os\n    os._exit(0)", "the function ended the worker process (exit status 0)"),
+    ("import os, signal\n    os.kill(os.getpid(), signal.SIGKILL)",
+     "the function ended the worker process (killed by SIGKILL)"),
+    ("raise KeyboardInterrupt", "the function raised KeyboardInterrupt (port_"),
+    ("class Odd(Exception):\n        def __str__(self):\n            raise ValueError\n"
+     "    raise Odd()", "the function raised Odd: <Odd that cannot be shown>"),
 ])
 def test_a_port_that_misbehaves_fails_every_case_and_exits_1(folder, tmp_path, monkeypatch,
                                                              capsys, body, finding):
@@ -188,3 +193,11 @@ def test_the_port_cannot_change_the_golden_arrays(folder):
     assert check_function(scribbles, folder).passed
     assert check_function(refsynth_reference, folder, timeout=None).passed
     assert np.any(np.load(folder / "cases" / "eq7.npz")["distances"] != 0)
+
+
+def test_a_case_folder_that_is_a_file_is_one_line(tmp_path, capsys):
+    (tmp_path / "cases").write_text("")
+    code = cli_main.main(["oracle", "check", "refsynth.oracle:refsynth_fast", "--dir",
+                          str(tmp_path / "cases")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "is a file, not a case folder" in err[0]

@@ -120,6 +120,7 @@ def add_oracle_parser(subparsers) -> argparse.ArgumentParser:
                        "float32 (rtol 1e-4, atol 1e-6). Integer and index arrays are always "
                        "exact (default: exact)")
     check.add_argument("--timeout", type=_seconds, default=DEFAULT_TIMEOUT, metavar="SECONDS",
-                       help="time limit of each case's call; a case that overruns it fails "
+                       help="time limit of each case's call (and of importing the module); a case "
+                       "that overruns it fails "
                        f"(default: {DEFAULT_TIMEOUT:g})")
     return parser

@@ -140,6 +140,9 @@ def load_manifest(directory) -> dict:
     ('refsynth-oracle', ['np'])
     """
     root = Path(directory)
+    if root.exists() and not root.is_dir():
+        raise NotADirectoryError(f"'{root}' is a file, not a case folder (write one with "
+                                 "`python -m refsynth oracle export DIR`)")
     if not root.is_dir():
         raise FileNotFoundError(f"No such case folder: '{root}' (write it with "
                                 "`python -m refsynth oracle export DIR`)")

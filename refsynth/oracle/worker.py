@@ -78,8 +78,16 @@ def _where(error: BaseException) -> str:
     return f" ({os.path.basename(frame.filename)}, line {frame.lineno})"
 
 
+def _text(value, show=str) -> str:
+    """``show(value)`` on one line, or a stand-in if even that raises."""
+    try:
+        return " ".join(show(value).split())
+    except Exception:
+        return f"<{type(value).__name__} that cannot be shown>"
+
+
 def _words(error: BaseException) -> str:
-    text = " ".join(str(error).split())
+    text = _text(error)
     return f"{type(error).__name__}{': ' + text[:300] if text else ''}"
 
 
@@ -139,7 +147,7 @@ def _describe(value) -> str:
     if value is None:
         return "None"
     if isinstance(value, (str, bytes)):
-        return f"a {type(value).__name__} {str(value)[:40]!r}"
+        return f"a {type(value).__name__} {_text(value)[:40]!r}"
     if isinstance(value, np.ndarray):
         return f"an array of {value.dtype} (not numbers)"
     return f"a {type(value).__name__}"
@@ -171,15 +179,22 @@ def portable_result(got, wanted) -> Outcome:
     return Outcome("result", out)
 
 
-def call(function, inputs: dict, options: dict, wanted) -> Outcome:
-    """One call, in this process: its result, or what it raised or exited with, in words."""
+def call(function, inputs: dict, options: dict, wanted, *, worker: bool = False) -> Outcome:
+    """One call: its result, or what it raised or exited with, in words.
+
+    In the worker (``worker=True``, where Ctrl-C is ignored) a KeyboardInterrupt can only
+    be the function's own, and is reported as such; in this process it stops the check.
+    """
     try:
         got = function(inputs, options)
-    except KeyboardInterrupt:
-        raise
+    except KeyboardInterrupt as error:
+        if not worker:
+            raise
+        return Outcome("raised", text=f"the function raised {_words(error)}{_where(error)}")
     except SystemExit as stop:
-        return Outcome("exited", text=f"the function exited (SystemExit: {stop.code!r}; "
-                       "a port must return, not call sys.exit){_where(stop)}")
+        return Outcome("exited", text=f"the function exited (SystemExit: "
+                       f"{_text(stop.code, repr)}; a port must return, not call sys.exit)"
+                       f"{_where(stop)}")
     except BaseException as error:
         return Outcome("raised", text=f"the function raised {_words(error)}{_where(error)}")
     try:
@@ -195,7 +210,8 @@ def _serve(connection, target) -> None:
     try:
         function = resolve_function(target) if isinstance(target, str) else target
     except BaseException as error:
-        connection.send(("import", str(error)))
+        connection.send(("import", _text(error) or f"Cannot import {target!r}: "
+                         f"{type(error).__name__}"))
         return
     connection.send(("ready", ""))
     while True:
@@ -206,7 +222,7 @@ def _serve(connection, target) -> None:
         if message is None:
             return
         inputs, options, wanted = message
-        outcome = call(function, inputs, options, wanted)
+        outcome = call(function, inputs, options, wanted, worker=True)
         try:
             connection.send(("outcome", outcome))
         except Exception as error:   # nothing numeric fails to pickle; belt and braces
