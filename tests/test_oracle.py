@@ -424,3 +424,20 @@ def test_filling_the_defaults_kept_the_cases_arrays_bit_for_bit(tmp_path):
     export_cases(tmp_path, select_cases(build_cases(), list(golden)))
     manifest = json.loads((tmp_path / "manifest.json").read_text())
     assert {entry["name"]: entry["sha256"] for entry in manifest["cases"]} == golden
+
+
+def test_a_wrong_bp_label_is_named_by_its_centre_before_its_terms(cases_dir):
+    golden = _golden(cases_dir, "bp-8x8-noise")
+
+    def edit(out):
+        out["candidates"][2, 1] = out["candidates"][2, 1] + 1
+        out["unary"][0, 0] += 1.0
+
+    mismatch = check_function(_edited_reference("bp", edit), cases_dir,
+                              case="bp-8x8-noise").mismatch
+    centre = tuple(golden["candidates"][2, 1].tolist())
+    assert mismatch.key == "candidates"
+    assert (mismatch.expected, mismatch.got) == (centre, tuple(v + 1 for v in centre))
+    node = tuple(golden["order"][2].tolist())
+    assert str(mismatch).startswith(f"case bp-8x8-noise: candidates node 2 pixel {node}, "
+                                    f"label 1: expected {centre}")

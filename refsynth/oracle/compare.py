@@ -12,7 +12,8 @@ first goes wrong, not the consequences:
   at that step follow from it (a wrong pixel has other candidates, other distances), so the
   first of them that differs too is added after it. Then ``order``, ``range``,
   ``confidence`` and the other outputs.
-- BP's label sets first (``candidates``: which label, centred where, at which node), then
+- BP's label sets first (``candidates``: which labels a node has, each named by its centre
+  pixel, so a wrong label reads ``node i pixel (r, c), label j: expected (r', c'), got …``), then
   what follows from them: ``candidate_values``, the unary terms, the pairs and their
   compatibilities, the messages sweep by sweep (``sweep_messages`` and ``sweep_change``
   at the exported ``sweeps``), the final messages, the beliefs, the MAP labels, and the
@@ -131,7 +132,8 @@ def _value(array, index, key=""):
     item = np.asarray(array)[index]
     if isinstance(item, np.ndarray):
         value = item.tolist()
-        return tuple(value) if key in _PIXEL_ROWS and item.shape == (2,) else value
+        pixels = key in _PIXEL_ROWS or key == "candidates"
+        return tuple(value) if pixels and item.shape == (2,) else value
     return item.item()
 
 
@@ -245,6 +247,8 @@ def _compare(name, kind, key, expected, got, tolerance, locator):
                         f"shape {np.shape(got)}")
     if key in _PIXEL_ROWS and np.ndim(expected) == 2 and len(where) == 2:
         where = where[:1]                                 # the whole (row, column) pair
+    elif key == "candidates" and np.ndim(expected) == 3 and len(where) == 3:
+        where = where[:2]                                 # the label's centre (row, column)
     step, pixel, detail = locator.locate(key, where)
     return Mismatch(name, key, step, pixel, _value(expected, where, key),
                     _value(got, where, key), detail)
