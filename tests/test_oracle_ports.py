@@ -201,3 +201,27 @@ def test_a_case_folder_that_is_a_file_is_one_line(tmp_path, capsys):
                           str(tmp_path / "cases")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "is a file, not a case folder" in err[0]
+
+
+def test_the_worker_also_runs_when_started_afresh(folder, tmp_path, monkeypatch):
+    """``spawn`` (macOS' and Windows' default): the module is imported in a new interpreter,
+    and the time limit and the failures hold there too."""
+    import refsynth.oracle.worker as worker
+
+    monkeypatch.setattr(worker, "start_method", lambda target: "spawn")
+    (tmp_path / "spawned_port.py").write_text(textwrap.dedent("""
+        import sys
+        from refsynth.oracle import refsynth_reference
+
+        def check(inputs, options):
+            if options["method"] == "eq5":
+                while True:
+                    pass
+            if options["method"] == "np":
+                sys.exit(0)
+            return refsynth_reference(inputs, options)
+    """))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    report = check_function("spawned_port:check", folder, timeout=10)
+    assert report.checked == ["np-8x8-noise", "eq5-ties", "eq7"]
+    assert [m.key for m in report.failures] == ["(the function exited)", "(time limit)"]

@@ -1,10 +1,11 @@
 """The function under test runs in a worker process: nothing it does can end or hang the check.
 
-:class:`Runner` starts one worker process per check (``fork`` where the platform has it, so
-any callable works; else ``spawn``, which needs an importable ``MODULE:FUNCTION`` or a
-picklable function), imports the function there, and sends it the cases one by one. Each
-call gets the time limit; a call that overruns it, or that ends the worker (``os._exit``, a
-crash in C code), is that case's finding, and a fresh worker takes the next case.
+:class:`Runner` starts one worker process per check (:func:`start_method`: for a callable
+``fork`` where the platform has it, so any callable works; else the platform's default,
+which needs an importable ``MODULE:FUNCTION`` or a picklable function), imports the function
+there, and sends it the cases one by one. Each call gets the time limit; a call that overruns
+it, or that ends the worker (``os._exit``, a crash in C code), is that case's finding, and a
+fresh worker takes the next case.
 
 What comes back is an :class:`Outcome`: the result as numeric arrays, None (the kind is not
 handled), or what went wrong in words: ``sys.exit``/``SystemExit`` (any code, 0 too), an
@@ -29,7 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DEFAULT_TIMEOUT", "Outcome", "Runner", "check_timeout", "resolve_function"]
+__all__ = ["DEFAULT_TIMEOUT", "Outcome", "Runner", "check_timeout", "resolve_function",
+           "start_method"]
 
 #: Seconds one case's call may take (``oracle check --timeout``): room for a port in plain
 #: Python, which may be many times slower than the literal reference on the largest cases.
@@ -230,9 +232,14 @@ def _serve(connection, target) -> None:
                                                 f"be sent back: {_words(error)}")))
 
 
-def _context():
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+def start_method(target) -> str:
+    """How the worker starts: the platform's default for ``"MODULE:FUNCTION"`` (imported
+    afresh there); ``fork`` for a callable where there is one (any callable, closures too),
+    else the default (which needs a picklable function)."""
+    methods = multiprocessing.get_all_start_methods()   # the platform's default first
+    if not isinstance(target, str) and "fork" in methods:
+        return "fork"
+    return methods[0]
 
 
 class Runner:
@@ -261,7 +268,7 @@ class Runner:
         self._stop(kill=exc[0] is not None)
 
     def _start(self) -> None:
-        context = _context()
+        context = multiprocessing.get_context(start_method(self.target))
         self.connection, child = context.Pipe()
         self.process = context.Process(target=_serve, args=(child, self.target),
                                        name="refsynth-oracle-check")
