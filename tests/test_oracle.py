@@ -441,3 +441,12 @@ def test_a_wrong_bp_label_is_named_by_its_centre_before_its_terms(cases_dir):
     node = tuple(golden["order"][2].tolist())
     assert str(mismatch).startswith(f"case bp-8x8-noise: candidates node 2 pixel {node}, "
                                     f"label 1: expected {centre}")
+
+
+def test_the_format_docs_state_the_real_versions_and_count():
+    import refsynth.oracle.export as export_module
+
+    doc = " ".join(export_module.__doc__.split())
+    assert f'"version": {FORMAT_VERSION}, "contract": {CONTRACT_VERSION}, "case_set": ' \
+           f"{CASE_SET_VERSION}," in doc
+    assert f"The whole set is {len(build_cases())} cases" in doc

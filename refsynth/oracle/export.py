@@ -37,7 +37,9 @@ messages per sweep).
   with ``colour=False``), ``q_range`` (H, W) int64 (−1 unknown), ``window`` (n, n) int64;
   NP's random numbers ``tie`` (H, W) int64, ``draws`` (N,) float64 and, in the onion order,
   ``onion_tie`` (N,) int64 (BP's cases too when ``observation="np"``, whose NP fill draws
-  them); BP's ``q_observation`` (H, W) int64 (the observations on the measured range's grid)
+  them: NP at :data:`~refsynth.oracle.cases.NP_DEFAULTS` with BP's ``neighbourhood``,
+  ``radius``, ``use_edges``, ``range_weight``, ``missing_range``, ``colour`` and
+  ``channels``); BP's ``q_observation`` (H, W) int64 (the observations on the measured range's grid)
   and ``sweeps`` (T,) int64 (the 1-based sweeps whose messages the trace holds: all of them
   up to 32×32 pixels, else 1, 2, 5, 10 and the last);
 - outputs ``range``, ``confidence`` (H, W) float64, ``order`` (N, 2) int64 (the N unknown
