@@ -190,8 +190,8 @@ def test_the_port_cannot_change_the_golden_arrays(folder):
             value[...] = 0
         return out
 
-    assert check_function(scribbles, folder).passed
-    assert check_function(refsynth_reference, folder, timeout=None).passed
+    for timeout in (30, None):
+        assert check_function(scribbles, folder, timeout=timeout).passed
     assert np.any(np.load(folder / "cases" / "eq7.npz")["distances"] != 0)
 
 
@@ -225,3 +225,19 @@ def test_the_worker_also_runs_when_started_afresh(folder, tmp_path, monkeypatch)
     report = check_function("spawned_port:check", folder, timeout=10)
     assert report.checked == ["np-8x8-noise", "eq5-ties", "eq7"]
     assert [m.key for m in report.failures] == ["(the function exited)", "(time limit)"]
+
+
+@pytest.mark.parametrize("timeout", [None, 30])
+def test_a_port_gets_copies_of_the_case_arrays(timeout):
+    from refsynth.oracle.worker import Runner
+
+    def scribbles(inputs, options):
+        inputs["x"][...] = 0
+        options["method"] = "changed"
+        return {"y": np.ones(2)}
+
+    inputs, options = {"x": np.arange(3.0)}, {"method": "eq7"}
+    with Runner(scribbles, timeout) as runner:
+        outcome = runner.call(inputs, options, ["y"])
+    assert outcome.kind == "result" and outcome.value["y"].tolist() == [1.0, 1.0]
+    assert inputs["x"].tolist() == [0.0, 1.0, 2.0] and options == {"method": "eq7"}

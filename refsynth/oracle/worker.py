@@ -311,8 +311,9 @@ class Runner:
 
     def call(self, inputs: dict, options: dict, wanted) -> Outcome:
         """One case: the function's outcome within the time limit."""
-        if self.timeout is None:
-            return call(self.function, inputs, options, wanted)
+        if self.timeout is None:   # copies, as the worker gets: the golden arrays stay put
+            inputs = {key: np.array(value, copy=True) for key, value in inputs.items()}
+            return call(self.function, inputs, dict(options), wanted)
         if self.process is None:
             self._start()
         try:
