@@ -450,3 +450,21 @@ def test_the_format_docs_state_the_real_versions_and_count():
     assert f'"version": {FORMAT_VERSION}, "contract": {CONTRACT_VERSION}, "case_set": ' \
            f"{CASE_SET_VERSION}," in doc
     assert f"The whole set is {len(build_cases())} cases" in doc
+
+
+def test_without_step_pixel_the_order_is_the_steps_pixel_decision(cases_dir):
+    """A port that returns ``order`` and ``step_source`` only: a wrong pixel at step 3 is
+    named as the order's, not as the source drawn for another pixel."""
+
+    def port(inputs, options):
+        if options["method"] != "np":
+            return None
+        out = refsynth_reference(inputs, options)
+        order, source = out["order"].copy(), out["step_source"].copy()
+        order[[3, 4]], source[[3, 4]] = order[[4, 3]], source[[4, 3]]
+        return dict(range=out["range"], confidence=out["confidence"], order=order,
+                    step_source=source)
+
+    mismatch = check_function(port, cases_dir, case="np-8x8-noise").mismatch
+    assert (mismatch.key, mismatch.step) == ("order", 3)
+    assert mismatch.also.startswith("step_source")
