@@ -133,6 +133,7 @@ def test_a_correct_port_passes_with_a_summary(folder, tmp_path, monkeypatch, cap
     ("import sys\nsys.exit(0)\n", "SystemExit: 0"),
     ("import no_such_module_xyz\n", "ModuleNotFoundError: No module named 'no_such_module_xyz'"),
     ("x = 1\n", "has no callable 'check'"),
+    ("import os\nos._exit(4)\n", "ended while importing module 'port_"),
 ])
 def test_a_module_that_does_not_import_is_one_line_exit_2(folder, tmp_path, monkeypatch,
                                                           capsys, source, finding):
