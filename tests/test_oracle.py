@@ -1,4 +1,4 @@
-"""The oracle (issue #11): golden cases, ``oracle export`` and ``oracle check``, both ways.
+"""The oracle: golden cases, ``oracle export`` and ``oracle check``, both ways.
 
 refsynth's own functions pass (the literal reference; the fast code through
 :func:`refsynth.synthesize`), and deliberately perturbed copies of the reference fail at the
@@ -131,7 +131,7 @@ def test_widened_search_case_widens(cases_dir):
 
 
 def test_bp_on_nps_fill_carries_nps_random_numbers_and_fill(cases_dir):
-    """BP's default (0.9): the case's ``tie`` and ``draws`` are those of NP at BP's
+    """BP's default observations: the case's ``tie`` and ``draws`` are those of NP at BP's
     ``neighbourhood``, ``radius`` and edges with the case's seed, and ``q_observation`` is
     that NP's result on the measured range's grid; the cases on the colorization fill carry
     no random numbers."""
@@ -311,3 +311,160 @@ def test_user_errors(cases_dir, tmp_path):
         check_function(refsynth_reference, cases_dir, tolerance="loose")
     with pytest.raises(ValueError, match="No case matches"):
         select_cases(build_cases(), ["zz*"])
+
+
+# ----------------------------------------------------------------------------- the contract
+
+
+def _edited_reference(kind: str, edit):
+    """The reference's arrays for ``kind``'s cases, changed by ``edit(out)`` (None otherwise)."""
+
+    def port(inputs, options):
+        if options["method"] != kind:
+            return None
+        out = {k: np.array(v, copy=True) for k, v in refsynth_reference(inputs, options).items()}
+        edit(out)
+        return out
+
+    return port
+
+
+def test_a_wrong_pixel_is_named_before_the_arrays_that_follow_from_it(cases_dir):
+    """A step that fills another pixel has other candidates and distances: the report names
+    the pixel (expected vs got) first, not the alphabetically first array (cand_distance)."""
+    golden = _golden(cases_dir, "np-8x8-noise")
+
+    def edit(out):
+        out["step_pixel"][3] = out["step_pixel"][4]
+        out["cand_distance"][out["cand_start"][3]] += 1.0
+
+    report = check_function(_edited_reference("np", edit), cases_dir, case="np-8x8-noise")
+    mismatch = report.mismatch
+    assert mismatch.key == "step_pixel" and mismatch.step == 3
+    assert mismatch.expected == tuple(golden["step_pixel"][3].tolist())
+    assert mismatch.got == tuple(golden["step_pixel"][4].tolist())
+    assert str(report).startswith(f"FAIL case np-8x8-noise: step_pixel step 3 pixel "
+                                  f"{mismatch.expected}: expected {mismatch.expected}, got "
+                                  f"{mismatch.got}; also cand_distance candidate 0")
+
+
+def test_a_wrong_source_is_named_before_the_distances_behind_it(cases_dir):
+    golden = _golden(cases_dir, "np-8x8-noise")
+    start = golden["cand_start"]
+    step = next(s for s in range(len(start) - 1) if start[s + 1] - start[s] > 1)
+    other = next(tuple(p) for p in golden["cand_pixel"][start[step]:start[step + 1]].tolist()
+                 if tuple(p) != tuple(golden["step_source"][step].tolist()))
+
+    def edit(out):
+        out["step_source"][step] = other
+        out["cand_distance"][start[step]] += 1.0
+
+    mismatch = check_function(_edited_reference("np", edit), cases_dir,
+                              case="np-8x8-noise").mismatch
+    assert (mismatch.key, mismatch.step, mismatch.got) == ("step_source", step, other)
+    assert mismatch.also.startswith("cand_distance candidate 0")
+
+
+def test_bp_ports_receive_the_exported_sweeps_and_may_return_every_sweep(cases_dir):
+    golden = _golden(cases_dir, "bp-64x64-levels")
+    sweeps = golden["sweeps"]
+    assert len(sweeps) < sweeps.max()          # a subset: 1, 2, 5, 10 and the last
+    received = []
+
+    def port(inputs, options, wrong=None):
+        if options["method"] != "bp":
+            return None
+        received.append(inputs["sweeps"].tolist())
+        every = np.zeros(int(inputs["sweeps"].max()))
+        every[inputs["sweeps"] - 1] = golden["sweep_change"]
+        if wrong is not None:
+            every[wrong - 1] += 1.0
+        return {k: golden[k] for k in ("range", "confidence", "order")} | dict(
+            sweep_change=every)
+
+    assert check_function(port, cases_dir, case="bp-64x64-levels", timeout=None).passed
+    assert received == [sweeps.tolist()]
+    report = check_function(lambda i, o: port(i, o, wrong=int(sweeps[2])), cases_dir,
+                            case="bp-64x64-levels", timeout=None)
+    assert (report.mismatch.key, report.mismatch.step) == ("sweep_change", int(sweeps[2]))
+    meta = load_case(cases_dir, "bp-64x64-levels")[0]
+    assert meta["arrays"]["sweeps"]["role"] == "prepared"
+
+
+def test_run_cases_carry_every_option_with_its_default(cases_dir):
+    from refsynth.oracle.cases import BP_DEFAULTS, NP_DEFAULTS
+
+    for case in build_cases():
+        if case.kind not in ("np", "bp"):
+            continue
+        meta = load_case(cases_dir, case.name)[0]
+        defaults = NP_DEFAULTS if case.kind == "np" else BP_DEFAULTS
+        assert set(meta["options"]) == set(defaults), case.name
+        assert meta["options"] == json.loads(json.dumps(case.options))
+        if case.kind == "bp":
+            assert isinstance(meta["options"]["offset_tolerance"], float)
+    # the offset's agreement follows the observation unless the case sets it
+    tolerance = {name: load_case(cases_dir, name)[0]["options"]["offset_tolerance"]
+                 for name in ("bp-14x18-planes-np-fill", "bp-14x18-planes",
+                              "bp-16x16-np-fill-tolerance")}
+    assert tolerance == {"bp-14x18-planes-np-fill": 2.0**-3, "bp-14x18-planes": 2.0**-7,
+                         "bp-16x16-np-fill-tolerance": 2.0**-7}
+
+
+def test_filling_the_defaults_kept_the_cases_arrays_bit_for_bit(tmp_path):
+    """The NPZ of these cases (inputs, expected outputs, trace) as case set 6 wrote them."""
+    golden = {
+        "np-8x8-noise": "2a027cb6dfccfd0ff88b87d5f884732531ca558a34d62f004ac9b56a00c6bfd3",
+        "bp-8x8-noise": "4d81c0fe37e7fbdf13c40ac87ba5766f64d2177111c4887952c09c41e8a211ae",
+        "np-10x12-best-grey": "cf4faebf1041ed21cb2d4e791b54c857963bd1e8ed1d8bc5d712754785ebef8e",
+        "bp-16x16-fig6": "20d4fd09d3f27bb7847b8061c4ca8305e487e3295233bc3f528881b103af04c5",
+        "bp-16x16-np-fill-tolerance":
+            "41fd44761908cf7dfd37d84c513e80d626e493b3bc1aa02169ade895c71f1d8c",
+    }
+    export_cases(tmp_path, select_cases(build_cases(), list(golden)))
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    assert {entry["name"]: entry["sha256"] for entry in manifest["cases"]} == golden
+
+
+def test_a_wrong_bp_label_is_named_by_its_centre_before_its_terms(cases_dir):
+    golden = _golden(cases_dir, "bp-8x8-noise")
+
+    def edit(out):
+        out["candidates"][2, 1] = out["candidates"][2, 1] + 1
+        out["unary"][0, 0] += 1.0
+
+    mismatch = check_function(_edited_reference("bp", edit), cases_dir,
+                              case="bp-8x8-noise").mismatch
+    centre = tuple(golden["candidates"][2, 1].tolist())
+    assert mismatch.key == "candidates"
+    assert (mismatch.expected, mismatch.got) == (centre, tuple(v + 1 for v in centre))
+    node = tuple(golden["order"][2].tolist())
+    assert str(mismatch).startswith(f"case bp-8x8-noise: candidates node 2 pixel {node}, "
+                                    f"label 1: expected {centre}")
+
+
+def test_the_format_docs_state_the_real_versions_and_count():
+    import refsynth.oracle.export as export_module
+
+    doc = " ".join(export_module.__doc__.split())
+    assert f'"version": {FORMAT_VERSION}, "contract": {CONTRACT_VERSION}, "case_set": ' \
+           f"{CASE_SET_VERSION}," in doc
+    assert f"The whole set is {len(build_cases())} cases" in doc
+
+
+def test_without_step_pixel_the_order_is_the_steps_pixel_decision(cases_dir):
+    """A port that returns ``order`` and ``step_source`` only: a wrong pixel at step 3 is
+    named as the order's, not as the source drawn for another pixel."""
+
+    def port(inputs, options):
+        if options["method"] != "np":
+            return None
+        out = refsynth_reference(inputs, options)
+        order, source = out["order"].copy(), out["step_source"].copy()
+        order[[3, 4]], source[[3, 4]] = order[[4, 3]], source[[4, 3]]
+        return dict(range=out["range"], confidence=out["confidence"], order=order,
+                    step_source=source)
+
+    mismatch = check_function(port, cases_dir, case="np-8x8-noise").mismatch
+    assert (mismatch.key, mismatch.step) == ("order", 3)
+    assert mismatch.also.startswith("step_source")

@@ -54,8 +54,8 @@ def test_check_one_case_of_the_fast_code(small_dir, monkeypatch, capsys):
     assert capsys.readouterr().out.startswith("PASS 1 cases")
 
 
-def test_a_wrong_port_beside_the_cases_exits_1_with_the_first_mismatch(small_dir, tmp_path,
-                                                                        monkeypatch, capsys):
+def test_a_wrong_port_beside_the_cases_exits_1_with_each_cases_first_mismatch(
+        small_dir, tmp_path, monkeypatch, capsys):
     (tmp_path / "my_port.py").write_text(textwrap.dedent("""
         from refsynth.oracle import refsynth_reference
 
@@ -71,7 +71,11 @@ def test_a_wrong_port_beside_the_cases_exits_1_with_the_first_mismatch(small_dir
     monkeypatch.delitem(sys.modules, "my_port", raising=False)
     assert run(["oracle", "check", "my_port:check", "--dir", str(small_dir)], monkeypatch) == 1
     out = capsys.readouterr().out.strip().splitlines()
-    assert len(out) == 1 and out[0].startswith("FAIL case np-8x8-noise: order step 3 pixel")
+    assert [line.split(":")[0] for line in out[:-1]] == [
+        "FAIL case np-8x8-noise", "FAIL case np-8x8-levels", "FAIL case np-8x8-ramp"]
+    assert out[0].startswith("FAIL case np-8x8-noise: order step 3: expected (")
+    assert out[-1] == ("FAIL 3 of 3 cases at tolerance exact: 0 passed, 3 failed, "
+                       "4 skipped (not handled)")
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -81,7 +85,9 @@ def test_a_wrong_port_beside_the_cases_exits_1_with_the_first_mismatch(small_dir
     (["oracle", "check", "refsynth.oracle:refsynth_fast", "--dir", "/nonexistent/x"],
      "No such case folder"),
 ])
-def test_user_errors_are_one_line_and_exit_2(argv, message, monkeypatch, capsys):
+def test_user_errors_are_one_line_and_exit_2(argv, message, small_dir, monkeypatch, capsys):
+    if "--dir" not in argv:
+        argv = [*argv, "--dir", str(small_dir)]
     assert run(argv, monkeypatch) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("refsynth oracle: error:") and message in err[0]

@@ -1,4 +1,4 @@
-"""The correctness oracle: golden cases and step traces that a port replays (issue #11).
+"""The correctness oracle: golden cases and step traces that a port replays.
 
 - :mod:`refsynth.oracle.cases`: the versioned case set, whole NP and BP runs from 8×8 to
   64×64, and per-equation batches (:mod:`refsynth.oracle.equations`: Eqs. 2, 5, 6, 7, 10–12,
@@ -6,8 +6,12 @@
   (:mod:`refsynth.synthesis.reference`; :mod:`refsynth.oracle.runs` flattens its step traces).
 - :mod:`refsynth.oracle.export`: ``python -m refsynth oracle export DIR`` (NPZ + JSON, with a
   JSON Schema).
-- :mod:`refsynth.oracle.check`: ``python -m refsynth oracle check MODULE:FUNCTION``, the
-  first mismatch (case, step, pixel, expected, got).
+- :mod:`refsynth.oracle.check`: ``python -m refsynth oracle check MODULE:FUNCTION``, each
+  failing case's first mismatch (case, step, pixel, expected, got) and a summary line; the
+  function runs in a worker process with a time limit per case
+  (:mod:`refsynth.oracle.worker`), on a folder whose checksums are verified first
+  (:mod:`refsynth.oracle.files`), and the arrays are compared by
+  :mod:`refsynth.oracle.compare`.
 - :mod:`refsynth.oracle.adapters`: refsynth's own reference and fast code in the checker's
   calling convention (templates for a port's adapter).
 
@@ -18,6 +22,7 @@ README's section "The oracle".
 from refsynth.oracle.adapters import refsynth_fast, refsynth_reference
 from refsynth.oracle.cases import CASE_SET_VERSION, Case, build_cases, expected_outputs
 from refsynth.oracle.check import (
+    DEFAULT_TIMEOUT,
     TOLERANCES,
     CheckReport,
     Mismatch,
@@ -44,6 +49,7 @@ __all__ = [
     "refsynth_reference",
     "KINDS",
     "TOLERANCES",
+    "DEFAULT_TIMEOUT",
     "FORMAT_VERSION",
     "CONTRACT_VERSION",
     "CASE_SET_VERSION",

@@ -39,10 +39,13 @@ def refsynth_reference(inputs: dict, options: dict) -> dict:
     inputs : dict of str to ndarray
         The case's ``input`` and ``prepared`` arrays (for a run
         ``intensity`` (H, W) or (H, W, 3), ``partial_range`` (H, W), NaN
-        unknown, ``edges`` (H, W) bool, …).
+        unknown, ``edges`` (H, W) bool, the quantised ``q_intensity`` and
+        ``q_range``, the ``window``, NP's random numbers, BP's
+        ``q_observation`` and ``sweeps``).
     options : dict
-        The case's options plus ``method`` (its kind: ``"np"``, ``"eq7"`` …)
-        and ``seed``.
+        The case's options (for a run every option of
+        :func:`refsynth.synthesize` that the method takes, defaults filled
+        in) plus ``method`` (its kind: ``"np"``, ``"eq7"`` …) and ``seed``.
 
     Returns
     -------

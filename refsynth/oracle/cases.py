@@ -12,12 +12,14 @@ intensity (exact ties in Eq. 2), grey and colour, edges on and off, and the opti
 must get right: ε, isophotes off, the onion order, ``missing_range="ignore"``, the widened
 search (``r = 1``: a front pixel whose filled neighbours are diagonal has an empty ``A_p``),
 both confidence updates, Eq. 2 on grey and with the channel mean, sum-product, both edge
-rules, the proximity prior on; BP's observations completed by the colorization fill (0.4–0.8's
-default, the prepared ``q_observation``) and by NP's fill (the default since 0.9: those cases
-carry NP's random numbers too, and ``q_observation`` is NP's result on the quantised grid),
-training disc (widened by the gap's depth) and shifted labels (``range_copy="offset"``), and
-Fig. 6 as printed (``observation="measured"``, ``training_radius="fixed"``,
-``range_copy="value"``) beside them.
+rules, the proximity prior on; BP's observations completed by NP's fill (the default: those
+cases carry NP's random numbers too, and ``q_observation`` is NP's result on the quantised
+grid) and by the colorization fill (``observation="colorization"``, the prepared
+``q_observation``), the training disc widened by the gap's depth and shifted labels
+(``range_copy="offset"``), and Fig. 6 as printed (``observation="measured"``,
+``training_radius="fixed"``, ``range_copy="value"``) beside them. A run's options hold every
+option the method takes, its default filled in (:data:`NP_DEFAULTS`, :data:`BP_DEFAULTS`), so
+a port reads them all from the case.
 """
 
 from __future__ import annotations
@@ -30,14 +32,37 @@ import numpy as np
 from refsynth.oracle.equations import KINDS, equation_cases, equation_outputs
 from refsynth.oracle.runs import run_outputs
 
-__all__ = ["Case", "CASE_SET_VERSION", "build_cases", "expected_outputs", "select_cases"]
+__all__ = ["Case", "CASE_SET_VERSION", "NP_DEFAULTS", "BP_DEFAULTS", "build_cases",
+           "expected_outputs", "select_cases", "with_defaults"]
 
-#: The version of the case set (inputs and options); the format's is in export.py.
-CASE_SET_VERSION = 6  # 6: BP on NP's fill, the default (0.9): the cases of 0.4-0.8's default
-# name observation="colorization" and keep their outputs, two cases added;
-# 5: BP's offset copy (0.6); 4: NP's offset copy (0.5); 3: BP's
-# defaults of issue #10
-# 2: refsynth 0.3's defaults (Eq. 2's channel sum, BP without the prior)
+#: The version of the case set (inputs and options); the format's is in files.py.
+CASE_SET_VERSION = 7
+
+#: Every option of :func:`refsynth.synthesize` that NP takes, with its default: a NP case's
+#: options are these, updated by the case's own.
+NP_DEFAULTS = dict(neighbourhood=5, radius=10.0, range_weight=1.0, missing_range="mean",
+                   colour=True, channels="sum", use_edges=True, epsilon=0.1,
+                   use_isophotes=True, ordering="priority", confidence_update="best",
+                   edges_last=True, range_copy="offset")
+#: The same for BP; ``offset_tolerance`` follows the observation (``2**-3`` with
+#: ``observation="np"``, else ``2**-7``) unless the case sets it.
+BP_DEFAULTS = dict(neighbourhood=5, radius=10.0, range_weight=1.0, missing_range="mean",
+                   colour=True, channels="sum", use_edges=True, candidates=8, sigma_i=0.1,
+                   sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
+                   edge_rule="silent", proximity=0.0, observation="np",
+                   training_radius="gap", range_copy="offset", offset_tolerance=None)
+
+
+def with_defaults(kind: str, options: dict) -> dict:
+    """A run's options with every default filled in (``kind`` "np" or "bp").
+
+    >>> with_defaults("bp", dict(observation="measured"))["offset_tolerance"] == 2.0**-7
+    True
+    """
+    out = dict(NP_DEFAULTS if kind == "np" else BP_DEFAULTS, **options)
+    if kind == "bp" and out["offset_tolerance"] is None:
+        out["offset_tolerance"] = 2.0**-3 if out["observation"] == "np" else 2.0**-7
+    return out
 
 
 @dataclass
@@ -121,8 +146,8 @@ def _planes_scene(seed: int, shape):
     return dict(intensity=image, partial_range=np.where(known, truth, np.nan), edges=edges)
 
 
-#: BP's observations completed by the colorization fill: 0.4–0.8's default, which the cases
-#: written then keep (their expected outputs are unchanged by 0.9's default, NP's fill).
+#: BP's observations completed by the colorization fill, which most BP cases ask for (NP's
+#: fill, the default, completes them in the cases that do not).
 COLORIZATION = dict(observation="colorization")
 
 
@@ -197,8 +222,8 @@ def _run_cases(large: bool) -> list[Case]:
         Case("bp-14x18-planes-value-copy", "bp", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10,
                   range_copy="value", **COLORIZATION), 14),
-        # BP's default observations since 0.9: NP's fill (drawing on the case's seed; the
-        # case carries NP's random numbers) completes them, the labels shift within 2**-3
+        # BP's default observations: NP's fill (drawing on the case's seed; the case
+        # carries NP's random numbers) completes them, the labels shift within 2**-3
         Case("bp-14x18-planes-np-fill", "bp", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10),
              14),
@@ -252,7 +277,8 @@ def build_cases(*, large: bool = False) -> list[Case]:
     >>> [case.name for case in cases if case.kind == "eq6"]
     ['eq6-h', 'eq6-v']
     """
-    cases = _run_cases(large)
+    cases = [Case(c.name, c.kind, c.inputs, with_defaults(c.kind, c.options), c.seed)
+             for c in _run_cases(large)]
     cases += [Case(name, kind, inputs, options) for name, kind, inputs, options
               in equation_cases()]
     return cases

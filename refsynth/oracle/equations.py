@@ -3,12 +3,13 @@ r"""Per-equation golden cases: small batches of inputs and what each equation gi
 Every kind of case names the equation, the refsynth function that computes the expected
 values, the comparison it is held to (:data:`KINDS`), and its inputs and outputs:
 
-============== ==================================================== =========== ===========
+============== ==================================================== =========== ==================
 kind           expected values from                                 tolerance   outputs
-============== ==================================================== =========== ===========
-eq2            ``reference.eq2_distance`` (quantised windows)       exact       distances
+============== ==================================================== =========== ==================
+eq2            ``reference.eq2_distance`` (quantised windows)       exact       distance_mean, …
 eq5            Eq. 5's set and the draw ``floor(u |Γ'|)``           exact       members, chosen
-eq6            ``reference.overlap_mean_square``, ``−ms / 2σ_s²``   exact       mean_square, log_psi
+eq6            ``reference.overlap_mean_square``, ``−ms / 2σ_s²``   exact       mean_square,
+                                                                                log_psi
 eq7            ``−d / 2σ_i²``                                       exact       log_phi
 eq10_12        ``reference.priority_terms``, the confidence given   exact       C, D, E_term, P, …
 eq13           ``evaluation.metrics.mar``                           float64     mar
@@ -20,7 +21,34 @@ eq18           ``registration.hat_weight``                          float64     
 eq19           ``registration.spherical_to_cylindrical``            float64     r_c, phi_c, h
 eq20           ``registration.eq20_warp``                           float64     uv
 eq21           ``registration.fit_warp``                            float64     warp
-============== ==================================================== =========== ===========
+============== ==================================================== =========== ==================
+
+The inputs and outputs of each kind, B the batch:
+
+- ``eq2``: ``q_intensity`` (B, 2, n, n, C) and ``q_range`` (B, 2, n, n) int64 (−1 unknown),
+  index 0 of axis 1 the target (the pixel being filled, whose known pixels weigh the
+  mean-filled range term) and index 1 the candidate; option ``range_weight``; outputs
+  ``distance_mean``, ``distance_ignore`` (B,) (``missing_range`` "mean" and "ignore", the
+  channel sum) and ``distance_mean_channel_mean``, ``distance_ignore_channel_mean`` (B,) (the
+  channel mean); ``window`` (n, n) int64 prepared.
+- ``eq5``: ``distances`` (B, M) with ties, ``draws`` (B,); ``epsilon`` → ``members`` (B, M)
+  bool, ``chosen`` (B,) int64 (an index into the row).
+- ``eq6``: ``first``, ``second`` (B, n, n) quantised range patches; ``direction`` ("h": the
+  second is right of the first, "v": below), ``sigma_s`` → ``mean_square``, ``log_psi`` (B,).
+- ``eq7``: ``distances`` (B, k); ``sigma_i`` → ``log_phi`` (B, k).
+- ``eq10_12``: hand-built 9×9 windows ``filled``, ``q_range``, ``confidence``, ``edges``
+  (B, 9, 9), the target ``pixel`` and the ``best`` match (B, 2) (row, column);
+  ``neighbourhood``, ``use_isophotes`` → ``C``, ``D``, ``E_term``, ``P``, ``edge_count``,
+  ``assigned_product``, ``assigned_best`` (B,).
+- ``eq13``: ``estimate``, ``truth``, ``known`` (H, W) → ``mar`` ().
+- ``canny``: ``image`` (H, W); ``sigma`` → ``edges`` (H, W) bool.
+- the registration stage: Eq. 14 ``x``, ``y``; ``focal`` → ``x_c``, ``y_c``; Eqs. 15–17
+  ``reference``, ``moving`` (B, 24, 24), ``translation`` (B, 2) → ``delta`` (B, 2), and
+  ``reference``, ``moving``, ``initial`` (2,); ``levels``, ``search``, ``photometric`` →
+  ``translation`` (2,); Eq. 18 ``x``, ``y``; ``width``, ``height`` → ``weight``; Eq. 19
+  ``r``, ``theta``, ``phi``; ``focal`` → ``r_c``, ``phi_c``, ``h``; Eq. 20 ``laser_points``
+  (N, 2), ``r`` (N,); ``a``, ``b``, ``alpha``, ``v0``, ``focal``, ``delta_y`` → ``uv`` (N, 2);
+  Eq. 21 ``laser_points``, ``camera_points`` (N, 2) → ``warp`` (4,) (a, b, α, β).
 
 "exact" kinds are under the numeric contract (their inputs are integers or exact binary
 fractions, and every operation is fixed), so the same bits hold on every machine. The
