@@ -272,7 +272,7 @@ def finish_temporary(folder: Path) -> list[Path]:
       (killed between its write and its link into place) is linked into
       place if nothing is there, so it is checked like any other slice;
       removed if the same bytes are in place; returned, to be set aside, if
-      other bytes are;
+      other bytes are (or it is a whole slice of another pan index);
     - any other (a write cut short, never a complete file; or a manifest,
       ``scan.npz`` or picture the session writes again) is removed.
 
@@ -294,23 +294,25 @@ def finish_temporary(folder: Path) -> list[Path]:
             if data is None:
                 odd.append(path)
                 continue
-            if sub == "slices" and _is_whole_slice(data, int(target[4:8]), path):
+            index = _whole_slice(data, path) if sub == "slices" else None
+            if index is not None:
                 final = directory / target
-                if not os.path.lexists(final):
+                if index == int(target[4:8]) and not os.path.lexists(final):
                     os.link(path, final, follow_symlinks=False)
-                elif read_regular(final) != data:
-                    odd.append(path)
+                elif index != int(target[4:8]) or read_regular(final) != data:
+                    odd.append(path)  # a whole slice, not the one in place: kept
                     continue
             path.unlink()
     return odd
 
 
-def _is_whole_slice(data: bytes, index: int, path: Path) -> bool:
+def _whole_slice(data: bytes, path: Path) -> int | None:
+    """The pan index of ``data`` if it is a whole slice file, else None."""
     try:
         record = parse_slice(data, path)
     except ValueError:
-        return False
-    return record.pan_index == index and slice_bytes(record) == data
+        return None
+    return record.pan_index if slice_bytes(record) == data else None
 
 
 @dataclass
