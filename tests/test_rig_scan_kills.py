@@ -108,3 +108,28 @@ def test_a_scan_killed_at_random_moments_resumes_with_the_uninterrupted_bytes(tm
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["complete"] and len(manifest["slices"]) == 50
     print(f"{kills} kills, {windows} between a slice's write and the manifest's update")
+
+
+def test_two_scan_processes_into_one_folder_the_second_is_refused(tmp_path):
+    """The lock holds across processes: a resume started while the scan runs is refused in one
+    line, exit 2, and the running scan completes undisturbed."""
+    pytest.importorskip("pty")
+    out = tmp_path / "scan"
+    env = dict(os.environ, TMPDIR=str(tmp_path))
+    command = [sys.executable, "-m", "refsynth.cli.scan", "scan", "--simulate", "--out",
+               str(out), "--strategy", "every", "--step", "25", "--no-camera", "--quiet",
+               "--timeout", "2"]
+    with subprocess.Popen([*command, "--faults", "delay=0.05"], env=env,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as first:
+        deadline = time.monotonic() + 60
+        while first.poll() is None and time.monotonic() < deadline and _count(
+                out / "slices", ".slice") < 1:
+            time.sleep(0.005)
+        second = subprocess.run([*command, "--resume"], env=env, capture_output=True, text=True,
+                                timeout=120)
+        still_running = first.poll() is None
+        output, error = first.communicate(timeout=120)
+    assert still_running, "the first scan ended before the second started: too fast to test"
+    assert second.returncode == 2 and second.stderr.count("\n") == 1, second.stderr
+    assert second.stderr.startswith(f"refsynth scan: error: '{out}' is in use by another scan")
+    assert first.returncode == 0 and "20/20 slices" in output, error
