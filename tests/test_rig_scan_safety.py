@@ -225,6 +225,17 @@ def test_a_linked_manifest_is_refused_in_one_line(pristine, tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1 and "is a symbolic link" in err, err
     assert elsewhere.read_bytes() == before
+    with pytest.raises(ValueError, match="manifest.json' is a symbolic link"):
+        load_scan(folder)
+
+
+def test_load_scan_refuses_a_link_in_place_of_a_slice(pristine, tmp_path):
+    folder = copy(pristine, "interrupted", tmp_path)
+    target = victim(tmp_path)
+    shutil.move(folder / "slices" / "pan-0100.slice", target)
+    (folder / "slices" / "pan-0100.slice").symlink_to(target)
+    with pytest.raises(ValueError, match="pan-0100.slice' is a symbolic link, not a slice"):
+        load_scan(folder)
 
 
 @pytest.mark.parametrize("name", ["slices", "images", "rejected"])

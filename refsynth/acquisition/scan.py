@@ -197,14 +197,22 @@ def run_scan(
     ValueError
         On settings that disagree with the folder's scan, an invalid
         manifest, a folder that holds a scan without ``resume``, slice files
-        without a manifest that cannot be resumed (see ``resume``), or a pan
-        unit with another geometry. Nothing in the folder is changed then.
+        without a manifest that cannot be resumed (see ``resume``), a
+        ``manifest.json``, ``slices/``, ``images/`` or ``rejected/`` that is
+        a symbolic link, a folder another scan holds locked, or a pan unit
+        with another geometry. Nothing in the folder is changed then.
     RigError
         When a device fails beyond its retries (the folder stays
         resumable).
 
     Notes
     -----
+    The session holds the folder's lock throughout
+    (:func:`~refsynth.acquisition.scan_folder.lock_folder`). What a killed
+    session left behind is dealt with first
+    (:func:`~refsynth.acquisition.resume.finish_temporary`): a slice
+    written but not yet in the manifest is checked and kept, a temporary
+    file finished or removed, a symbolic link set aside, never followed.
     The order of events: initialise both devices; for ``"distance"``,
     acquire the coarse pass and plan from it; then, in ascending pan order,
     for each missing slice: move (absolute), request the slice, confirm the
