@@ -252,3 +252,13 @@ def test_a_linked_subfolder_is_refused_and_nothing_is_written_through_it(pristin
     with pytest.raises(ValueError, match=f"'{folder / name}' is a symbolic link"):
         fake_scan(folder, resume=True)
     assert sorted(p.name for p in outside.iterdir()) == before
+
+
+def test_a_link_in_place_of_scan_npz_is_replaced_not_written_through(pristine, tmp_path):
+    folder = copy(pristine, "interrupted", tmp_path)
+    target = victim(tmp_path)
+    (folder / "scan.npz").symlink_to(target)
+    summary, _, _ = fake_scan(folder, resume=True)
+    assert summary.complete and target.read_bytes() == b"not yours"
+    assert not (folder / "scan.npz").is_symlink()
+    assert (folder / "scan.npz").read_bytes() == (pristine / "complete" / "scan.npz").read_bytes()
