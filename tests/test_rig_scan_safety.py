@@ -262,3 +262,14 @@ def test_a_link_in_place_of_scan_npz_is_replaced_not_written_through(pristine, t
     assert summary.complete and target.read_bytes() == b"not yours"
     assert not (folder / "scan.npz").is_symlink()
     assert (folder / "scan.npz").read_bytes() == (pristine / "complete" / "scan.npz").read_bytes()
+
+
+def test_an_out_that_cannot_be_a_scan_folder_gives_one_line(tmp_path, capsys):
+    afile = tmp_path / "a-file"
+    afile.write_bytes(b"mine")
+    for out, message in [(afile, f"'{afile}' is not a folder"),
+                         (afile / "scan", f"cannot create the scan folder '{afile / 'scan'}'")]:
+        status = scan_main(["scan", "--simulate", "--out", str(out), "--quiet", "--no-camera"])
+        err = capsys.readouterr().err
+        assert status == 2 and err.count("\n") == 1 and message in err, err
+    assert afile.read_bytes() == b"mine"

@@ -241,7 +241,11 @@ def run_scan(
         raise TypeError(f"The parameter `settings` must be a ScanSettings, got {settings!r}")
     if os.path.lexists(folder) and not folder.is_dir():
         raise ValueError(f"'{folder}' is not a folder: a scan needs a folder of its own")
-    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OSError(error.errno, f"cannot create the scan folder '{folder}': "
+                      f"{error.strerror}") from None
     with lock_folder(folder):  # one session at a time
         return _session(folder, pan, laser, settings, resume=resume, source=dict(source or {}),
                         camera_dir_is_local=camera_dir_is_local, progress=progress,
