@@ -262,3 +262,74 @@ def test_timeouts_are_bounded(ptys):
                                                    r"last: no complete reply within 0.10 s"):
             laser.scan_slice(379, 243, 10)
         assert time.monotonic() - start < 1.5
+
+
+# ----------------------------------------------------------------------------- late replies
+
+
+class LatePort:
+    """A pan unit whose replies take their time: each arrives ``lag`` seconds after its command,
+    the replies to the writes numbered in ``late`` later still; reads wait up to ``timeout``."""
+
+    def __init__(self, late: dict[int, float], lag: float = 0.02):
+        self.late, self.lag, self.writes, self.position = late, lag, 0, 0
+        self.pending: list[tuple[float, bytes]] = []
+        self.buffer = bytearray()
+        self.timeout = 1.0
+
+    def _arrive(self):
+        now = time.monotonic()
+        while self.pending and self.pending[0][0] <= now:
+            self.buffer += self.pending.pop(0)[1]
+
+    def reset_input_buffer(self):
+        self._arrive()
+        self.buffer.clear()
+
+    def write(self, data):
+        self.writes += 1
+        text = data.decode().strip()
+        if text.startswith("PP") and len(text) > 2:
+            self.position = int(text[2:])
+        reply = format_pan_reply(self.position if text == "PP" else None)
+        self.pending.append((time.monotonic() + self.late.get(self.writes, self.lag), reply))
+        self.pending.sort(key=lambda item: item[0])
+        return len(data)
+
+    def _take(self, stop_at) -> bytes:
+        end = time.monotonic() + (self.timeout or 0.0)
+        while True:
+            self._arrive()
+            stop = stop_at()
+            if stop is not None or time.monotonic() >= end:
+                stop = len(self.buffer) if stop is None else stop
+                out = bytes(self.buffer[:stop])
+                del self.buffer[:stop]
+                return out
+            time.sleep(0.001)
+
+    def read(self, size=1):
+        return self._take(lambda: size if len(self.buffer) >= size else None)
+
+    def read_until(self, expected=b"\n", size=None):
+        def stop():
+            at = self.buffer.find(expected)
+            if at >= 0:
+                return at + len(expected) if size is None else min(at + len(expected), size)
+            return size if size is not None and len(self.buffer) >= size else None
+
+        return self._take(stop)
+
+
+def test_a_reply_later_than_the_deadline_does_not_leave_the_link_one_reply_behind():
+    """A move is PP<i>, A, PP: when the PP query's reply comes after its deadline, the retry's
+    PP<i> reads it, and every later reply answers the command before; clearing the input before
+    each command misses replies still on their way, so the retries fail alike (on a loaded
+    machine the simulated rig failed so with 'rejected reply' 9 times). The driver waits for
+    the link to fall quiet before a retry."""
+    port = LatePort({3: 0.15})
+    pan = PanUnit(port, timeout=0.1, retries=6)
+    for index in (10, 20, 30):
+        pan.move_to(index)
+    assert pan.position() == 30
+    assert pan.stats.timeouts == 1 and pan.stats.retries >= 1

@@ -239,7 +239,7 @@ def test_sigkill_mid_scan_then_resume(ptys, tmp_path):
     out = tmp_path / "scan"
     env = dict(os.environ, TMPDIR=str(tmp_path))  # the killed simulator's links stay in here
     command = [sys.executable, "-m", "refsynth.cli.scan", "scan", "--simulate", "--out", str(out),
-               "--strategy", "every", "--step", "5", "--quiet"]
+               "--strategy", "every", "--step", "5", "--quiet", "--timeout", "2"]
     slices = out / "slices"
     with subprocess.Popen([*command, "--faults", "delay=0.003"], env=env,
                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) as process:

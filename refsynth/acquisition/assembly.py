@@ -29,6 +29,7 @@ from refsynth.acquisition.geometry import (
     ENCODER_POSITIONS,
     FOCAL_PX,
     PAN_SLICES,
+    PAN_STEP_DEG,
     pan_angle,
     polar_angle,
 )
@@ -161,6 +162,15 @@ class Scan:
         return pan_angle(self.pan_index)
 
     @property
+    def slice_step(self) -> float:
+        """The rig's pan step between two adjacent slice positions, radians (0.36°, §4).
+
+        What :func:`refsynth.registration.register` needs (``slice_step``) to
+        leave the positions no slice was taken at unmeasured.
+        """
+        return float(np.radians(PAN_STEP_DEG))
+
+    @property
     def known_slices(self) -> np.ndarray:
         """Boolean (500,): ``True`` for the scanned pan indices."""
         known = np.zeros(PAN_SLICES, dtype=bool)
@@ -227,6 +237,9 @@ def _read_slices(folder: Path, manifest: dict, settings: ScanSettings, indices) 
     records = {}
     for index in indices:
         path = folder / "slices" / slice_name(index)
+        if path.is_symlink():
+            raise ValueError(f"'{path}' is a symbolic link, not a slice of this scan (resume the "
+                             "scan to set it aside and acquire it again)")
         if not path.is_file():
             continue
         data = path.read_bytes()
@@ -286,6 +299,8 @@ def load_scan(folder: str | os.PathLike) -> Scan:
     """
     folder = Path(folder)
     manifest_path = folder / "manifest.json"
+    if manifest_path.is_symlink():
+        raise ValueError(f"'{manifest_path}' is a symbolic link, not a scan's manifest")
     if not manifest_path.is_file():
         raise FileNotFoundError(f"No scan in '{folder}': no manifest.json")
     manifest, settings = read_manifest(manifest_path)

@@ -2,7 +2,7 @@
 
 The paper's rig (§4): a laser rangefinder whose 45° mirror spins about a
 horizontal shaft with a 2000-position encoder, sweeping one vertical plane
-(a *slice*); a pan unit that turns it through 180° in 0.36° steps (500
+(a *slice*); a pan unit that turns it through 180° by steps of 0.36° (500
 slices); and a camera on the same pan unit taking a picture every 18°. The
 centres of the camera, the mirror and the pan axis are aligned (§3.1); the
 simulator puts all three at the origin of :func:`refsynth.scenes.room_geometry`'s
@@ -127,7 +127,7 @@ def directions(theta, phi) -> np.ndarray:
     ndarray of shape (..., 3)
     """
     theta, phi = np.broadcast_arrays(np.asarray(theta, float), np.asarray(phi, float))
-    sin_theta = portable_sin(theta)  # the same bits on every machine (issue #11)
+    sin_theta = portable_sin(theta)  # the same bits on every machine
     return np.stack([sin_theta * portable_sin(phi), portable_cos(theta),
                      sin_theta * portable_cos(phi)], axis=-1)
 
@@ -154,7 +154,7 @@ def camera_rays(pan_index: int) -> np.ndarray:
     camera = np.stack(np.broadcast_arrays(u[None, :], v[:, None], 1.0), axis=-1)
     cos, sin = portable_cos(phi), portable_sin(phi)
     # columns of the rotation: camera x -> (cos φ, 0, −sin φ), camera z -> (sin φ, 0, cos φ);
-    # camera @ that, as explicit 3-term sums (no BLAS: issue #11)
+    # camera @ that, as explicit 3-term sums (no BLAS: the same bits on every machine)
     rays = rotate3(np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]]), camera)
     return rays / norm3(rays)[..., None]
 

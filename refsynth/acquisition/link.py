@@ -47,6 +47,9 @@ T = TypeVar("T")
 
 #: How long a drain after a rejected reply may wait for the rest of it, seconds.
 DRAIN_TIMEOUT = 0.1
+#: After a failed exchange, input is dropped until none arrives for this long (seconds), for
+#: at most SETTLE_LIMIT: a late reply would otherwise answer the next request.
+SETTLE_QUIET, SETTLE_LIMIT = 0.03, 1.0
 #: First and longest wait between attempts to reopen a lost port, seconds.
 BACKOFF_FIRST, BACKOFF_MAX = 0.05, 1.0
 #: Reconnections allowed within one operation.
@@ -219,6 +222,25 @@ class Link:
         except _PORT_ERRORS as error:
             raise PortLost(self.device, command, f"port {self.name} failed: {error}") from error
 
+    def settle(self, quiet: float) -> None:
+        """Drop input until ``quiet`` seconds pass without a byte (at most :data:`SETTLE_LIMIT`).
+
+        After a timeout or a rejected reply, the replies still in flight (late,
+        or to the commands of the failed exchange) would answer the next
+        request, and a link whose every exchange sends several commands would
+        stay one reply behind through all its retries; clearing the input
+        before sending is not enough, as they arrive after it. A port that
+        fails here is left for the next attempt to meet.
+        """
+        end = time.monotonic() + SETTLE_LIMIT
+        try:
+            while time.monotonic() < end:
+                self.port.timeout = quiet
+                if not self.port.read(65536):
+                    return
+        except _PORT_ERRORS:
+            return
+
     def drain(self, command: str, deadline: float, terminator: bytes) -> None:
         """Read and drop the rest of a rejected reply, up to ``terminator`` (bounded in time)."""
         self.read_until(command, min(deadline, time.monotonic() + DRAIN_TIMEOUT), terminator, 65536)
@@ -322,6 +344,8 @@ class Device:
                     self.name, command, f"failed {failures} times; last: {last.detail}"
                 ) from last
             self.stats.retries += 1
+            if not isinstance(last, DeviceError):  # a reply may still be on its way
+                self._link.settle(min(self.timeout, SETTLE_QUIET))
 
     def reconnect(self) -> None:
         """Reopen the lost port with exponential backoff and re-initialise the device.

@@ -87,7 +87,7 @@ class RigPose:
 
     def to_room(self, points: np.ndarray) -> np.ndarray:
         """Points ``(..., 3)`` of the rig's frame in the room's: ``R p + (x, 0, z)``."""
-        return rotate3(self.rotation(), points) + self.origin  # no BLAS (issue #11)
+        return rotate3(self.rotation(), points) + self.origin  # no BLAS: the same bits everywhere
 
     def rays(self, directions: np.ndarray) -> np.ndarray:
         """Directions ``(..., 3)`` of the rig's frame in the room's (unchanged at the origin)."""

@@ -31,6 +31,7 @@ minutes: a session cut short is worth resuming, not repeating), doi:10.1007/s112
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -44,13 +45,18 @@ from refsynth.acquisition.manifest import (
     read_manifest,
 )
 from refsynth.acquisition.scan_folder import (
+    LOCK_NAME,
     SliceRecord,
+    check_subfolder,
+    odd_slice_entries,
     parse_slice,
     png_is_complete,
+    read_regular,
     slice_bytes,
     slice_crc,
     slice_files,
     slice_name,
+    temporary_target,
 )
 from refsynth.acquisition.slice_plan import ScanSettings, coarse_profile, plan_slices
 
@@ -58,7 +64,7 @@ __all__ = ["SliceDecisions", "prepare_folder", "read_slice_files", "resumed_mani
            "slice_window", "finish_temporary", "trusted_slices", "trusted_images"]
 
 #: Entries a folder without a manifest may hold when its scan is rebuilt.
-_REBUILD_ENTRIES = ("slices", "images", "scan.npz", "rejected")
+_REBUILD_ENTRIES = ("slices", "images", "scan.npz", "rejected", LOCK_NAME)
 
 
 def _window(thing) -> tuple[int, int, int]:
@@ -83,7 +89,10 @@ def read_slice_files(folder: Path) -> tuple[dict[int, tuple[SliceRecord, bytes]]
     """
     valid, invalid = {}, []
     for index, path in slice_files(folder).items():
-        data = path.read_bytes()
+        data = read_regular(path)
+        if data is None:  # replaced by a link since it was listed
+            invalid.append(path)
+            continue
         try:
             record = parse_slice(data, path)
         except ValueError:
@@ -168,6 +177,10 @@ def resumed_manifest(folder: str | os.PathLike) -> tuple[dict, ScanSettings | No
     path = Path(folder) / "manifest.json"
     if not os.path.lexists(path):
         return {}, None
+    if path.is_symlink():
+        raise ValueError(f"cannot resume: '{path}' is a symbolic link, not a scan's manifest "
+                         "(move it away and resume with the scan's settings to rebuild it from "
+                         "the slice files)")
     try:
         return read_manifest(path)
     except ValueError as error:
@@ -203,6 +216,8 @@ def prepare_folder(
     """
     manifest_path = folder / "manifest.json"
     rebuilt = 0
+    for name in ("slices", "images", "rejected"):
+        check_subfolder(folder, name)
     if os.path.lexists(manifest_path):
         if not resume:
             raise ValueError(f"'{folder}' already holds a scan: resume it (--resume) or choose "
@@ -228,7 +243,7 @@ def prepare_folder(
             raise ValueError(f"'{folder}' holds slice files but no manifest.json: resume it "
                              "(--resume, with the scan's settings) or choose another folder")
         settings = ScanSettings() if settings is None else settings
-        if (_unexpected(folder, ("slices", "images")) or _has_files(folder / "slices")
+        if (_unexpected(folder, ("slices", "images", LOCK_NAME)) or _has_files(folder / "slices")
                 or _has_files(folder / "images")):
             raise ValueError(f"'{folder}' is not empty and holds no scan (no manifest.json)")
         manifest = new_manifest(settings, source)
@@ -237,27 +252,67 @@ def prepare_folder(
     return manifest, settings, rebuilt
 
 
-def finish_temporary(folder: Path) -> None:
-    """Deal with the slice writes a kill cut short (``slices/.pan-<i>.slice.tmp``).
+#: The files refsynth writes, by subfolder of a scan folder: a temporary file for one of them
+#: (:func:`~refsynth.acquisition.scan_folder.temporary_target`) is a write a kill cut short.
+_WRITTEN = {"": re.compile(r"manifest\.json|scan\.npz"), "slices": re.compile(r"pan-\d{4}\.slice"),
+            "images": re.compile(r"pan-\d{4}\.png")}
 
-    A temporary file that holds a whole slice file (killed between the write
-    and the rename) is renamed into place if nothing is there, so it is
-    checked like any other slice; one that does not (killed during the write,
-    never a slice file) is removed.
+
+def finish_temporary(folder: Path) -> list[Path]:
+    """Deal with the temporary files of writes a kill cut short, writing through none of them.
+
+    Every entry of ``folder``, ``slices/`` and ``images/`` named like a
+    temporary file of a file a scan writes (``.<name>.<random>.tmp``, or
+    ``.<name>.tmp``; ``<name>`` being ``manifest.json``, ``scan.npz``, a
+    slice or a picture):
+
+    - a symbolic link, or anything but a regular file, is never read nor
+      followed: it is returned, to be set aside;
+    - in ``slices/``, a whole slice file of the pan index its name says
+      (killed between its write and its link into place) is linked into
+      place if nothing is there, so it is checked like any other slice;
+      removed if the same bytes are in place; returned, to be set aside, if
+      other bytes are (or it is a whole slice of another pan index);
+    - any other (a write cut short, never a complete file; or a manifest,
+      ``scan.npz`` or picture the session writes again) is removed.
+
+    Returns
+    -------
+    list of Path
+        The entries to set aside (:func:`~refsynth.acquisition.scan_folder.set_aside`).
     """
-    directory = folder / "slices"
-    for path in sorted(directory.glob(".pan-*.slice.tmp")):
-        target = directory / path.name[1 : -len(".tmp")]
-        index = int(target.stem[4:]) if target.stem[4:].isdigit() else -1
-        try:
-            record = parse_slice(path.read_bytes(), path)
-            whole = record.pan_index == index and slice_bytes(record) == path.read_bytes()
-        except ValueError:
-            whole = False
-        if whole and not os.path.lexists(target):
-            os.replace(path, target)
-        elif not whole:
+    odd = []
+    for sub, names in _WRITTEN.items():
+        directory = folder / sub if sub else folder
+        if directory.is_symlink() or not directory.is_dir():
+            continue
+        for path in sorted(directory.iterdir()):
+            target = temporary_target(path.name)
+            if target is None or not names.fullmatch(target):
+                continue  # not a file of ours
+            data = read_regular(path)
+            if data is None:
+                odd.append(path)
+                continue
+            index = _whole_slice(data, path) if sub == "slices" else None
+            if index is not None:
+                final = directory / target
+                if index == int(target[4:8]) and not os.path.lexists(final):
+                    os.link(path, final, follow_symlinks=False)
+                elif index != int(target[4:8]) or read_regular(final) != data:
+                    odd.append(path)  # a whole slice, not the one in place: kept
+                    continue
             path.unlink()
+    return odd
+
+
+def _whole_slice(data: bytes, path: Path) -> int | None:
+    """The pan index of ``data`` if it is a whole slice file, else None."""
+    try:
+        record = parse_slice(data, path)
+    except ValueError:
+        return None
+    return record.pan_index if slice_bytes(record) == data else None
 
 
 @dataclass
@@ -293,7 +348,7 @@ def trusted_slices(folder: Path, manifest: dict, settings: ScanSettings) -> Slic
     """
     valid, invalid = read_slice_files(folder)
     entries = manifest["slices"]
-    decisions = SliceDecisions({}, {}, list(invalid))
+    decisions = SliceDecisions({}, {}, [*invalid, *odd_slice_entries(folder)])
     for index, (record, data) in valid.items():
         entry = entries.get(str(index))
         crc = slice_crc(data)
@@ -346,6 +401,9 @@ def trusted_images(folder: Path, manifest: dict, camera_dir_is_local: bool,
                   if (folder / "images" / image_name(i)).exists()}
     for key, entry in images.items():
         path = folder / entry["file"]
+        if path.is_symlink():  # never read through: set aside, taken again
+            damaged.append(path)
+            continue
         if not path.is_file():
             continue
         if not png_is_complete(path):

@@ -49,7 +49,9 @@ from refsynth.acquisition.resume import (
 )
 from refsynth.acquisition.scan_folder import (
     SliceRecord,
+    lock_folder,
     png_is_complete,
+    read_regular,
     set_aside,
     slice_bytes,
     slice_crc,
@@ -195,14 +197,22 @@ def run_scan(
     ValueError
         On settings that disagree with the folder's scan, an invalid
         manifest, a folder that holds a scan without ``resume``, slice files
-        without a manifest that cannot be resumed (see ``resume``), or a pan
-        unit with another geometry. Nothing in the folder is changed then.
+        without a manifest that cannot be resumed (see ``resume``), a
+        ``manifest.json``, ``slices/``, ``images/`` or ``rejected/`` that is
+        a symbolic link, a folder another scan holds locked, or a pan unit
+        with another geometry. Nothing in the folder is changed then.
     RigError
         When a device fails beyond its retries (the folder stays
         resumable).
 
     Notes
     -----
+    The session holds the folder's lock throughout
+    (:func:`~refsynth.acquisition.scan_folder.lock_folder`). What a killed
+    session left behind is dealt with first
+    (:func:`~refsynth.acquisition.resume.finish_temporary`): a slice
+    written but not yet in the manifest is checked and kept, a temporary
+    file finished or removed, a symbolic link set aside, never followed.
     The order of events: initialise both devices; for ``"distance"``,
     acquire the coarse pass and plan from it; then, in ascending pan order,
     for each missing slice: move (absolute), request the slice, confirm the
@@ -227,16 +237,31 @@ def run_scan(
     """
     started = time.perf_counter()
     folder = Path(folder)
-    manifest_path = folder / "manifest.json"
     if settings is not None and not isinstance(settings, ScanSettings):
         raise TypeError(f"The parameter `settings` must be a ScanSettings, got {settings!r}")
-    source = dict(source or {})
+    if os.path.lexists(folder) and not folder.is_dir():
+        raise ValueError(f"'{folder}' is not a folder: a scan needs a folder of its own")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OSError(error.errno, f"cannot create the scan folder '{folder}': "
+                      f"{error.strerror}") from None
+    with lock_folder(folder):  # one session at a time
+        return _session(folder, pan, laser, settings, resume=resume, source=dict(source or {}),
+                        camera_dir_is_local=camera_dir_is_local, progress=progress,
+                        started=started)
+
+
+def _session(folder: Path, pan, laser, settings: ScanSettings | None, *, resume: bool,
+             source: dict, camera_dir_is_local: bool, progress, started: float) -> ScanSummary:
+    """:func:`run_scan` in ``folder``, whose lock this process holds."""
+    manifest_path = folder / "manifest.json"
 
     # --- the folder: a new scan, or the one to resume ---------------------------------
     manifest, settings, rebuilt = prepare_folder(folder, settings, source, resume)
 
     # --- what is on disk, checked, is the truth --------------------------------------
-    finish_temporary(folder)
+    stale = finish_temporary(folder)
     decisions = trusted_slices(folder, manifest, settings)
     records = decisions.records
     if manifest["plan"] is None and settings.strategy != "distance":
@@ -251,7 +276,8 @@ def run_scan(
     manifest["slices"] = entries
     damaged = trusted_images(folder, manifest, camera_dir_is_local, bool(rebuilt))
     summary = ScanSummary(folder=folder, rebuilt=rebuilt)
-    summary.rejected = [set_aside(folder, path) for path in decisions.set_aside + damaged]
+    summary.rejected = [set_aside(folder, path)
+                        for path in stale + decisions.set_aside + damaged]
     on_disk = set(records)
     record_session = {"session": session, "resumed": session > 1 or bool(rebuilt),
                       "acquired": 0, "images": 0, "complete": False}
@@ -314,7 +340,13 @@ def run_scan(
         record = SliceRecord(index, settings.seq, settings.count, settings.average,
                              range_mm, amplitude)
         data = slice_bytes(record)
-        write_new(folder / "slices" / slice_name(index), data)  # never over another file
+        path = folder / "slices" / slice_name(index)
+        try:
+            write_new(path, data)  # never over another file
+        except FileExistsError:  # put there behind this session's back: keep it if it is
+            if read_regular(path) != data:  # this very slice, else set it aside
+                summary.rejected.append(set_aside(folder, path))
+                write_new(path, data)
         records[index] = record
         manifest["slices"][str(index)] = {"file": slice_entry_file(index),
                                           "crc": slice_crc(data), "session": session}

@@ -1,10 +1,13 @@
 """A scan's folder on disk: slice files, ``manifest.json``, ``scan.npz`` (§4).
 
-Scans that lose nothing: each validated slice is written at once
-(temporary file, then ``os.replace``; :func:`write_new` never replaces a
-file) to ``slices/pan-<index>.slice``, whose bytes depend only on the data
-(:func:`slice_bytes`), and ``manifest.json`` is rewritten the same way after
-every slice and picture, recording each slice's CRC. When the plan is
+Scans that lose nothing: each validated slice is written at once to
+``slices/pan-<index>.slice`` with :func:`refsynth._files.write_new` (an
+exclusive temporary file with an unpredictable name, fsynced, then linked
+into place: never through a symbolic link, never over a file), and its
+bytes depend only on the data (:func:`slice_bytes`); ``manifest.json`` is
+rewritten with :func:`refsynth._files.write_atomic` after every slice and
+picture, recording each slice's CRC. A session holds the folder's lock
+(:func:`lock_folder`): a second scan into it is refused. When the plan is
 complete the scan is assembled into ``scan.npz`` (:func:`write_npz`, whose
 bytes depend only on the arrays; :func:`read_npz` reads one back, or says
 why it cannot). A file a session cannot trust is never deleted:
@@ -30,10 +33,12 @@ average of 10 samples, and a picture every 18°), doi:10.1007/s11263-007-0108-2.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
 import re
+import stat
 import struct
 import zipfile
 import zlib
@@ -42,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from refsynth._files import write_atomic, write_new
 from refsynth.acquisition.errors import ProtocolError
 from refsynth.acquisition.geometry import PAN_SLICES
 from refsynth.acquisition.rangefinder_protocol import (
@@ -59,6 +65,7 @@ __all__ = [
     "parse_slice",
     "read_slice",
     "slice_files",
+    "odd_slice_entries",
     "png_is_complete",
     "write_atomic",
     "write_new",
@@ -66,10 +73,15 @@ __all__ = [
     "write_npz",
     "read_npz",
     "set_aside",
+    "check_subfolder",
+    "read_regular",
+    "temporary_target",
+    "lock_folder",
 ]
 
 _SLICE_MAGIC = b"refsynth-slice 1\n"
 _SLICE_NAME = re.compile(r"pan-(\d{4})\.slice")
+_TEMPORARY = re.compile(r"\.(?P<name>[^/]+?)(?:\.[a-z0-9_]{8})?\.tmp")
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: What reading a damaged ``.npz`` can raise (zip, zlib and numpy's own errors).
 _NPZ_ERRORS = (OSError, ValueError, EOFError, KeyError, RuntimeError, NotImplementedError,
@@ -206,17 +218,48 @@ def read_slice(path: str | os.PathLike) -> SliceRecord:
 def slice_files(folder: Path) -> dict[int, Path]:
     """The regular files ``slices/pan-<i>.slice`` of ``folder`` with ``i`` a pan index, by ``i``.
 
-    Nothing is read: what they hold is for the caller to check.
+    Nothing is read: what they hold is for the caller to check. Entries of
+    those names that are not regular files (a symbolic link, a folder) are
+    :func:`odd_slice_entries`.
     """
+    return {index: path for index, path in _slice_entries(folder).items()
+            if path.is_file() and not path.is_symlink()}
+
+
+def odd_slice_entries(folder: Path) -> list[Path]:
+    """The entries ``slices/pan-<i>.slice`` of ``folder`` that are not regular files
+    (symbolic links, folders, ...): never read, never written through."""
+    return [path for path in _slice_entries(folder).values()
+            if path.is_symlink() or not path.is_file()]
+
+
+def _slice_entries(folder: Path) -> dict[int, Path]:
     found: dict[int, Path] = {}
     directory = folder / "slices"
-    if not directory.is_dir():
+    if directory.is_symlink() or not directory.is_dir():
         return found
     for path in sorted(directory.iterdir()):
         match = _SLICE_NAME.fullmatch(path.name)
-        if match is not None and int(match.group(1)) < PAN_SLICES and path.is_file():
+        if match is not None and int(match.group(1)) < PAN_SLICES:
             found[int(match.group(1))] = path
     return found
+
+
+def temporary_target(name: str) -> str | None:
+    """The file a temporary file of refsynth's writers was for, or None if ``name`` is not one.
+
+    :func:`refsynth._files.write_atomic` writes ``.<name>.<8 random
+    characters>.tmp`` beside ``<name>``; earlier scans wrote ``.<name>.tmp``.
+
+    Examples
+    --------
+    >>> temporary_target(".pan-0250.slice.k3j_x9ab.tmp"), temporary_target(".manifest.json.tmp")
+    ('pan-0250.slice', 'manifest.json')
+    >>> temporary_target("notes.txt") is None
+    True
+    """
+    match = _TEMPORARY.fullmatch(name)
+    return None if match is None else match.group("name")
 
 
 def png_is_complete(path: Path) -> bool:
@@ -246,28 +289,8 @@ def png_is_complete(path: Path) -> bool:
 # ----------------------------------------------------------------------------- writing
 
 
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and ``os.replace``: all or nothing."""
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_bytes(data)
-    os.replace(temporary, path)
-
-
-def write_new(path: Path, data: bytes) -> None:
-    """:func:`write_atomic` to a path that does not exist yet: a file is never replaced.
-
-    Raises
-    ------
-    FileExistsError
-        If ``path`` exists.
-    """
-    if os.path.lexists(path):
-        raise FileExistsError(f"refusing to replace '{path}'")
-    write_atomic(path, data)
-
-
 def write_json(path: Path, value: dict) -> None:
-    """:func:`write_atomic` of ``value`` as indented JSON with sorted keys."""
+    """:func:`~refsynth._files.write_atomic` of ``value`` as indented JSON with sorted keys."""
     write_atomic(path, (json.dumps(value, indent=1, sort_keys=True) + "\n").encode("utf-8"))
 
 
@@ -322,13 +345,114 @@ def set_aside(folder: Path, path: Path) -> Path:
     """Move ``path`` into ``folder/rejected/`` (``name``, else ``name.1``, ``name.2``, …).
 
     How a session gets a file it cannot trust out of its way without losing
-    it. Returns the new path.
+    it; a symbolic link is moved itself, never what it points to. Returns the
+    new path.
+
+    Raises
+    ------
+    ValueError
+        If ``folder/rejected`` is not a folder of its own (a symbolic link, or
+        a file): nothing is moved out of the scan folder.
     """
     rejected = folder / "rejected"
-    rejected.mkdir(exist_ok=True)
+    if not os.path.lexists(rejected):
+        rejected.mkdir()
+    check_subfolder(folder, "rejected")
     target, number = rejected / path.name, 0
     while os.path.lexists(target):
         number += 1
         target = rejected / f"{path.name}.{number}"
     os.replace(path, target)
     return target
+
+
+def check_subfolder(folder: Path, name: str) -> None:
+    """Check that ``folder/name``, if it exists, is a real folder (not a symbolic link).
+
+    Raises
+    ------
+    ValueError
+        ``'<folder>/<name>' is a symbolic link ...`` or ``... is not a
+        folder``: a scan writes only into folders of its own.
+    """
+    path = folder / name
+    if path.is_symlink():
+        raise ValueError(f"'{path}' is a symbolic link: a scan writes only into folders of its "
+                         "own inside its folder; move the link away")
+    if os.path.lexists(path) and not path.is_dir():
+        raise ValueError(f"'{path}' is not a folder: a scan keeps its {name} there; move it away")
+
+
+def read_regular(path: Path) -> bytes | None:
+    """The bytes of ``path`` if it is a regular file (never through a symbolic link), else None."""
+    try:
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    except OSError:
+        return None
+    with os.fdopen(descriptor, "rb") as stream:
+        if not stat.S_ISREG(os.fstat(stream.fileno()).st_mode):
+            return None
+        return stream.read()
+
+
+# ----------------------------------------------------------------------------- the lock
+
+#: The lock file, where a folder itself cannot be locked (some network file systems).
+LOCK_NAME = ".refsynth-scan.lock"
+
+
+@contextlib.contextmanager
+def lock_folder(folder: Path):
+    """Hold an exclusive lock on the scan folder ``folder`` for a session.
+
+    The folder itself is locked (``flock`` on its descriptor; no file is
+    written), or, where the file system cannot lock a folder, the file
+    ``folder/.refsynth-scan.lock`` (created without following a symbolic
+    link). The lock goes with the process: a killed scan leaves none behind.
+    Where the platform has no ``fcntl`` (Windows), nothing is locked.
+
+    Raises
+    ------
+    ValueError
+        ``'<folder>' is in use by another scan ...`` if another process
+        holds the lock.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        yield
+        return
+    descriptors = []
+
+    def take(descriptor: int) -> None:
+        descriptors.append(descriptor)
+        fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+    try:
+        try:
+            take(os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | os.O_CLOEXEC))
+        except BlockingIOError:
+            raise
+        except OSError:  # the folder cannot be locked here: a lock file then
+            lock = folder / LOCK_NAME
+            try:
+                descriptor = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC
+                                     | getattr(os, "O_NOFOLLOW", 0), 0o600)
+            except OSError as error:
+                raise ValueError(f"cannot lock the scan folder '{folder}': '{lock}': "
+                                 f"{error.strerror}") from None
+            if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+                os.close(descriptor)
+                raise ValueError(f"cannot lock the scan folder '{folder}': '{lock}' is not a "
+                                 "regular file") from None
+            take(descriptor)
+    except BlockingIOError:
+        for descriptor in descriptors:
+            os.close(descriptor)
+        raise ValueError(f"'{folder}' is in use by another scan (its lock is held): wait for "
+                         "that scan to end, or choose another folder") from None
+    try:
+        yield
+    finally:
+        for descriptor in descriptors:
+            os.close(descriptor)

@@ -41,8 +41,8 @@ The measurement model (documented choices, not the paper's):
   ``(seed, pan index)``), 8-bit grey PNG, perspective (see
   :mod:`refsynth.acquisition.geometry`);
 - the pan unit moves instantly, at any speed setting; the camera writes
-  ``pan-<index>.png`` into ``camera_dir`` (temporary file, then
-  ``os.replace``).
+  ``pan-<index>.png`` into ``camera_dir`` (:func:`refsynth._files.write_atomic`:
+  an exclusive temporary file, then a rename).
 
 References
 ----------
@@ -65,6 +65,7 @@ from pathlib import Path
 import numpy as np
 
 from refsynth._checks import is_int
+from refsynth._files import write_atomic
 from refsynth.acquisition.errors import ProtocolError
 from refsynth.acquisition.faults import Faults
 from refsynth.acquisition.geometry import (
@@ -289,11 +290,12 @@ class _PanModel:
         if self.camera_dir is None:
             return format_pan_error("No camera")
         position = self.state.pan_position
-        self.camera_dir.mkdir(parents=True, exist_ok=True)
-        target = self.camera_dir / image_name(position)
-        temporary = target.with_name(f".{target.name}.tmp")
-        temporary.write_bytes(self.rig.picture_png(position))
-        os.replace(temporary, target)
+        try:
+            if not self.camera_dir.is_dir():
+                self.camera_dir.mkdir(parents=True)
+            write_atomic(self.camera_dir / image_name(position), self.rig.picture_png(position))
+        except OSError:  # the driver sees a camera that failed (and retries)
+            return format_pan_error("Camera failed")
         return format_pan_reply(position)
 
     def refuse(self, token: bytes, draw: float) -> bytes:

@@ -13,7 +13,12 @@ of pan angle 0 and the row of the horizon from the warp of Eq. 21), which
 :func:`refsynth.acquisition.load_scan`: then the pictures, their pan angles
 and the focal length come from the scan's own manifest unless given. Any
 other ``.npz`` holding ``r``, ``theta`` and ``phi`` works too, with
-``--focal`` and ``--start`` given. A registration that does not converge (no
+``--focal`` and ``--start`` given. Only the columns of scanned slices are
+measured in ``partial_range.npy``: the scan is put on the cylinder at the
+rig's pan step (``--slice-step``; a scan folder's own, 0.36°), never
+stretched across the positions no slice was taken at; the summary line says
+which fraction of the columns is measured and where the step came from. A
+registration that does not converge (no
 depth edge of the scan matched an intensity edge: the misalignment is NaN)
 is an error, not a result: ``register`` exits with status 2 and writes
 nothing.
@@ -28,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from refsynth._files import check_output_path, write_atomic
 from refsynth.acquisition import load_scan
 from refsynth.acquisition.scan_folder import read_npz
 from refsynth.cli.arguments import add_subcommand
@@ -54,17 +60,35 @@ def _scan_folder(path: Path) -> Path | None:
 
 
 def _read_scan(path: Path):
-    """``(r, theta, phi)``, the scan's pictures ``[(path, pan angle rad)]`` (or None) and its
-    focal length (or None)."""
+    """``(r, theta, phi)``, the scan's pictures ``[(path, pan angle rad)]`` (or None), its
+    focal length (or None) and the rig's slice step in radians (or None)."""
     if not path.exists():
         raise FileNotFoundError(f"scan file not found: {path}")
     folder = _scan_folder(path)
     if folder is not None:
         scan = load_scan(folder)
         pictures = [(picture.path, picture.pan_angle) for picture in scan.images]
-        return (scan.r, scan.theta, scan.phi), pictures, scan.focal
+        return (scan.r, scan.theta, scan.phi), pictures, scan.focal, scan.slice_step
     arrays = read_npz(path, ("r", "theta", "phi"), _MAX_ARRAY_BYTES)
-    return (arrays["r"], arrays["theta"], arrays["phi"]), None, None
+    return (arrays["r"], arrays["theta"], arrays["phi"]), None, None, None
+
+
+def _slice_step(args, recorded: float | None, scan) -> tuple[float, str]:
+    """The rig's slice step (radians) and where it comes from, for the summary line."""
+    if args.slice_step is not None:
+        if not (math.isfinite(args.slice_step) and 0 < args.slice_step <= 180):
+            raise ValueError(f"--slice-step must be an angle in degrees in (0, 180], got "
+                             f"{args.slice_step:g}")
+        return math.radians(args.slice_step), "--slice-step"
+    if recorded is not None:
+        return recorded, "the scan's manifest.json"
+    phi = np.unique(np.round(np.asarray(scan[2], dtype=np.float64)[np.isfinite(scan[2])], 9))
+    gaps = np.diff(phi)
+    gaps = gaps[gaps > 1e-9]
+    if gaps.size == 0:
+        raise ValueError(f"give --slice-step: {args.scan} holds a single slice")
+    return float(gaps.min()), ("the smallest gap between the scan's slices: give --slice-step "
+                               "if the rig's is finer")
 
 
 def _views(args, pictures) -> tuple[list[str], np.ndarray]:
@@ -112,15 +136,25 @@ def _cmd_register(args) -> int:
 
     if not args.out.strip():
         raise ValueError("--out must name a folder, got an empty string")
-    scan, pictures, recorded_focal = _read_scan(Path(args.scan))
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out '{out}' is not a folder")
+    scan, pictures, recorded_focal, recorded_step = _read_scan(Path(args.scan))
+    slice_step, step_source = _slice_step(args, recorded_step, scan)
     focal = args.focal if args.focal is not None else recorded_focal
     if focal is None:
         raise ValueError(f"give --focal: {args.scan} has no manifest.json to read it from")
     if not (math.isfinite(focal) and 0 < focal < 1e6):
         raise ValueError(f"--focal must be a focal length in pixels, got {focal:g}")
     names, angles = _views(args, pictures)
+    targets = [out / name for name in ("intensity.npy", "partial_range.npy", "camera.json")]
+    inputs = [args.scan, *names]
+    if out.is_dir():  # an output naming an input is refused before the work
+        for target in targets:
+            check_output_path(target, name="--out", inputs=inputs)
     images = [read_array(name) for name in names]
-    result = register(images, angles, focal, scan, refine=not args.no_refine)
+    result = register(images, angles, focal, scan, refine=not args.no_refine,
+                      slice_step=slice_step)
     misalignment = result.global_info["misalignment"]
     if not math.isfinite(misalignment):
         raise ValueError(
@@ -137,15 +171,17 @@ def _cmd_register(args) -> int:
                   "stretch matched no depth-edge segment)")
     else:
         report = f"edge misalignment {misalignment:.2f} px (the global warp)"
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    np.save(out / "intensity.npy", result.intensity)
-    np.save(out / "partial_range.npy", result.partial_range)
-    camera = write_registered_camera(out / "camera.json", result, focal)
+    for target, array in zip(targets, (result.intensity, result.partial_range)):
+        write_atomic(target, lambda stream, a=array: np.save(stream, a, allow_pickle=False))
+    camera = write_registered_camera(targets[2], result, focal)
+    measured = np.isfinite(result.partial_range).any(axis=0).mean()
     print(
-        f"wrote {out / 'intensity.npy'}, {out / 'partial_range.npy'} and {camera}: "
+        f"wrote {targets[0]}, {targets[1]} and {camera}: "
         f"{result.intensity.shape[0]}x{result.intensity.shape[1]}, "
-        f"{np.isfinite(result.partial_range).mean():.0%} with range; "
+        f"{np.isfinite(result.partial_range).mean():.0%} with range, {measured:.0%} of the "
+        f"columns measured (slice step {math.degrees(slice_step):.4g} degrees, from "
+        f"{step_source}); "
         f"warp a={result.warp.a:.2f} b={result.warp.b:.4f} alpha={result.warp.alpha:.2f} "
         f"beta={result.warp.beta:.2f}; {report}"
     )
@@ -187,6 +223,10 @@ def add_register_parser(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--out", default="refsynth-register", metavar="DIR",
                         help="folder for intensity.npy, partial_range.npy and camera.json "
                         "(default: %(default)s)")
+    parser.add_argument("--slice-step", type=float, default=None, metavar="DEGREES",
+                        help="the rig's pan step between two adjacent slice positions: only "
+                        "the columns of scanned slices are measured (default: the scan "
+                        "folder's, 0.36; for a bare NPZ the smallest gap between its slices)")
     parser.add_argument("--no-refine", action="store_true",
                         help="global warp only, Eq. 21 (default: off, the local stretch too)")
     return parser

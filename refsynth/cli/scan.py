@@ -18,7 +18,14 @@ Examples::
 (:mod:`refsynth.acquisition.resume`): files it cannot trust are set aside
 into ``rejected/`` and acquired again; a folder whose ``manifest.json`` is
 gone is resumed with the scan's settings given (``--strategy``, ...), the
-GS window (``--average``) defaulting to the one the slice files record.
+GS window (``--average``) defaulting to the one the slice files record. A
+scan killed at any moment resumes so: a slice written but not yet in the
+manifest is checked and kept, a cut-short temporary file finished or
+removed. The folder is locked while a scan runs: a second ``scan`` into it
+exits with status 2 (``'OUT' is in use by another scan``). Symbolic links
+are never written through: one in place of a slice, a picture or a
+temporary file is set aside, and a ``manifest.json``, ``slices/``,
+``images/`` or ``rejected/`` that is a link is refused.
 
 ``--pose X,Z,HEADING`` says where the rig stands (metres, metres, degrees):
 refsynth's frame (x right, y up, z forward) with the heading turning the

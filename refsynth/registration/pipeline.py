@@ -51,6 +51,13 @@ class Registration:
         ``(row0, row1, col0, col1)`` of the crop in the mosaic.
     mosaic : Mosaic
     cylinder : CylindricalRange
+        The scan on the cylinder (Eq. 19), one column per smallest gap
+        between its slices: what the warp is fitted to.
+    measured : CylindricalRange
+        The scan on the cylinder at the rig's slice step (``slice_step`` of
+        :func:`register`; ``cylinder`` without it): a column per pan
+        position, NaN where no slice was taken; ``partial_range`` is
+        resampled from it.
     initial : Warp
         The warp from the rig's nominal geometry.
     warp : Warp
@@ -82,6 +89,7 @@ class Registration:
     displacement: np.ndarray | None
     global_info: dict = field(default_factory=dict)
     history: list = field(default_factory=list)
+    measured: CylindricalRange | None = None
 
     def forward(self, phi, h) -> np.ndarray:
         """Mosaic ``(u, v)`` (full mosaic, not the crop) of laser points ``(φ, h)``."""
@@ -125,6 +133,7 @@ def register(
     search: int = 12,
     jump: float = 0.2,
     full_circle: bool = False,
+    slice_step: float | None = None,
 ) -> Registration:
     """Camera views + a partial spherical scan → registered intensity and range (App. A).
 
@@ -170,6 +179,15 @@ def register(
         Depth discontinuity threshold (the scan's unit).
     full_circle : bool, default False
         The views cover 360°.
+    slice_step : float, optional
+        The rig's pan step between two adjacent slice positions, radians
+        (0.36° on the paper's rig, §4; ``Scan.slice_step`` of a scan folder).
+        The registered range is resampled from the scan at that step, so a
+        column is measured only where a slice was taken and the slices not
+        scanned stay NaN. Default: the smallest gap between the scan's
+        slices, which is the rig's step only if two adjacent positions were
+        scanned somewhere (not so for every n-th slice: each slice is then
+        stretched across its gap, and range is made up).
 
     Returns
     -------
@@ -185,6 +203,8 @@ def register(
     (True, (1, 79, 1, 106))
     """
     focal = check_real("focal", focal, positive=True)
+    if slice_step is not None:
+        slice_step = check_real("slice_step", slice_step, positive=True, maximum=np.pi)
     angles = np.asarray(pan_angles, dtype=np.float64)
     if angles.ndim != 1 or not np.all(np.isfinite(angles)):
         raise ValueError("The parameter `pan_angles` must be a 1-D array of finite angles")
@@ -201,9 +221,11 @@ def register(
     pano = mosaic(images, focal, steps, start_angle=float(angles[0]), full_circle=full_circle)
     height = pano.image.shape[0]
     h_top = pano.horizon_row + 4.0  # rows of the mosaic, in h, with a margin
-    cylinder = scan_to_cylinder(
-        *scan, focal, h_range=(pano.horizon_row - height - 4.0, h_top)
-    )
+    h_range = (pano.horizon_row - height - 4.0, h_top)
+    cylinder = scan_to_cylinder(*scan, focal, h_range=h_range)
+    measured = cylinder
+    if slice_step is not None:
+        measured = scan_to_cylinder(*scan, focal, h_range=h_range, phi_step=slice_step)
     initial = Warp(focal, -1.0, float(pano.column_of(0.0)), pano.horizon_row)
     edges = intensity_edges(pano.image)
     warp, global_info = align_global(
@@ -212,13 +234,13 @@ def register(
     displacement, history = None, []
     if refine:
         displacement, history = refine_local(pano.image, cylinder, warp, edges=edges, jump=jump)
-    full_range = resample_range(cylinder, warp, pano.weight.shape, displacement)
+    full_range = resample_range(measured, warp, pano.weight.shape, displacement)
     crop = _covered_rectangle(pano.weight)
     window = (slice(crop[0], crop[1]), slice(crop[2], crop[3]))
     return Registration(
         intensity=pano.image[window].copy(), partial_range=full_range[window].copy(), crop=crop,
         mosaic=pano, cylinder=cylinder, initial=initial, warp=warp, displacement=displacement,
-        global_info=global_info, history=history,
+        global_info=global_info, history=history, measured=measured,
     )
 
 
@@ -244,7 +266,9 @@ def register_scan(images, pan_angles, focal: float, scan, **options):
         The spherical scan; NaN = not measured.
     **options
         The keyword arguments of :func:`register` (``refine``,
-        ``fit_scale``, ``search``, ``jump``, ``full_circle``).
+        ``fit_scale``, ``search``, ``jump``, ``full_circle``,
+        ``slice_step``: give the rig's step, or the unscanned columns
+        between slices farther apart are filled from their neighbours).
 
     Returns
     -------

@@ -34,6 +34,9 @@ import numpy as np
 
 from refsynth._checks import check_real
 
+#: The most columns a cylindrical range image may have (a step of 0.00036° over 360°).
+_MAX_COLUMNS = 1_000_000
+
 __all__ = [
     "spherical_to_cartesian",
     "cartesian_to_spherical",
@@ -268,7 +271,10 @@ def scan_to_cylinder(
     h_range : pair of float, optional
         ``(h_min, h_max)``; default: the scan's ``θ`` range.
     phi_step : float, optional
-        Azimuth per column; default: the smallest gap between slices.
+        Azimuth per column: the rig's step between adjacent slice positions,
+        so that every position not scanned is a NaN column; at most the
+        smallest gap between slices. Default: the smallest gap between
+        slices (the rig's step only if two adjacent positions were scanned).
 
     Returns
     -------
@@ -298,9 +304,16 @@ def scan_to_cylinder(
     if h_min >= h_max:
         raise ValueError(f"The parameter `h_range` must be increasing, got {h_range!r}")
     gaps = np.diff(phi)
+    smallest = float(gaps[gaps > 1e-9].min()) if np.any(gaps > 1e-9) else None
     if phi_step is None:
-        phi_step = float(gaps[gaps > 1e-9].min()) if np.any(gaps > 1e-9) else 1.0
+        phi_step = 1.0 if smallest is None else smallest
     phi_step = check_real("phi_step", phi_step, positive=True)
+    if smallest is not None and phi_step > smallest * (1 + 1e-6):
+        raise ValueError(f"The parameter `phi_step` must be at most the smallest gap between "
+                         f"slices ({smallest:.6g} rad), got {phi_step:.6g}")
+    if (phi[-1] - phi[0]) / phi_step > _MAX_COLUMNS:
+        raise ValueError(f"The parameter `phi_step` must leave at most {_MAX_COLUMNS} columns "
+                         f"over the scan's azimuth span, got {phi_step:.6g} rad")
     n_rows = int(np.floor((h_max - h_min) / h_step + 1e-6)) + 1
     h = h_max - h_step * np.arange(n_rows)
     n_cols = int(round((phi[-1] - phi[0]) / phi_step)) + 1
