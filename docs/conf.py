@@ -2,7 +2,7 @@
 
 Build: ``python -m sphinx -W -b html docs docs/_build`` (the ``docs`` extra).
 
-Two parts of the site are generated here, into ``docs/_generated/``, at every
+Three parts of the site are generated here, into ``docs/_generated/``, at every
 build:
 
 * ``api/<subpackage>.rst``: one page per subpackage, its docstring (the
@@ -10,6 +10,7 @@ build:
   ``__all__``, read from the subpackage *namespace* — ``refsynth.synthesis``,
   not the module a name happens to live in — so the reference follows the
   package's public API as it is.
+* ``figures.md``: every PNG of ``figures/``, which the gallery page includes.
 * ``tutorials/``: the course's tutorials. With ``REFSYNTH_NOTEBOOKS=DIR``
   (a folder written by ``python -m refsynth notebooks --out DIR``), the
   executed notebooks, outputs and figures included; otherwise the Jupytext
@@ -138,8 +139,25 @@ def copy_tutorials() -> None:
         shutil.copyfile(script, folder / script.name)
 
 
+def write_gallery() -> None:
+    """``_generated/figures.md``: every PNG of ``figures/``, for the gallery page to include.
+
+    The image paths are relative to ``docs/gallery.md``, which includes the file (and
+    ``exclude_patterns`` keeps the file from being a page of its own).
+    """
+    lines = []
+    for png in sorted((ROOT / "figures").glob("*.png")):
+        lines += [f"### `{png.name}`", "", f"![{png.stem}](../figures/{png.name})", ""]
+    GENERATED.mkdir(parents=True, exist_ok=True)
+    target = GENERATED / "figures.md"
+    text = "\n".join(lines)
+    if not target.is_file() or target.read_text(encoding="utf-8") != text:
+        target.write_text(text, encoding="utf-8")
+
+
 write_api_pages()
 copy_tutorials()
+write_gallery()
 
 #: Stopgap: modules whose docstring docutils cannot parse yet, shown as plain text.
 #: Remove an entry once its docstring is fixed (none left).
@@ -210,7 +228,10 @@ myst_heading_anchors = 3
 # -- the site --------------------------------------------------------------------
 
 root_doc = "index"
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "**/.ipynb_checkpoints", "*.py"]
+#: Never sources: the build's own outputs (a build into ``docs/_build`` puts myst-nb's
+#: notebooks in ``docs/jupyter_execute``, which a second build would otherwise read as pages).
+exclude_patterns = ["_build", "jupyter_execute", "**/jupyter_execute", "_generated/figures.md",
+                    "Thumbs.db", ".DS_Store", "**/.ipynb_checkpoints", "*.py"]
 html_theme = "alabaster"
 html_title = f"refsynth {release}"
 html_static_path: list[str] = []

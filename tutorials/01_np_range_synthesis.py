@@ -72,13 +72,13 @@ from refsynth.synthesis import (
 # is skipped where either has no range — always at the centre of the
 # neighbourhood being filled, since that is what we are looking for.
 # Intensity and range are both normalised to [0, 1] before they are compared,
-# and the two terms weigh the same (λ = 1, refsynth's default since 0.2). On
-# a colour image the intensity term is the *sum* of the squared differences
-# over the three channels, as Eq. 2 writes it (`channels="sum"`, the default
-# since refsynth 0.3; 0.2 averaged them, `channels="mean"`), so colour weighs
-# up to three times as much against range as a grey level would. The paper
-# leaves the normalisation and λ open; the README's *Departures* section
-# gives refsynth's choices and why. This
+# and the two terms weigh the same (λ = 1, refsynth's default). On a colour
+# image the intensity term is the *sum* of the squared differences over the
+# three channels, as Eq. 2 writes it (`channels="sum"`, the default;
+# `channels="mean"` averages them), so colour weighs up to three times as
+# much against range as a grey level would. The paper leaves the
+# normalisation and λ open; the documentation's *Departures* page gives
+# refsynth's choices and why. This
 # cell calls Eq. 2 as written (`missing_range="ignore"`, the default of
 # `neighbourhood_distance`); `synthesize` also charges a candidate for range
 # it lacks where the target has some (`missing_range="mean"`, a departure).
@@ -117,15 +117,12 @@ print(f"       intensity term alone {d_intensity_only:.4f} (= 0.05² = 0.0025: t
 # Table 4, at a size that runs in about a second per fill) with the grid
 # sampling of Tables 1 and 3: known stripes 5 pixels wide, 25-pixel holes
 # between them. Pixels without ground truth are never known (nothing to
-# give) and never scored. How it was chosen: it is the paper's setting on
-# real data, and with refsynth 0.2's defaults the paper's main claims about
-# NP showed on it beyond NP's seed-to-seed spread — NP beats the simple
-# fills, and the edge term helps. Under 0.3's defaults (Eq. 2 sums the
-# colour channels) the first still held by a wide margin and the edge term's
-# gain shrank to within the spread; under 0.5's (a copy shifted by the two
-# windows' range difference, below) both hold beyond the spread again
-# (section 4 says why; the test suite checks both statements). On the
-# synthetic rooms too the edge term now helps beyond the spread (exercise 1).
+# give) and never scored. Why this case: it is the paper's setting on real
+# data, and with refsynth's defaults the paper's two main claims about NP
+# show on it beyond NP's seed-to-seed spread — NP beats the simple fills,
+# and the edge term helps (section 4 says why; the test suite checks both
+# statements). On the synthetic rooms too the edge term helps beyond the
+# spread (exercise 1).
 
 # %%
 scene = motorcycle(128)
@@ -298,22 +295,24 @@ for other, claim in [("onion order", "Fig. 7"), ("no edges", "Table 3, Fig. 13")
 
 # %% [markdown]
 # The last three lines check the paper's three claims about the order on this
-# case. Under refsynth 0.5's defaults the edge term wins beyond the spread and
-# the onion order and the isophotes tie. With 0.2's defaults, which averaged
-# Eq. 2's colour channels, the priority order scored 0.463 ± 0.015 here and
-# beat both the onion order (0.524 ± 0.007) and the order without edges
-# (0.529 ± 0.028) beyond the spread. Summing the channels, 0.3's reading of
-# Eq. 2 (chosen on the full-size Motorcycle, issue #10), weighs the colour
-# about three times as much against the range already filled; on this small
-# grid case that cost the priority order (0.510 ± 0.032) and left all three
-# claims ties. 0.5 shifts the copied value by the range difference between
-# the two windows (`range_copy="offset"`, chosen on the full-size Motorcycle:
-# the README's audit): a slanted surface then fills as a surface, every
-# order gains, and the order that keeps each surface to its own side of an
-# edge gains most. What each term does, and so what to look for:
+# case. Under refsynth's defaults the edge term wins beyond the spread and
+# the onion order and the isophotes tie. Two readings shape that. Eq. 2 sums
+# the colour channels (chosen on the full-size Motorcycle), which weighs the
+# colour about three times as much against the range already filled; with
+# Eq. 5's value copy (`range_copy="value"`) that leaves all three claims ties
+# on this small grid case (the priority order scores 0.510 ± 0.032), and
+# with the value copy and the channel mean (`channels="mean"`) it scores
+# 0.463 ± 0.015 and beats both the onion order (0.524 ± 0.007) and the order
+# without edges (0.529 ± 0.028) beyond the spread. The default copy shifts
+# the copied value by the range difference between the two windows
+# (`range_copy="offset"`, chosen on the full-size Motorcycle: the
+# documentation's *Departures* page): a slanted surface then fills as a
+# surface, every order gains, and the order that keeps each surface to its
+# own side of an edge gains most. What each term does, and so what to look
+# for:
 #
-# * **Edges** (the claim this case was chosen for; under 0.5 a win beyond
-#   the spread, see above). Without `E`, nothing stops the fill from
+# * **Edges** (the claim this case was chosen for; a win beyond the spread,
+#   see above). Without `E`, nothing stops the fill from
 #   running across a depth edge: a pixel just past the bike's outline is
 #   filled from whichever side is more confident, so the floor's disparity
 #   leaks onto the bike or the other way round. With `E`, pixels near edges
@@ -322,7 +321,7 @@ for other, claim in [("onion order", "Fig. 7"), ("no edges", "Table 3, Fig. 13")
 # * **Onion order.** Peeling layer by layer fills every hole from all four
 #   sides at once, edges or not, so the surfaces meet wherever the layers
 #   meet; the priority order follows the intensity instead. Which wins
-#   depends on the case (here, under 0.5, it is a tie): the README's results
+#   depends on the case (here it is a tie): the documentation's *Results*
 #   find the priority order ahead on the room's grids (or tied), and onion
 #   peeling ahead on its vertical stripes only at the widest gaps (85 %) and
 #   on the distance-driven columns — with Eq. 5's value copy it was ahead at
@@ -331,12 +330,12 @@ for other, claim in [("onion order", "Fig. 7"), ("no edges", "Table 3, Fig. 13")
 # * **Isophotes.** `D` is close to 1 on most of the front (section 3), so it
 #   can only reorder the few pixels where a stripe crosses a depth edge; a
 #   tie here is no surprise. The paper reports a clear gain on real images
-#   (Fig. 16); the README's results say how far refsynth reproduces it.
+#   (Fig. 16); the documentation's *Results* say how far refsynth reproduces it.
 #
 # ### A case where NP loses to the nearest fill
 #
-# An earlier version of this tutorial used a synthetic room (seed 3) at
-# 64 × 64 with the same 5/25 grid — and NP lost to the nearest fill. The
+# Take a synthetic room (seed 3) at 64 × 64 with the same 5/25 grid, and NP
+# loses to the nearest fill. The
 # grid is in pixels: at 64 × 64 a 25-pixel hole spans four times as much of
 # the room (twice as wide, twice as high), whole boxes fit inside one hole,
 # and nothing measured tells NP what is there. Scale the grid with the image
@@ -359,8 +358,8 @@ for rw, xw in [(5, 25), (3, 13)]:
 # A measured pixel has confidence 1. A synthesized pixel gets its
 # confidence when it is filled, from its Eq. 11 term at that moment and the
 # confidence of the neighbourhood it matched best; how exactly the two
-# combine is a reading of the paper's sentence (the README lists refsynth's
-# under *Departures*). What matters for the fill order is how fast the
+# combine is a reading of the paper's sentence (the documentation's
+# *Departures* page gives refsynth's). What matters for the fill order is how fast the
 # confidence decays into the holes, which the next cell measures ring by
 # ring (ring 1 touches the measured stripes).
 

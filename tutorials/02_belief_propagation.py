@@ -152,25 +152,25 @@ print(f"middle pixel on an edge: P(2 m) = {np.round(p[:, 0], 3).tolist()}")
 # about the pixel (refsynth doubles `r` only where fewer than `k` measured
 # patches lie within it). **refsynth's defaults depart from it** in two
 # places of step 2 and in what a label gives, because the departures won on
-# real data (the Motorcycle; the README's *Real data* section and audit); Φ,
+# real data (the Motorcycle; the documentation's *Departures* page); Φ,
 # the form of Ψ and the messages are the paper's:
 #
-# * `observation="np"` (since 0.9): deep in a gap the observation patch holds
+# * `observation="np"`: deep in a gap the observation patch holds
 #   no range at all, so Fig. 6's Eq. 2 ranks the candidates by intensity
 #   alone, and the best match may be a patch of the same intensity on another
 #   surface, at another depth. refsynth first runs NP (tutorial 1) and
 #   completes every observation's range with NP's fill, so Eq. 2 ranks the
 #   candidates with a range term everywhere. The candidates are still
 #   measured patches. BP then takes NP's time on top of its own, and draws
-#   through NP: it depends on the seed. From 0.4 to 0.8 the default was
-#   `observation="colorization"`, the colorization fill of the measured range
-#   (a smooth interpolation guided by the intensity): cheaper and
+#   through NP: it depends on the seed. `observation="colorization"`
+#   completes it with the colorization fill of the measured range instead (a
+#   smooth interpolation guided by the intensity): cheaper and
 #   deterministic, and less accurate on the Motorcycle (exercise 2c).
 # * `training_radius="gap"`: a node `d` pixels from the nearest measured
 #   pixel searches a disc of radius `r + ⌊d⌋` instead of `r`, so a node deep
 #   in a gap reaches as far past its edge — on both sides — as a node beside
 #   it. It widens the search most where the gaps are wide.
-# * `range_copy="offset"` (since 0.6): a label is a measured patch, measured
+# * `range_copy="offset"`: a label is a measured patch, measured
 #   elsewhere — on a slanted surface at another depth. Where the label's
 #   range and the observation's differ by about the same amount `Δ` at every
 #   pixel they share (NP's offset copy, tutorial 1), the label is moved by
@@ -251,12 +251,12 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 # * **On the Motorcycle's vertical stripes refsynth's BP beats NP** beyond
 #   the two methods' seed-to-seed spread, and beats the nearest fill and the
 #   colorization fill; **Fig. 6's BP loses to NP** and beats the nearest fill
-#   narrowly. The paper's Table 4 has BP ahead of NP. Up to 0.4 refsynth's
-#   defaults reproduced that; 0.5's NP shifts each value it copies by the two
-#   windows' range difference (`range_copy="offset"`, the README's audit),
-#   which fills a slanted surface as a surface, and overtook BP; 0.6's BP
-#   shifts its labels the same way and drew level; 0.9's BP ranks and shifts
-#   its labels against NP's own fill and is ahead again. The gaps are narrow,
+#   narrowly. The paper's Table 4 has BP ahead of NP, and so does refsynth:
+#   NP shifts each value it copies by the two windows' range difference
+#   (`range_copy="offset"`), which fills a slanted surface as a surface and
+#   puts NP ahead of Fig. 6's BP; refsynth's BP shifts its labels the same
+#   way, and ranks and shifts them against NP's own fill, which puts it
+#   ahead of NP (exercise 2 takes these steps apart). The gaps are narrow,
 #   so every unknown pixel has measured patches close by on both sides, and
 #   both ceilings are well below every method's error. refsynth's ceiling is
 #   not the lower one: its candidates are no better than Fig. 6's — what
@@ -277,7 +277,7 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 #   pixels (exercises 2 and 2c), so its error follows NP's fill. Both BPs'
 #   confidence is the right way round here too, refsynth's by a wide margin.
 #
-# The README's results section runs the full grid of the paper's cases and
+# The documentation's *Results* page runs the full grid of the paper's cases and
 # gives the overall count; this tutorial's solutions check the two cases.
 #
 # ## Exercises
@@ -296,12 +296,12 @@ compare(room, stripes(room.shape, 5, 25, axes="xy"),
 #    (`observation="measured", training_radius="fixed", range_copy="value"`),
 #    add each departure alone (`observation="colorization"`, then
 #    `training_radius="gap"`, then `range_copy="offset"` instead), then all
-#    three (0.6–0.8's default), and compare BP's MAR, the
+#    three (BP on the colorization fill's observations), and compare BP's MAR, the
 #    candidate ceiling and the error of each pixel's first-ranked candidate
 #    (`result.candidate_values[:, 0]`) with one another and with NP. What
 #    moved — the candidates, or their order? Last, complete the observations
 #    with NP's own fill instead of the colorization fill
-#    (`observation="np"`, refsynth's default since 0.9; it draws through NP,
+#    (`observation="np"`, refsynth's default; it draws through NP,
 #    so take seeds 0–2): on the room the ceiling falls below NP's MAR — does
 #    BP follow it?
 #    (Its labels' shift then agrees to 2⁻³ of the span, `offset_tolerance`;

@@ -299,10 +299,11 @@ print(f"the global warp removes {scores['nominal']['mean'] - scores['global']['m
 # under one. The stretch only moves range where a whole segment of depth
 # edge is matched and consistently off; when the control-point count above
 # is zero, as it can be, no segment qualified and the stretch leaves the
-# range as the global warp put it. The README's registration benchmark runs
-# eight rigs: there the stretch helps, by a few hundredths of a pixel on
-# average, mostly on horizontal edges (the tops of furniture, whose
-# parallax Eq. 21's single β cannot fit; exercise 3).
+# range as the global warp put it. The registration benchmark (the
+# documentation's *Registration* guide) runs eight rigs: there the stretch
+# helps, by a few hundredths of a pixel on average, mostly on horizontal
+# edges (the tops of furniture, whose parallax Eq. 21's single β cannot
+# fit; exercise 3).
 #
 # ## 8. Registered intensity and range, ready for synthesis
 #

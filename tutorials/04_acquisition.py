@@ -18,7 +18,7 @@
 #
 # The paper's robot carries a laser rangefinder (a 45° mirror spinning on a
 # 2000-position encoder sweeps one vertical *slice*; each slice the mean of 10
-# samples) on a pan unit that turns through 180° in 0.36° steps — 500 slices —
+# samples) on a pan unit that turns through 180° in steps of 0.36° — 500 slices —
 # and a camera on the same unit that takes a picture every 18°. A complete scan
 # took about 20 minutes, so the robot measures only **30–50 % of the slices**,
 # chosen by a sampling strategy (§3.1.1, Fig. 2), and synthesizes the rest.

@@ -1,4 +1,4 @@
-"""``python -m refsynth demo``: the paper's story end to end, or (``--quick``) the main job's table.
+"""``python -m refsynth demo``: the paper's story end to end, or (``--quick``) one table of fills.
 
 :func:`add_demo_parser` adds the subcommand to the main parser of
 :mod:`refsynth.cli.main`. The default is
@@ -6,9 +6,9 @@
 its room from two positions, registration (Appendix A), NP and BP, a table
 of MAR against the simulator's ground truth, the targets of stage 3, the
 merged 3-D model and its rendered view (about a minute on two cores);
-``--pipeline`` is the same (kept for old scripts). ``--quick`` (or
-``--size``) is :func:`refsynth.plotting.demo.run_demo`: the synthetic room,
-NP, its ablations, BP and the baselines on two samplings (about 10 s). This
+``--pipeline`` names the same story. ``--quick`` (or ``--size``) is
+:func:`refsynth.plotting.demo.run_demo`: the synthetic room, NP, its
+ablations, BP and the baselines on two samplings (about 30 s on two cores). This
 module prints their results, and the story's progress with the time left on
 stderr. The output folder and the memory the largest fill needs are checked
 before any work. User errors are raised as ValueError / OSError with a
@@ -90,7 +90,7 @@ def story_progress(*, stream=None, interval: float | None = None, clock=time.mon
 
 
 def _print_targets(targets: dict) -> None:
-    """#12's targets as a table: one column per position."""
+    """Stage 3's targets against the room's truth as a table: one column per position."""
     per = targets["positions"]
     names = [f"position {k}" for k in range(1, len(per) + 1)]
     methods = [m for m in per[0]["points_percent"] if m != "measured"]
@@ -117,7 +117,7 @@ def _print_targets(targets: dict) -> None:
                                         f"{entry['refined_cm']:.2f} cm")
     row(f"median alignment error of the merged model ({targets['merged']['method']}): "
         "odometry (2 deg, 10 cm) -> ICP", cells, "<= 1 cm")
-    print("stage 3 against the room's truth (#12's targets):")
+    print("stage 3 against the room's truth (the model's targets):")
     print(_format_table(rows, [("measure", "measure", ""), *((n, n, "") for n in names),
                                ("target", "target", "")]))
     print("  [1] |r - r_true| / r_true along each point's ray (r_true: the simulator's ray caster "
@@ -198,25 +198,26 @@ def add_demo_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``demo`` subcommand to an argparse subparsers object (sets ``func=``)."""
     demo = add_subcommand(
         subparsers, "demo",
-        help="the paper's story end to end on the simulated rig (--quick: the main job's "
-        "table on the synthetic room)",
+        help="the paper's story end to end on the simulated rig (--quick: NP, BP and the "
+        "classical fills on the synthetic room, one table)",
         description="The paper's story end to end (about a minute): the simulated rig scans "
         "its room from two positions, the scans are registered to the pictures (Appendix A), "
         "NP and BP fill the range (a table of MAR against the ground truth, with nearest and "
         "colorization), and the positions become one 3-D model (PLY, ICP-refined odometry) "
         "and a rendered view. --quick: NP, its ablations, BP and the baselines on the "
-        "synthetic room, one table (about 10 s).",
+        "synthetic room, one table and three figures (about 30 s on two cores).",
         func=_cmd_demo,
     )
     demo.add_argument("--out", default="refsynth-demo",
                       help="folder for the scans, models and figures (default refsynth-demo)")
     demo.add_argument("--quick", action="store_true",
-                      help="the main job's table on the synthetic room instead (default off)")
+                      help="NP, its ablations, BP and the classical fills on the synthetic room "
+                      "instead: one table and three figures, about 30 s (default off)")
     demo.add_argument("--size", type=integer, default=None,
                       help="--quick: the synthetic room's side in pixels, at least 16; implies "
                       "--quick (default 128)")
     demo.add_argument("--seed", type=integer, default=0,
                       help="room, noise and synthesis seed (default 0)")
     demo.add_argument("--pipeline", action="store_true",
-                      help="the default story (kept for old scripts; default off)")
+                      help="the default story, named explicitly (default off)")
     return demo

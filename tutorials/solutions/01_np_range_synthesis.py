@@ -24,21 +24,20 @@ def exercise_1() -> None:
     last), the order follows ``C · D`` alone: the fill runs straight across
     depth edges from whichever side is more confident, so one surface's
     disparity leaks onto the next. On the Motorcycle MAR rises beyond the
-    seed-to-seed spread under refsynth 0.5's defaults (0.439 ± 0.012
-    against 0.491 ± 0.032), most of all near the intensity edges. Under 0.3's
-    (Eq. 2 summing the colour channels, the copy unshifted) the rise was
-    within the spread, 0.510 ± 0.032 against 0.530 ± 0.038, and away from
-    the edges the fill without ``E`` was a little better; 0.5 shifts each
-    copied value by the two windows' range difference (``range_copy=
-    "offset"``), which carries a surface into a hole only while the window
-    stays on that surface — so the order that keeps each surface to its own
-    side of an edge gains most. In the synthetic room (grey, so the channel
-    sum does not enter) many intensity edges are *not* depth edges (the
-    floor tiles, the painting, the door), and the boxes' outlines are few,
-    long straight lines; there the edge term's effect was within NP's own
-    spread and of the other sign up to 0.4, and with 0.5's shifted copy it
-    helps beyond the spread too. Measured in units of that spread, the effect
-    is now above 1 on both cases.
+    seed-to-seed spread under refsynth's defaults (0.439 ± 0.012 against
+    0.491 ± 0.032), most of all near the intensity edges. With Eq. 5's value
+    copy (``range_copy="value"``) the rise is within the spread, 0.510 ±
+    0.032 against 0.530 ± 0.038, and away from the edges the fill without
+    ``E`` is a little better; the default copy shifts each copied value by
+    the two windows' range difference (``range_copy="offset"``), which
+    carries a surface into a hole only while the window stays on that
+    surface — so the order that keeps each surface to its own side of an
+    edge gains most. In the synthetic room (grey, so the channel sum does not
+    enter) many intensity edges are *not* depth edges (the floor tiles, the
+    painting, the door), and the boxes' outlines are few, long straight
+    lines; there the edge term's effect is within NP's own spread with the
+    value copy, and beyond it with the shifted copy. Measured in units of
+    that spread, the effect is above 1 on both cases.
     """
     bike = motorcycle(128)
     known = stripes(bike.shape, 5, 25, axes="xy") & bike.has_truth
@@ -158,7 +157,7 @@ def exercise_3() -> None:
     stay short: fewer pixels lie in long vertical runs of error, for every
     seed, and MAR is lower.
 
-    With 0.5's default copy, shifted by the two windows' range difference
+    With the default copy, shifted by the two windows' range difference
     (``range_copy="offset"``), a value copied down a chain is corrected by the
     range beside it at every step, so the chain carries the surface instead
     of an error: both orders leave about as many streak pixels, far fewer

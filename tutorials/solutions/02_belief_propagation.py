@@ -57,8 +57,8 @@ def exercise_2() -> None:
     keeps (nearly) the same labels, and for about 94 % of the pixels that is
     the first-ranked candidate under refsynth's defaults (Φ with σ_i = 0.1 is
     sharp, and Ψ between partly measured patches says little; on the
-    colorization fill's observations, 0.8's default, it was about 90 %, with
-    Fig. 6's BP about 83 %). The gap between ceiling and MAR is the inference's
+    colorization fill's observations it is about 90 %, with Fig. 6's BP about
+    83 %). The gap between ceiling and MAR is the inference's
     share of the error, and it grows with k: the extra candidates are there,
     and BP does not find them.
     """
@@ -88,13 +88,13 @@ def room_case():
     return room, known, np.where(known, room.range, np.nan)
 
 
-READINGS = {  # Fig. 6 as printed, each departure alone, all three (0.6-0.8's default)
+READINGS = {  # Fig. 6 as printed, each departure alone, all three (on the colorization fill)
     "Fig. 6": {"observation": "measured", "training_radius": "fixed", "range_copy": "value"},
     "completed": {"observation": "colorization", "training_radius": "fixed",
                   "range_copy": "value"},
     "gap": {"observation": "measured", "training_radius": "gap", "range_copy": "value"},
     "offset copy": {"observation": "measured", "training_radius": "fixed"},
-    "completed + gap + offset (0.8's default)": {"observation": "colorization"},
+    "completed + gap + offset": {"observation": "colorization"},
 }
 
 
@@ -119,14 +119,15 @@ def exercise_2b() -> None:
     hundredths, so there the candidates improve too — and changes little on
     the Motorcycle's 5-column gaps, which a disc of ``r = 10`` already spans.
 
-    On the room BP still loses to NP in every reading, and since 0.5 (NP's
-    copy shifted by the windows' range difference) even its candidate ceiling
+    On the room BP loses to NP in every one of these readings, and with NP's
+    copy shifted by the windows' range difference even BP's candidate ceiling
     is above NP's MAR: no choice among measured patches reaches NP there. With
     all three departures BP's labels stay about 0.06 m above that ceiling: the
     loss is in the choice as well as in the candidates. The offset copy alone
-    (0.6, the labels shifted by their windows' range difference) helps on both
-    cases; on the Motorcycle BP with all three ties with 0.5's NP (it beat
-    0.4's NP, whose copies were unshifted).
+    (the labels shifted by their windows' range difference) helps on both
+    cases; on the Motorcycle BP with all three ties with NP's default (and
+    beats NP with Eq. 5's value copy). Exercise 2c completes the observations
+    with NP's own fill, refsynth's default.
     """
     cases = [bike_case(), room_case()]
     for scene, known, partial in cases:
@@ -155,28 +156,26 @@ def exercise_2b() -> None:
             assert np_mar < both[1] < both[0] - 0.04  # the ceiling above NP, the labels above
         else:
             assert abs(both[0] - done[0]) < 0.01  # narrow gaps: little change
-            assert abs(both[0] - np_mar) < 0.01  # the default BP ties with 0.5's NP
+            assert abs(both[0] - np_mar) < 0.01  # BP with all three ties with NP
 
 
 def exercise_2c() -> None:
-    """The observations completed by NP's fill (``observation="np"``, the default since 0.9).
+    """The observations completed by NP's fill (``observation="np"``, the default).
 
     On the room BP's MAR falls by more than half (0.195 → 0.085 m) and the
     candidate ceiling (0.071 m) is below NP's MAR (0.085 m): ranked and
     shifted against the range NP synthesized around each pixel, the training
     patches include one that beats NP at most pixels. BP does not follow the
     ceiling down: it keeps Eq. 2's first-ranked candidate at about 98 % of the
-    pixels (86 % with the default), so its MAR is that candidate's error, and
-    it ties NP. On the Motorcycle's narrow gaps BP on NP's fill is lower than
-    both NP and the default BP (0.268 against 0.287 and 0.286 px), though the
-    ceiling rises a little: the candidates are no nearer the truth, the first
-    one is better shifted. (The colorization fill's observations were BP's
-    default from 0.4 to 0.8; 0.9 made NP's fill the default, on the
-    Motorcycle's evidence.) Since 0.8.4 the shift's agreement is looser with
-    NP's fill (``offset_tolerance`` 2**-3 of the span, not NP's 2**-7: the
-    README's "BP on NP's fill"): that is the whole change from 0.8's figures
-    (0.099 m on the room, a tie on the Motorcycle), which
-    ``offset_tolerance=2**-7`` gives again. On real data at 450×375 and
+    pixels (86 % on the colorization fill), so its MAR is that candidate's
+    error, and it ties NP. On the Motorcycle's narrow gaps BP on NP's fill is
+    lower than both NP and BP on the colorization fill (0.268 against 0.287
+    and 0.286 px), though the ceiling rises a little: the candidates are no
+    nearer the truth, the first one is better shifted. With NP's fill the
+    shift's agreement is looser (``offset_tolerance`` 2**-3 of the span, not
+    NP's 2**-7: the documentation's *Departures* page); with
+    ``offset_tolerance=2**-7`` BP on NP's fill gives 0.099 m on the room and
+    ties NP on the Motorcycle. On real data at 450×375 and
     741×500 the same reading puts BP below NP at every fraction, at the price
     of NP's time.
     """

@@ -132,7 +132,7 @@ def exercise_1() -> None:
 
 
 def exercise_2() -> None:
-    """Plant the dropped-factor bug of issue #11 and predict where the oracle reports it.
+    """Plant the dropped-factor bug and predict where the oracle reports it.
 
     With ``C(best)`` alone, a pixel's confidence differs from ``C(p) · C(best)`` exactly when
     ``C(p)`` (Eq. 11, ``step_C`` in the golden trace) is below 1: the first such step is the
@@ -172,7 +172,7 @@ def exercise_3() -> None:
 def exercise_1b() -> None:
     """The offset copy: after the draw, shift the value by the windows' range difference.
 
-    NP's default since 0.5 (``range_copy="offset"``) writes the drawn value shifted by the
+    NP's default (``range_copy="offset"``) writes the drawn value shifted by the
     weighted mean difference between the two windows' range where both have it, when every
     difference agrees with that mean to within ``2**9`` grid steps (``2**-7`` of the span),
     rounded half to even and clipped to the span. The port without it passes the value-copy
