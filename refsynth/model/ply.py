@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from refsynth._checks import check_choice
+from refsynth._files import write_atomic
 from refsynth.model.build import Model
 
 __all__ = ["write_ply", "read_ply", "PLY_TYPES"]
@@ -101,7 +102,9 @@ def write_ply(path, model: Model, *, ascii: bool = False, coordinates: str = "fl
     Parameters
     ----------
     path : str or Path
-        The file to write (its folder must exist).
+        The file to write (its folder must exist); an existing file is
+        replaced only once the new one is complete
+        (:func:`refsynth._files.write_atomic`).
     model : Model
         The model to write (vertices, colours, confidence, synthesized, faces).
     ascii : bool, default False
@@ -115,6 +118,12 @@ def write_ply(path, model: Model, *, ascii: bool = False, coordinates: str = "fl
     -------
     Path
         ``path``.
+
+    Raises
+    ------
+    OSError
+        Naming ``path``, if it cannot be written (the previous file is then
+        intact, and no temporary file is left behind).
 
     Examples
     --------
@@ -146,14 +155,17 @@ def write_ply(path, model: Model, *, ascii: bool = False, coordinates: str = "fl
     faces = np.empty(model.n_faces, dtype=[("n", "u1"), ("v", "<i4", (3,))])
     faces["n"] = 3
     faces["v"] = model.faces
-    with path.open("wb") as stream:
-        stream.write(_header(model, ascii, coordinates, comments))
+    header = _header(model, ascii, coordinates, comments)
+
+    def write(stream) -> None:
+        stream.write(header)
         if ascii:
             _write_ascii(stream, vertices, faces, coordinates)
         else:
             stream.write(vertices.tobytes())
             stream.write(faces.tobytes())
-    return path
+
+    return write_atomic(path, write)
 
 
 def _write_ascii(stream, vertices: np.ndarray, faces: np.ndarray, coordinates: str) -> None:
