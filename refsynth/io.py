@@ -361,8 +361,8 @@ def read_range(
         stored = stored[..., 0]
     if stored.ndim != 2:
         raise ValueError(
-            f"Cannot read '{path}' as range: it must hold one channel (H, W), got shape "
-            f"{stored.shape}"
+            f"Cannot read '{path}' as range: it must be a single-channel (H, W) map, got "
+            f"shape {stored.shape}"
         )
     if stored.dtype == bool or stored.dtype.kind not in "iuf":
         raise ValueError(
