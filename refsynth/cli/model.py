@@ -176,8 +176,11 @@ def read_camera_file(path) -> tuple[CylindricalCamera | PinholeCamera, tuple[int
         raise ValueError(f"{path} is not a camera file ({path.stat().st_size} bytes)")
     try:
         record = json.loads(path.read_bytes().decode("utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as error:
-        raise ValueError(f"cannot read {path} as JSON: {error}") from None
+    except RecursionError:
+        raise ValueError(f"cannot read {path} as JSON: it is nested too deeply") from None
+    except ValueError as error:  # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
+        reason = " ".join(str(error).split())
+        raise ValueError(f"cannot read {path} as JSON: {reason}") from None
     if not isinstance(record, dict) or record.get("format") != CAMERA_FORMAT:
         raise ValueError(f"{path} is not a camera file (format {CAMERA_FORMAT!r}, as "
                          "'register' writes)")
@@ -186,9 +189,8 @@ def read_camera_file(path) -> tuple[CylindricalCamera | PinholeCamera, tuple[int
             "pinhole": ("focal", "cx", "cy")}.get(kind)
     if keys is None:
         raise ValueError(f"{path}: camera must be 'cylindrical' or 'pinhole', got {kind!r}")
-    values = [record.get(key) for key in keys]
-    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-               for v in values):
+    values = [_finite(record.get(key)) for key in keys]
+    if any(v is None for v in values):
         raise ValueError(f"{path}: {', '.join(keys)} must be finite numbers")
     shape = record.get("shape")
     if not (isinstance(shape, list) and len(shape) == 2
@@ -299,30 +301,82 @@ def _cmd_build(args) -> int:
     return 0
 
 
+#: A poses file holds a few numbers per scan: anything larger is not one.
+_MAX_POSES_BYTES = 1 << 24
+_POSE_KEYS = ("x", "y", "z", "heading")
+
+
+def _finite(value) -> float | None:
+    """``value`` as a finite float if it is a JSON number that is one, else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)  # an integer such as 10**400 overflows here
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _matrix(value, where: str) -> np.ndarray:
+    """A pose's ``"matrix"``: 4 rows of 4 finite numbers, a rigid transform."""
+    rows = value if isinstance(value, list) else None
+    if rows is None or len(rows) != 4 or not all(isinstance(r, list) and len(r) == 4
+                                                 for r in rows):
+        raise ValueError(f"{where}: matrix must be 4 rows of 4 numbers ([[R, t], [0, 0, 0, 1]])")
+    numbers = [[_finite(v) for v in row] for row in rows]
+    if any(v is None for row in numbers for v in row):
+        raise ValueError(f"{where}: matrix must hold finite numbers only")
+    try:
+        return pose_matrix(numbers)
+    except ValueError as error:
+        raise ValueError(f"{where}: {error}") from None
+
+
 def read_poses(path) -> list[np.ndarray]:
-    """The poses of ``poses.json``: 4×4 transforms (module docstring for the format)."""
+    """The poses of ``poses.json``: 4×4 transforms (module docstring for the format).
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        One line naming the file (and the pose): not UTF-8 JSON, nested too
+        deeply, not a list of objects, unknown keys, a value that is not a
+        finite number (``1e999``, ``10**400``, a string), a matrix that is
+        not 4×4 numbers or not rigid.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"poses file not found: {path}")
+    if path.stat().st_size > _MAX_POSES_BYTES:
+        raise ValueError(f"{path} is not a poses file ({path.stat().st_size} bytes)")
     try:
-        entries = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"cannot read {path} as JSON: {error}") from None
+        entries = json.loads(path.read_bytes().decode("utf-8"))
+    except RecursionError:
+        raise ValueError(f"cannot read {path} as JSON: it is nested too deeply") from None
+    except ValueError as error:  # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
+        reason = " ".join(str(error).split())
+        raise ValueError(f"cannot read {path} as JSON: {reason}") from None
     if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise ValueError(f"{path} must hold a JSON list of objects, one pose per PLY")
     poses = []
     for k, entry in enumerate(entries):
+        where = f"pose {k} in {path}"
         if "matrix" in entry:
-            poses.append(pose_matrix(entry["matrix"]))
+            if len(entry) > 1:
+                raise ValueError(f"{where}: give a matrix or x, z, heading, y, not both")
+            poses.append(_matrix(entry["matrix"], where))
             continue
-        unknown = set(entry) - {"x", "y", "z", "heading"}
+        unknown = set(entry) - set(_POSE_KEYS)
         if unknown:
-            raise ValueError(f"pose {k} in {path} has unknown keys {sorted(unknown)} "
+            raise ValueError(f"{where} has unknown keys {sorted(unknown)} "
                              "(x, z, heading in degrees, y; or matrix)")
-        values = {key: entry.get(key, 0.0) for key in ("x", "y", "z", "heading")}
-        if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                   for v in values.values()):
-            raise ValueError(f"pose {k} in {path} must hold numbers")
+        values = {key: _finite(entry.get(key, 0.0)) for key in _POSE_KEYS}
+        bad = [key for key, value in values.items() if value is None]
+        if bad:
+            raise ValueError(f"{where}: {', '.join(bad)} must be "
+                             f"{'a finite number' if len(bad) == 1 else 'finite numbers'}, got "
+                             f"{', '.join(repr(entry[key])[:30] for key in bad)}")
         values["heading"] = math.radians(values["heading"])
         poses.append(Pose(**values).matrix())
     return poses
