@@ -366,7 +366,7 @@ def read_range(
         )
     if stored.dtype == bool or stored.dtype.kind not in "iuf":
         raise ValueError(
-            f"Cannot read '{path}' as range: it must hold real numbers, got {stored.dtype}"
+            f"Cannot read '{path}' as range: it must hold real numbers, got dtype {stored.dtype}"
         )
     values = stored.astype(np.float64)
     if image:
