@@ -18,6 +18,17 @@ entry per PLY in order, of ``{"x": …, "z": …, "heading": DEGREES, "y": …}`
 (refsynth's frame: x right, y up, z forward; ``y`` optional) or of
 ``{"matrix": [[4 × 4]]}``.
 
+DENSE and ``--partial`` are read as ``synth`` reads range
+(:func:`refsynth.io.read_range`): ``.npy`` / ``.pfm`` as stored, an image's
+stored integers divided by ``--png-scale`` (so ``synth --out dense_mm.png
+--png-scale 1000`` comes back in metres with ``model dense_mm.png --png-scale
+1000``); JPEG and values <= 0 (without ``--allow-nonpositive``) are refused.
+Which points were measured comes from ``--partial`` only: without it every
+point is marked synthesized, and a note on stderr says so (a confidence of 1
+is no evidence: BP's belief reaches it at synthesized pixels). Outputs are
+checked before any work (writable, none of the inputs) and written all or
+nothing.
+
 The camera file
 ---------------
 A registered panorama's camera is not the centred one that ``--focal``
