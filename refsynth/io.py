@@ -585,6 +585,16 @@ def npy_bytes(array: np.ndarray) -> bytes:
     ``numpy.save`` to a real file writes through ``ndarray.tofile``, whose
     error at close can be lost; in memory nothing can fail silently.
 
+    Parameters
+    ----------
+    array : ndarray
+        A numeric array (bool, integer, floating or complex).
+
+    Returns
+    -------
+    bytes
+        What ``numpy.save(file, array, allow_pickle=False)`` writes.
+
     Raises
     ------
     TypeError

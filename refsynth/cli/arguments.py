@@ -301,10 +301,28 @@ def check_files_in(folder: Path, names: Iterable[str], option: str) -> None:
     For a command that writes fixed file names into the folder ``option``
     gives (``figures --out``, ``demo --out``), after :func:`check_folder`.
 
+    Parameters
+    ----------
+    folder : Path
+        The output folder (it need not exist yet).
+    names : iterable of str
+        The files the command writes there.
+    option : str
+        The option that names the folder, for the message.
+
     Raises
     ------
     IsADirectoryError
         Naming the first such file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> (folder / "b.png").mkdir()
+    >>> check_files_in(folder, ["a.png", "b.png"], "--out")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    IsADirectoryError: --out: cannot write .../b.png: it is a folder
     """
     for name in names:
         if (folder / name).is_dir():
