@@ -303,3 +303,16 @@ def test_folder_commands_refuse_an_output_file_that_is_a_folder(tmp_path, capsys
     start = time.perf_counter()
     _fails([*command, "--out", str(tmp_path)], capsys, f"{tmp_path / name}: it is a folder")
     assert time.perf_counter() - start < 5.0
+
+
+def test_a_new_file_gets_the_umask_s_permissions_and_a_replaced_one_keeps_its_own(tmp_path):
+    """The temporary file is created 0600; the file it becomes is not left so."""
+    previous = os.umask(0o027)
+    try:
+        path = write_array(tmp_path / "new.npy", np.ones(3))
+        assert path.stat().st_mode & 0o777 == 0o640
+        os.chmod(path, 0o604)
+        write_array(path, np.zeros(3))
+        assert path.stat().st_mode & 0o777 == 0o604
+    finally:
+        os.umask(previous)
