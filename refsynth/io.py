@@ -407,7 +407,7 @@ def write_png16(path: str | Path, array: np.ndarray, scale: float = 1.0) -> None
         NaN (and non-finite values) mark unknown pixels and are stored as 0.
     scale : float, default 1
         Stored integer per unit of range; read back with
-        ``read_array(path, raw=True) / scale`` (0 = unknown).
+        ``read_range(path, scale=scale)`` (0 = unknown, read as NaN).
 
     Raises
     ------
