@@ -316,3 +316,21 @@ def test_a_new_file_gets_the_umask_s_permissions_and_a_replaced_one_keeps_its_ow
         assert path.stat().st_mode & 0o777 == 0o604
     finally:
         os.umask(previous)
+
+
+def test_check_output_tries_a_real_file_where_permission_bits_say_yes(tmp_path, monkeypatch):
+    """Root passes every os.access test: the folder is asked to take a file instead."""
+    import tempfile
+
+    from refsynth.cli.arguments import check_output
+
+    def refuse(*args, **kwargs):
+        raise OSError(30, "Read-only file system")
+
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    with pytest.raises(OSError, match=f"--out: cannot write {tmp_path / 'o.npy'}: the folder "
+                                      f"{tmp_path} does not take new files .Read-only file"):
+        check_output(str(tmp_path / "o.npy"), "--out", (".npy",))
+    monkeypatch.undo()
+    assert check_output(str(tmp_path / "o.npy"), "--out", (".npy",)) == tmp_path / "o.npy"
+    assert list(tmp_path.iterdir()) == []  # the trial file is gone
