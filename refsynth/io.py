@@ -351,9 +351,10 @@ def read_range(
             )
     if not path.is_file():
         raise FileNotFoundError(f"No such file: '{path}'")
-    if suffix in LOSSY_SUFFIXES or (image and _starts_with(path, _JPEG_MAGIC)):
+    lossy = "JPEG" if suffix in LOSSY_SUFFIXES else (_lossy_format(path) if image else None)
+    if lossy is not None:
         raise ValueError(
-            f"Cannot read '{path}' as range: JPEG is lossy (its compression invents range "
+            f"Cannot read '{path}' as range: {lossy} is lossy (its compression invents range "
             "values); store range as .npy, .pfm or a 16-bit .png"
         )
     stored = read_array(path, raw=True)
@@ -387,9 +388,18 @@ def read_range(
     return values
 
 
-def _starts_with(path: Path, magic: bytes) -> bool:
+def _lossy_format(path: Path) -> str | None:
+    """"JPEG" or "WebP" if the file's first bytes say so (whatever its suffix), else None.
+
+    A lossless WebP (``VP8L``) is not refused.
+    """
     with path.open("rb") as stream:
-        return stream.read(len(magic)) == magic
+        head = stream.read(16)
+    if head.startswith(_JPEG_MAGIC):
+        return "JPEG"
+    if head[:4] == b"RIFF" and head[8:12] == b"WEBP" and head[12:16] != b"VP8L":
+        return "WebP"
+    return None
 
 
 # ----------------------------------------------------------------------------- writing

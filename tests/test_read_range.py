@@ -201,3 +201,15 @@ def test_evaluate_reads_a_png_disparity_as_synth_does(tmp_path, capsys):
     assert main(["evaluate", "--scene", f"{tmp_path / 'im.png'}:{tmp_path / 'disp.jpg'}",
                  "--methods", "nearest", "--sampling", "x50", "--quiet"]) == 2
     _one_error(capsys, "JPEG is lossy")
+
+
+def test_a_lossy_webp_disguised_as_png_is_refused(tmp_path):
+    from PIL import features
+
+    if not features.check("webp"):
+        pytest.skip("Pillow built without WebP")
+    buffer = io.BytesIO()
+    Image.fromarray(np.full((8, 8), 100, dtype=np.uint8)).save(buffer, format="WEBP")
+    (tmp_path / "r.png").write_bytes(buffer.getvalue())
+    with pytest.raises(ValueError, match="r.png' as range: WebP is lossy"):
+        read_range(tmp_path / "r.png")
