@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -39,6 +40,25 @@ def _fsync_folder(folder: Path) -> None:
             os.close(descriptor)
 
 
+def _umask() -> int:
+    """The process's umask, read without changing it where the platform says it."""
+    with contextlib.suppress(OSError, ValueError):
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    mask = os.umask(0o022)  # elsewhere: set and restore at once
+    os.umask(mask)
+    return mask
+
+
+def _mode_for(path: Path) -> int:
+    """The permissions a new ``path`` gets: the replaced file's, else ``0o666`` less the umask."""
+    try:
+        return stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:
+        return 0o666 & ~_umask()
+
+
 def _write_temporary(path: Path, data: bytes | Writer) -> Path:
     """Write ``data`` to a new, exclusively created temporary file beside ``path``."""
     folder = path.parent if str(path.parent) else Path(".")
@@ -48,6 +68,7 @@ def _write_temporary(path: Path, data: bytes | Writer) -> Path:
         raise OSError(error.errno, f"cannot write '{path}': {error.strerror}") from None
     temporary = Path(name)
     try:
+        os.fchmod(descriptor, _mode_for(path))  # mkstemp's 0600 would hide the file
         with os.fdopen(descriptor, "wb") as stream:
             if isinstance(data, (bytes, bytearray, memoryview)):
                 stream.write(data)

@@ -5,9 +5,17 @@
 - :func:`read_image`: PNG, JPEG, TIFF, PGM/PPM … through Pillow (which
   matplotlib depends on), as float64 in [0, 1] or as the stored integers.
 - :func:`read_array`: any of the above, chosen by the file's suffix.
+- :func:`read_range`: a range image, the one way every command reads range
+  (stored values or stored integers / an explicit scale; NaN = unknown; lossy
+  formats and values <= 0 refused).
 - :func:`write_array`: ``.npy``, ``.pfm`` or a 16-bit ``.png``, chosen by the
   suffix (:data:`WRITE_SUFFIXES`); anything else is refused before writing.
   :func:`write_unit_png16` writes values in [0, 1] (a confidence map).
+
+Every writer goes through :func:`refsynth._files.write_atomic`: the file is
+written beside its target and renamed over it once complete, so a failed
+write (a full disk, a file-size limit) leaves the previous file intact and
+raises an ``OSError`` naming the file.
 
 Every reader rejects what it cannot read exactly — a truncated or padded
 file, a malformed header, an image too large to decode safely — with a
@@ -22,12 +30,15 @@ rows stored from the *bottom* of the image to the top.
 
 from __future__ import annotations
 
-import re
+import io
 import warnings
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
+
+from refsynth._files import write_atomic
+from refsynth._pfm import read_pfm, write_pfm
 
 __all__ = [
     "read_pfm",
@@ -35,6 +46,8 @@ __all__ = [
     "read_image",
     "read_array",
     "read_npy",
+    "read_range",
+    "npy_bytes",
     "write_png16",
     "write_unit_png16",
     "write_array",
@@ -42,6 +55,7 @@ __all__ = [
     "IMAGE_SUFFIXES",
     "WRITE_SUFFIXES",
     "MAX_IMAGE_PIXELS",
+    "LOSSY_SUFFIXES",
 ]
 
 #: The largest image (in pixels) :func:`read_image` decodes: 2^28, a 16384×16384
@@ -49,8 +63,6 @@ __all__ = [
 MAX_IMAGE_PIXELS = 2**28
 #: The suffixes :func:`write_array` writes.
 WRITE_SUFFIXES = (".npy", ".pfm", ".png")
-_PFM_INT = re.compile(rb"[0-9]{1,9}")
-_PFM_REAL = re.compile(rb"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?")
 
 #: Suffixes :func:`read_array` hands to :func:`read_image` (read by Pillow).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm", ".ppm", ".pbm")
@@ -60,143 +72,6 @@ def _check_path(path) -> Path:
     if not isinstance(path, (str, Path)):
         raise TypeError(f"The parameter `path` must be a str or a Path, got {type(path).__name__}")
     return Path(path)
-
-
-def _read_bytes(path: Path) -> bytes:
-    if not path.is_file():
-        raise FileNotFoundError(f"No such file: '{path}'")
-    return path.read_bytes()
-
-
-# ----------------------------------------------------------------------------- PFM
-
-
-def _pfm_header(data: bytes, path: Path) -> tuple[list[bytes], int]:
-    """The four header tokens (kind, W, H, scale) and the offset of the first data byte."""
-    tokens: list[bytes] = []
-    position = 0
-    while len(tokens) < 4:
-        while position < len(data) and data[position : position + 1].isspace():
-            position += 1
-        start = position
-        while position < len(data) and not data[position : position + 1].isspace():
-            position += 1
-        if start == position:
-            raise ValueError(f"Cannot read '{path}' as PFM: the header is truncated")
-        tokens.append(data[start:position])
-        if tokens[0] not in (b"PF", b"Pf"):
-            raise ValueError(
-                f"Cannot read '{path}' as PFM: it must start with 'PF' or 'Pf', "
-                f"got {tokens[0][:10]!r}"
-            )
-    # one whitespace character separates the header from the data ("\r\n" counts as one)
-    if data[position : position + 2] == b"\r\n":
-        return tokens, position + 2
-    return tokens, position + 1
-
-
-def read_pfm(path: str | Path) -> np.ndarray:
-    """Read a Portable Float Map.
-
-    Parameters
-    ----------
-    path : str or Path
-        A ``.pfm`` file: ``PF`` (colour) or ``Pf`` (grey), either byte order.
-
-    Returns
-    -------
-    ndarray of shape (H, W) or (H, W, 3), float32
-        In native byte order, rows from the top of the image down (the file
-        stores them bottom-up). Values are returned as stored: for Middlebury
-        disparities ``inf`` marks the pixels without ground truth.
-
-    Raises
-    ------
-    FileNotFoundError
-        If there is no such file.
-    ValueError
-        If the file is not a valid PFM (the message names the path).
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "disparity.pfm"
-    >>> write_pfm(path, np.array([[1.0, 2.0], [3.0, np.inf]]))
-    >>> read_pfm(path).tolist()
-    [[1.0, 2.0], [3.0, inf]]
-    """
-    path = _check_path(path)
-    data = _read_bytes(path)
-    (kind, width_token, height_token, scale_token), offset = _pfm_header(data, path)
-    if not (
-        _PFM_INT.fullmatch(width_token)
-        and _PFM_INT.fullmatch(height_token)
-        and _PFM_REAL.fullmatch(scale_token)
-    ):
-        raise ValueError(
-            f"Cannot read '{path}' as PFM: bad header {width_token!r} {height_token!r} "
-            f"{scale_token!r}"
-        )
-    width, height, scale = int(width_token), int(height_token), float(scale_token)
-    if width <= 0 or height <= 0 or scale == 0 or not np.isfinite(scale):
-        raise ValueError(f"Cannot read '{path}' as PFM: bad size {width}x{height} or scale {scale}")
-    channels = 3 if kind == b"PF" else 1
-    dtype = np.dtype("<f4" if scale < 0 else ">f4")
-    count = width * height * channels
-    if len(data) - offset != count * 4:
-        raise ValueError(
-            f"Cannot read '{path}' as PFM: expected {count * 4} bytes of data for "
-            f"{width}x{height}x{channels}, got {len(data) - offset}"
-        )
-    values = np.frombuffer(data, dtype=dtype, count=count, offset=offset)
-    image = values.reshape((height, width, channels) if channels == 3 else (height, width))
-    return np.flipud(image).astype(np.float32)
-
-
-def write_pfm(path: str | Path, array: np.ndarray) -> None:
-    """Write a Portable Float Map (little-endian, scale -1).
-
-    Parameters
-    ----------
-    path : str or Path
-        The file to write (overwritten if it exists).
-    array : ndarray of shape (H, W) or (H, W, 3)
-        Real values, stored as float32 (``Pf`` for (H, W), ``PF`` for
-        (H, W, 3)); non-finite values are written as they are.
-
-    Raises
-    ------
-    TypeError
-        If ``array`` is not a real numeric numpy array.
-    ValueError
-        If its shape is not (H, W) or (H, W, 3) with H, W >= 1.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "range.pfm"
-    >>> write_pfm(path, np.zeros((2, 3, 3)))
-    >>> read_pfm(path).shape, path.read_bytes()[:2]
-    ((2, 3, 3), b'PF')
-    """
-    path = _check_path(path)
-    if not isinstance(array, np.ndarray):
-        raise TypeError(f"The parameter `array` must be a numpy array, got {type(array).__name__}")
-    if (
-        array.dtype == bool
-        or not np.issubdtype(array.dtype, np.number)
-        or np.issubdtype(array.dtype, np.complexfloating)
-    ):
-        raise TypeError(f"The parameter `array` must be a real numeric array, got {array.dtype}")
-    if not (array.ndim == 2 or (array.ndim == 3 and array.shape[2] == 3)) or 0 in array.shape:
-        raise ValueError(
-            f"The parameter `array` must have shape (H, W) or (H, W, 3), got {array.shape}"
-        )
-    height, width = array.shape[:2]
-    kind = "PF" if array.ndim == 3 else "Pf"
-    header = f"{kind}\n{width} {height}\n-1.0\n".encode("ascii")
-    body = np.ascontiguousarray(np.flipud(array), dtype="<f4").tobytes()
-    path.write_bytes(header + body)
 
 
 # ----------------------------------------------------------------------------- images
@@ -393,6 +268,140 @@ def read_npy(path: str | Path) -> np.ndarray:
     return np.load(path, allow_pickle=False)
 
 
+# ----------------------------------------------------------------------------- range
+
+#: Image suffixes refused for range: lossy compression invents values (a JPEG's
+#: ringing puts small nonzero values into the unknown pixels).
+LOSSY_SUFFIXES = (".jpg", ".jpeg")
+_JPEG_MAGIC = b"\xff\xd8\xff"
+
+
+def read_range(
+    path: str | Path,
+    *,
+    scale: float | None = None,
+    allow_nonpositive: bool = False,
+) -> np.ndarray:
+    """Read a range image the one way every refsynth command reads range.
+
+    ``synth``, ``model`` and ``evaluate`` all read range through this
+    function, the inverse of :func:`write_array`:
+
+    - ``.npy`` and ``.pfm``: the values as stored; non-finite values (NaN,
+      ``±inf``) are unknown.
+    - a lossless image (PNG, TIFF, PGM …, :data:`IMAGE_SUFFIXES`): the
+      *stored integers*, never rescaled to [0, 1]; 0 is unknown; each value
+      is divided by ``scale`` (what ``write_array(…, png_scale=scale)``
+      multiplied by), so a 16-bit PNG that ``synth --out x.png --png-scale
+      1000`` wrote comes back in the original unit.
+    - JPEG (:data:`LOSSY_SUFFIXES`, or a file whose bytes are JPEG's
+      whatever its suffix) is refused: its compression invents values.
+
+    Parameters
+    ----------
+    path : str or Path
+        The range file.
+    scale : float, optional
+        For an image file only: the stored integer per unit of range
+        (default 1: the stored integers are the range).
+    allow_nonpositive : bool, default False
+        Accept known values <= 0. Range is a distance, so by default a known
+        value <= 0 is refused (a signed map, e.g. heights about a plane,
+        needs this).
+
+    Returns
+    -------
+    ndarray of shape (H, W), float64
+        NaN where the range is unknown (a new array).
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        Naming the file: if it cannot be read, is lossy, does not hold one
+        channel of real numbers, holds a known value <= 0 (without
+        ``allow_nonpositive``), or ``scale`` is given for a ``.npy`` /
+        ``.pfm`` file or is not a finite number > 0.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> png = write_array(folder / "range.png", np.array([[1.25, np.nan]]), png_scale=1000)
+    >>> read_range(png, scale=1000).tolist()
+    [[1.25, nan]]
+    >>> npy = write_array(folder / "range.npy", np.array([[2.0, np.inf]]))
+    >>> read_range(npy).tolist()
+    [[2.0, nan]]
+    """
+    path = _check_path(path)
+    suffix = path.suffix.lower()
+    image = suffix in IMAGE_SUFFIXES
+    if scale is not None:
+        if isinstance(scale, bool) or not isinstance(scale, (int, float, np.number)):
+            raise TypeError(f"The parameter `scale` must be a number, got {scale!r}")
+        if not (np.isfinite(scale) and scale > 0):
+            raise ValueError(f"The parameter `scale` must be finite and > 0, got {scale}")
+        if not image:
+            raise ValueError(
+                f"Cannot read '{path}' as range with a scale: the scale applies to an image "
+                f"range (PNG, TIFF, PGM ...), a {suffix or 'suffix-less'} file holds the "
+                "range itself"
+            )
+    if not path.is_file():
+        raise FileNotFoundError(f"No such file: '{path}'")
+    lossy = "JPEG" if suffix in LOSSY_SUFFIXES else (_lossy_format(path) if image else None)
+    if lossy is not None:
+        raise ValueError(
+            f"Cannot read '{path}' as range: {lossy} is lossy (its compression invents range "
+            "values); store range as .npy, .pfm or a 16-bit .png"
+        )
+    stored = read_array(path, raw=True)
+    if stored.ndim == 3 and stored.shape[2] == 1:
+        stored = stored[..., 0]
+    if stored.ndim != 2:
+        raise ValueError(
+            f"Cannot read '{path}' as range: it must be a single-channel (H, W) map, got "
+            f"shape {stored.shape}"
+        )
+    if stored.dtype == bool or stored.dtype.kind not in "iuf":
+        raise ValueError(
+            f"Cannot read '{path}' as range: it must hold real numbers, got dtype {stored.dtype}"
+        )
+    values = stored.astype(np.float64)
+    if image:
+        values[values == 0] = np.nan  # an image has no NaN: 0 marks the unknown pixels
+        if scale is not None:
+            values /= scale
+    values[~np.isfinite(values)] = np.nan
+    if not allow_nonpositive:
+        with np.errstate(invalid="ignore"):
+            bad = values <= 0
+        if bad.any():
+            raise ValueError(
+                f"Cannot read '{path}' as range: {int(bad.sum())} known values are <= 0 "
+                f"(the smallest {values[bad].min():g}); range is a distance > 0 (mark unknown "
+                "pixels NaN, or 0 in an image), or allow them explicitly "
+                "(allow_nonpositive; on the command line --allow-nonpositive)"
+            )
+    return values
+
+
+def _lossy_format(path: Path) -> str | None:
+    """"JPEG" or "WebP" if the file's first bytes say so (whatever its suffix), else None.
+
+    A lossless WebP (``VP8L``) is not refused.
+    """
+    with path.open("rb") as stream:
+        head = stream.read(16)
+    if head.startswith(_JPEG_MAGIC):
+        return "JPEG"
+    if head[:4] == b"RIFF" and head[8:12] == b"WEBP" and head[12:16] != b"VP8L":
+        return "WebP"
+    return None
+
+
 # ----------------------------------------------------------------------------- writing
 
 
@@ -402,18 +411,22 @@ def write_png16(path: str | Path, array: np.ndarray, scale: float = 1.0) -> None
     Parameters
     ----------
     path : str or Path
-        The file to write (overwritten if it exists).
+        The file to write; an existing file is replaced only once the new
+        one is complete (:func:`refsynth._files.write_atomic`).
     array : ndarray of shape (H, W), real
         NaN (and non-finite values) mark unknown pixels and are stored as 0.
     scale : float, default 1
         Stored integer per unit of range; read back with
-        ``read_array(path, raw=True) / scale`` (0 = unknown).
+        ``read_range(path, scale=scale)`` (0 = unknown, read as NaN).
 
     Raises
     ------
     ValueError
         If a finite value, scaled and rounded, falls outside 1…65535 (0 is
         reserved for "unknown"), or the shape is not (H, W).
+    OSError
+        Naming ``path``, if it cannot be written (the previous file is then
+        intact).
 
     Examples
     --------
@@ -440,7 +453,7 @@ def write_png16(path: str | Path, array: np.ndarray, scale: float = 1.0) -> None
             "choose another --png-scale"
         )
     stored[known] = scaled.astype(np.uint16)
-    Image.fromarray(stored).save(path, format="PNG")
+    write_atomic(path, _png_bytes(stored))
 
 
 def write_array(path: str | Path, array: np.ndarray, *, png_scale: float = 1.0) -> Path:
@@ -465,6 +478,9 @@ def write_array(path: str | Path, array: np.ndarray, *, png_scale: float = 1.0) 
     ------
     ValueError
         If :func:`check_write_suffix` refuses ``path``.
+    OSError
+        Naming ``path``, if it cannot be written (the previous file is then
+        intact).
 
     Examples
     --------
@@ -476,8 +492,7 @@ def write_array(path: str | Path, array: np.ndarray, *, png_scale: float = 1.0) 
     path = _check_path(path)
     suffix = check_write_suffix(path)
     if suffix == ".npy":
-        with path.open("wb") as stream:
-            np.save(stream, array, allow_pickle=False)
+        write_atomic(path, npy_bytes(array))
     elif suffix == ".pfm":
         write_pfm(path, array)
     else:
@@ -529,7 +544,8 @@ def write_unit_png16(path: str | Path, array: np.ndarray) -> Path:
     Parameters
     ----------
     path : str or Path
-        The file to write (overwritten if it exists).
+        The file to write; an existing file is replaced only once the new
+        one is complete (:func:`refsynth._files.write_atomic`).
     array : ndarray of shape (H, W), real
         Finite values in [0, 1].
 
@@ -550,6 +566,9 @@ def write_unit_png16(path: str | Path, array: np.ndarray) -> Path:
     ------
     ValueError
         If the shape is not (H, W) or a value is not finite or outside [0, 1].
+    OSError
+        Naming ``path``, if it cannot be written (the previous file is then
+        intact).
     """
     path = _check_path(path)
     if not isinstance(array, np.ndarray) or array.ndim != 2 or 0 in array.shape:
@@ -558,5 +577,50 @@ def write_unit_png16(path: str | Path, array: np.ndarray) -> Path:
     values = np.asarray(array, dtype=np.float64)
     if not (np.all(np.isfinite(values)) and values.min() >= 0 and values.max() <= 1):
         raise ValueError(f"Cannot write '{path}' as a [0, 1] PNG: values must lie in [0, 1]")
-    Image.fromarray(np.rint(values * 65535).astype(np.uint16)).save(path, format="PNG")
+    write_atomic(path, _png_bytes(np.rint(values * 65535).astype(np.uint16)))
     return path
+
+
+def _png_bytes(stored: np.ndarray) -> bytes:
+    """``stored`` (uint8 or uint16, (H, W)) encoded as a grey PNG, in memory."""
+    buffer = io.BytesIO()
+    Image.fromarray(stored).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def npy_bytes(array: np.ndarray) -> bytes:
+    """``array`` encoded as a ``.npy`` file, in memory (no pickles).
+
+    :func:`write_array` hands these bytes to :func:`refsynth._files.write_atomic`:
+    ``numpy.save`` to a real file writes through ``ndarray.tofile``, whose
+    error at close can be lost; in memory nothing can fail silently.
+
+    Parameters
+    ----------
+    array : ndarray
+        A numeric array (bool, integer, floating or complex).
+
+    Returns
+    -------
+    bytes
+        What ``numpy.save(file, array, allow_pickle=False)`` writes.
+
+    Raises
+    ------
+    TypeError
+        If ``array`` is not a numpy array of a bool, integer, floating or
+        complex dtype.
+
+    Examples
+    --------
+    >>> data = npy_bytes(np.arange(3))
+    >>> data[:6], np.load(io.BytesIO(data)).tolist()
+    (b'\\x93NUMPY', [0, 1, 2])
+    """
+    if not isinstance(array, np.ndarray) or array.dtype.kind not in "biufc" \
+            or array.dtype.fields is not None:
+        what = getattr(array, "dtype", type(array).__name__)
+        raise TypeError(f"The parameter `array` must be a numeric numpy array, got {what}")
+    buffer = io.BytesIO()
+    np.save(buffer, array, allow_pickle=False)
+    return buffer.getvalue()

@@ -234,7 +234,7 @@ def test_synth_out_writes_the_format_its_suffix_names(files, capsys, name):
     ("--confidence", "c.txt", "--confidence must end in"),
     ("--figure", "fig.txt", "--figure must end in"),
     ("--figure", "partial.npy/fig.png", "is not a folder"),
-    ("--confidence", "o.npy", "must be different files"),
+    ("--confidence", "o.npy", "name the same file"),
 ])
 def test_synth_bad_output_paths_fail_before_the_work(files, capsys, no_work, monkeypatch,
                                                       option, value, needle):

@@ -377,3 +377,22 @@ def test_write_unit_png16_round_trips_a_confidence_map(tmp_path):
         with pytest.raises(ValueError):
             write_unit_png16(tmp_path / "bad.png", bad)
     assert not (tmp_path / "bad.png").exists()
+
+
+@settings(deadline=None)
+@given(arrays(st.sampled_from([np.float64, np.float32, np.int16, np.uint8, np.bool_]),
+              st.tuples(st.integers(0, 4), st.integers(1, 4))))
+def test_write_array_npy_is_numpys_own_file_written_whole(tmp_path_factory, array):
+    """The .npy written through memory is byte for byte what numpy.save writes, and no
+    temporary file is left beside it."""
+    import io as _io
+
+    from refsynth.io import npy_bytes, write_array
+
+    folder = tmp_path_factory.mktemp("npy")
+    path = write_array(folder / "a.npy", array)
+    expected = _io.BytesIO()
+    np.save(expected, array)
+    assert path.read_bytes() == expected.getvalue() == npy_bytes(array)
+    assert [p.name for p in folder.iterdir()] == ["a.npy"]
+    np.testing.assert_array_equal(np.load(path), array)

@@ -153,9 +153,9 @@ def test_build_model_carries_colour_confidence_and_the_synthesized_flag():
     assert model.confidence.tolist() == [1.0, 0.5, 1.0, 0.25, 1.0]
     assert model.synthesized.tolist() == [False, True, False, True, False]
     np.testing.assert_array_equal(model.vertices, camera.back_project(r)[np.isfinite(r)])
-    default = build_model(r, camera, confidence=confidence)
-    assert default.synthesized.tolist() == [False, True, False, True, False]
-    assert not build_model(r, camera).synthesized.any()
+    # without `measured`, nothing claims to be measured: a confidence of 1 is not evidence
+    assert build_model(r, camera, confidence=confidence).synthesized.all()
+    assert build_model(r, camera).synthesized.all()
 
 
 def test_low_confidence_vertices_are_dropped_with_their_triangles():

@@ -10,7 +10,12 @@
   ASCII digits only (Python's ``int`` reads ``"٣"`` as 3 and ``"1_0"`` as 10)
   and, for reals, finite values only.
 - :func:`check_output`: an output file's suffix and folder, checked before
-  any work starts, so that a long run never ends in "cannot write".
+  any work starts (by creating and removing a file there, which no
+  permission bit can fake), and that it is none of the run's inputs, so that
+  a long run never ends in "cannot write" nor writes over what it read.
+- :func:`check_distinct`: several outputs of one run name different files.
+- :func:`check_files_in`: the files a command writes into its output folder
+  are not folders there.
 - :func:`make_parent`: create an output file's missing folders, once the work
   is done.
 - :func:`check_folder`: an output folder, checked before any work.
@@ -24,16 +29,21 @@ message naming the option (:mod:`refsynth.cli.main` prints it and exits 2).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import re
-from collections.abc import Callable, Iterable
+import tempfile
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
 from refsynth._checks import check_memory_need, format_bytes, physical_memory
+from refsynth._files import check_output_path, same_file
 
 __all__ = [
     "add_subcommand", "DefaultsFormatter", "prefixed",
-    "integer", "real", "check_output", "make_parent", "check_folder", "check_memory",
+    "integer", "real", "check_output", "check_distinct", "check_files_in", "make_parent",
+    "check_folder",
+    "check_memory",
     "physical_memory", "format_bytes",
 ]
 
@@ -152,7 +162,8 @@ def real(text: str) -> float:
     return value
 
 
-def check_output(path: str, option: str, suffixes: Iterable[str] | None = None) -> Path:
+def check_output(path: str, option: str, suffixes: Iterable[str] | None = None, *,
+                 inputs: Iterable[str | os.PathLike | None] = ()) -> Path:
     """Check, before any work, that ``path`` can be written as the file ``option`` names.
 
     Parameters
@@ -164,6 +175,10 @@ def check_output(path: str, option: str, suffixes: Iterable[str] | None = None) 
     suffixes : iterable of str, optional
         The suffixes allowed (lower case, with the dot), matched
         case-insensitively; default: any.
+    inputs : iterable of path-like, optional
+        The files the same run reads (None entries are skipped): ``path``
+        must be none of them, not even through a link
+        (:func:`refsynth._files.check_output_path`).
 
     Returns
     -------
@@ -172,11 +187,23 @@ def check_output(path: str, option: str, suffixes: Iterable[str] | None = None) 
     Raises
     ------
     ValueError
-        If the path is empty or its suffix is not allowed.
+        If the path is empty, its suffix is not allowed, or it names one of
+        ``inputs``.
     OSError
-        If it names a folder, or its nearest existing folder is not a
-        writable folder (missing folders below it are created later by
-        :func:`make_parent`).
+        If it names a folder, or its nearest existing folder is not a folder
+        or does not take a new file (a file is created there and removed:
+        permission bits say nothing to root, nor about ``/proc``). Missing
+        folders below it are created later by :func:`make_parent`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> check_output(str(folder / "new" / "out.npy"), "--out", (".npy",)).name
+    'out.npy'
+    >>> check_output(str(folder / "out.txt"), "--out", (".npy",))
+    Traceback (most recent call last):
+    ValueError: --out must end in .npy, got '....txt'
     """
     target = Path(path)
     if not path or not target.name or path.endswith(("/", os.sep)):
@@ -192,17 +219,55 @@ def check_output(path: str, option: str, suffixes: Iterable[str] | None = None) 
     if target.exists() and not os.access(target, os.W_OK):
         raise PermissionError(f"{option}: cannot write {path} (permission denied)")
     _check_nearest_folder(target.parent, f"{option}: cannot write {path}")
+    if target.parent.is_dir():
+        check_output_path(target, name=option, inputs=[p for p in inputs if p is not None])
     return target
 
 
+def check_distinct(outputs: Mapping[str, Path | None]) -> None:
+    """Refuse two outputs of one run that name the same file (one would overwrite the other).
+
+    Parameters
+    ----------
+    outputs : mapping of str to Path or None
+        Option name to the path it gives (None: not given).
+
+    Raises
+    ------
+    ValueError
+        Naming the two options and the file.
+
+    Examples
+    --------
+    >>> check_distinct({"--out": Path("a.npy"), "--confidence": Path("./a.npy")})
+    Traceback (most recent call last):
+    ValueError: --out and --confidence name the same file a.npy: give each its own
+    """
+    given = [(option, path) for option, path in outputs.items() if path is not None]
+    for k, (option, path) in enumerate(given):
+        for other, other_path in given[:k]:
+            if path.resolve() == other_path.resolve() or (
+                    path.exists() and other_path.exists() and same_file(path, other_path)):
+                raise ValueError(f"{other} and {option} name the same file {path}: give each "
+                                 "its own")
+
+
 def _check_nearest_folder(folder: Path, prefix: str) -> None:
-    """The nearest existing folder at or above ``folder`` must be a writable folder."""
+    """The nearest existing folder at or above ``folder`` must be a folder that takes files."""
     while not folder.exists() and folder != folder.parent:
         folder = folder.parent
     if not folder.is_dir():
         raise NotADirectoryError(f"{prefix}: {folder} is not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise PermissionError(f"{prefix}: the folder {folder} is read-only")
+    try:  # the one test that cannot be fooled: make a file there
+        descriptor, name = tempfile.mkstemp(prefix=".refsynth-check-", dir=folder)
+    except OSError as error:
+        raise OSError(f"{prefix}: the folder {folder} does not take new files "
+                      f"({error.strerror or error})") from None
+    os.close(descriptor)
+    with contextlib.suppress(OSError):
+        os.unlink(name)
 
 
 def make_parent(path: Path) -> Path:
@@ -228,6 +293,40 @@ def check_folder(path: str, option: str) -> Path:
         raise NotADirectoryError(f"{option} must be a folder, got the file {path}")
     _check_nearest_folder(folder, f"{option}: cannot create {path}")
     return folder
+
+
+def check_files_in(folder: Path, names: Iterable[str], option: str) -> None:
+    """Check, before any work, that none of the files ``names`` in ``folder`` is a folder.
+
+    For a command that writes fixed file names into the folder ``option``
+    gives (``figures --out``, ``demo --out``), after :func:`check_folder`.
+
+    Parameters
+    ----------
+    folder : Path
+        The output folder (it need not exist yet).
+    names : iterable of str
+        The files the command writes there.
+    option : str
+        The option that names the folder, for the message.
+
+    Raises
+    ------
+    IsADirectoryError
+        Naming the first such file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> (folder / "b.png").mkdir()
+    >>> check_files_in(folder, ["a.png", "b.png"], "--out")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    IsADirectoryError: --out: cannot write .../b.png: it is a folder
+    """
+    for name in names:
+        if (folder / name).is_dir():
+            raise IsADirectoryError(f"{option}: cannot write {folder / name}: it is a folder")
 
 
 def check_memory(need: int, what: str, hint: str = "") -> None:

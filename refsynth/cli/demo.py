@@ -23,10 +23,17 @@ import sys
 import time
 from pathlib import Path
 
-from refsynth.cli.arguments import add_subcommand, check_folder, check_memory, integer
+from refsynth.cli.arguments import (
+    add_subcommand,
+    check_files_in,
+    check_folder,
+    check_memory,
+    integer,
+)
 from refsynth.cli.synth import pixel_progress
 from refsynth.evaluation.cases import Case, case_memory
 from refsynth.plotting.demo import DEMO_FIGURES, run_demo, run_pipeline_demo
+from refsynth.plotting.story import STORY_FILES
 
 __all__ = ["add_demo_parser"]
 
@@ -169,7 +176,8 @@ def _cmd_story(args) -> int:
 
 
 def _cmd_demo(args) -> int:
-    check_folder(args.out, "--out")
+    out = check_folder(args.out, "--out")
+    check_files_in(out, (*DEMO_FIGURES, *STORY_FILES), "--out")
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
     quick = args.quick or args.size is not None

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from refsynth.cli.arguments import (
     add_subcommand,
+    check_distinct,
     check_memory,
     check_output,
     integer,
@@ -131,13 +132,28 @@ def _comparable(rows: Sequence[dict]) -> list[dict]:
                                     and r["size"] != "128x128")]
 
 
+def _input_files(args) -> list[str]:
+    """Every file the run may read: ``--load`` and the pieces of ``IMAGE:DISPARITY`` scenes.
+
+    A piece that is not a file is harmless here: an output is compared with
+    the inputs only where both name the same file.
+    """
+    files = [] if args.load is None else [args.load]
+    for spec in (args.scene or "").split(","):
+        if ":" in spec:
+            files += [piece.strip() for piece in spec.split(":") if piece.strip()]
+    return files
+
+
 def _cmd_evaluate(args) -> int:
     if args.jobs < 1:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
-    json_path = None if args.json is None else check_output(args.json, "--json", (".json",))
-    csv_path = None if args.csv is None else check_output(args.csv, "--csv", (".csv",))
-    if json_path and csv_path and json_path.resolve() == csv_path.resolve():
-        raise ValueError("--json and --csv must be different files")
+    inputs = _input_files(args)
+    json_path = None if args.json is None else check_output(args.json, "--json", (".json",),
+                                                            inputs=inputs)
+    csv_path = None if args.csv is None else check_output(args.csv, "--csv", (".csv",),
+                                                          inputs=inputs)
+    check_distinct({"--json": json_path, "--csv": csv_path})
     wall = None
     if args.load is not None:
         if any(value is not None for value in (args.scene, args.size, args.sampling,

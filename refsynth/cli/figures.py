@@ -16,9 +16,9 @@ import argparse
 import sys
 import time
 
-from refsynth.cli.arguments import add_subcommand, check_folder, integer
+from refsynth.cli.arguments import add_subcommand, check_files_in, check_folder, integer
 from refsynth.cli.synth import pixel_progress
-from refsynth.plotting.figures import make_figures
+from refsynth.plotting.figures import FIGURES, make_figures
 from refsynth.scenes.middlebury import require_scikit_image
 
 __all__ = ["add_figures_parser"]
@@ -28,6 +28,7 @@ def _cmd_figures(args) -> int:
     if args.jobs < 1:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
     out = check_folder(args.out, "--out")
+    check_files_in(out, FIGURES, "--out")
     require_scikit_image("`python -m refsynth figures`")
     start = time.perf_counter()
 

@@ -36,6 +36,14 @@ def _one_line(text: str) -> str:
     return "; ".join(line.strip() for line in str(text).splitlines() if line.strip())
 
 
+def _words(exc: BaseException) -> str:
+    """An error's text without the ``[Errno N]`` an OSError carries (the file stays named)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = "".join(f": '{name}'" for name in (exc.filename, exc.filename2) if name)
+        return f"{exc.strerror}{where}"
+    return str(exc)
+
+
 class OneLineParser(argparse.ArgumentParser):
     """An ArgumentParser whose usage errors are one line on stderr and exit status 2.
 
@@ -85,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except USER_ERRORS as exc:
-        message = _one_line(exc) or type(exc).__name__
+        message = _one_line(_words(exc)) or type(exc).__name__
         if isinstance(exc, MemoryError):
             message = f"not enough memory: {message}"
         print(f"refsynth {args.command}: error: {message}", file=sys.stderr)

@@ -18,6 +18,17 @@ entry per PLY in order, of ``{"x": …, "z": …, "heading": DEGREES, "y": …}`
 (refsynth's frame: x right, y up, z forward; ``y`` optional) or of
 ``{"matrix": [[4 × 4]]}``.
 
+DENSE and ``--partial`` are read as ``synth`` reads range
+(:func:`refsynth.io.read_range`): ``.npy`` / ``.pfm`` as stored, an image's
+stored integers divided by ``--png-scale`` (so ``synth --out dense_mm.png
+--png-scale 1000`` comes back in metres with ``model dense_mm.png --png-scale
+1000``); JPEG and values <= 0 (without ``--allow-nonpositive``) are refused.
+Which points were measured comes from ``--partial`` only: without it every
+point is marked synthesized, and a note on stderr says so (a confidence of 1
+is no evidence: BP's belief reaches it at synthesized pixels). Outputs are
+checked before any work (writable, none of the inputs) and written all or
+nothing.
+
 The camera file
 ---------------
 A registered panorama's camera is not the centred one that ``--focal``
@@ -50,12 +61,21 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from refsynth.cli.arguments import add_subcommand, check_output, make_parent, prefixed, real
-from refsynth.io import read_array
+from refsynth._files import write_atomic
+from refsynth.cli.arguments import (
+    add_subcommand,
+    check_distinct,
+    check_output,
+    make_parent,
+    prefixed,
+    real,
+)
+from refsynth.io import IMAGE_SUFFIXES, read_array, read_range
 from refsynth.model import (
     DEFAULT_MAX_JUMP,
     CylindricalCamera,
@@ -100,6 +120,17 @@ def _read(path: str | None, what: str) -> np.ndarray | None:
     return read_array(path)
 
 
+def _read_range(path: str | None, what: str, args) -> np.ndarray | None:
+    """A range file (DENSE or --partial) read as ``synth`` reads range (:func:`read_range`)."""
+    if path is None:
+        return None
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"{what} file not found: {path}")
+    image = Path(path).suffix.lower() in IMAGE_SUFFIXES
+    return read_range(path, scale=args.png_scale if image else None,
+                      allow_nonpositive=args.allow_nonpositive)
+
+
 def _single(array: np.ndarray, what: str, shape=None) -> np.ndarray:
     if array.ndim == 3 and array.shape[2] == 1:
         array = array[..., 0]
@@ -132,9 +163,7 @@ def write_camera_file(path, camera, shape, *, warp=None, crop=None) -> Path:
         record["warp"] = {k: float(getattr(warp, k)) for k in ("a", "b", "alpha", "beta")}
     if crop is not None:
         record["crop"] = [int(v) for v in crop]
-    path = Path(path)
-    path.write_text(json.dumps(record, indent=1) + "\n")
-    return path
+    return write_atomic(path, (json.dumps(record, indent=1) + "\n").encode("utf-8"))
 
 
 def write_registered_camera(path, registration, focal: float) -> Path:
@@ -158,8 +187,11 @@ def read_camera_file(path) -> tuple[CylindricalCamera | PinholeCamera, tuple[int
         raise ValueError(f"{path} is not a camera file ({path.stat().st_size} bytes)")
     try:
         record = json.loads(path.read_bytes().decode("utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as error:
-        raise ValueError(f"cannot read {path} as JSON: {error}") from None
+    except RecursionError:
+        raise ValueError(f"cannot read {path} as JSON: it is nested too deeply") from None
+    except ValueError as error:  # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
+        reason = " ".join(str(error).split())
+        raise ValueError(f"cannot read {path} as JSON: {reason}") from None
     if not isinstance(record, dict) or record.get("format") != CAMERA_FORMAT:
         raise ValueError(f"{path} is not a camera file (format {CAMERA_FORMAT!r}, as "
                          "'register' writes)")
@@ -168,9 +200,8 @@ def read_camera_file(path) -> tuple[CylindricalCamera | PinholeCamera, tuple[int
             "pinhole": ("focal", "cx", "cy")}.get(kind)
     if keys is None:
         raise ValueError(f"{path}: camera must be 'cylindrical' or 'pinhole', got {kind!r}")
-    values = [record.get(key) for key in keys]
-    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-               for v in values):
+    values = [_finite(record.get(key)) for key in keys]
+    if any(v is None for v in values):
         raise ValueError(f"{path}: {', '.join(keys)} must be finite numbers")
     shape = record.get("shape")
     if not (isinstance(shape, list) and len(shape) == 2
@@ -212,6 +243,22 @@ def _camera(args, shape):
                              h_step=1.0 if args.h_step is None else args.h_step)
 
 
+#: What ``model`` says when it does not know which pixels were measured.
+NO_PARTIAL_NOTE = ("refsynth model: no --partial given: every point is marked synthesized "
+                   "(its range is not known to be measured); give --partial with the measured "
+                   "range (DENSE itself if all of it was measured) to mark the measured points")
+
+
+def _check_png_scale(args, ranges: list[str | None]) -> None:
+    if args.png_scale is None:
+        return
+    if args.png_scale <= 0:
+        raise ValueError(f"--png-scale must be > 0, got {args.png_scale:g}")
+    if not any(p is not None and Path(p).suffix.lower() in IMAGE_SUFFIXES for p in ranges):
+        raise ValueError("--png-scale applies to an image DENSE or --partial (PNG, TIFF, PGM "
+                         "...) only")
+
+
 def _cmd_build(args) -> int:
     if args.poses or args.refine or args.voxel is not None or args.poses_out:
         raise ValueError("--poses, --refine, --voxel and --poses-out are for --merge")
@@ -221,8 +268,10 @@ def _cmd_build(args) -> int:
         args.camera = args.camera or "cylindrical"
         if args.disparity and args.camera != "pinhole":
             raise ValueError("--disparity needs --camera pinhole (a rectified pair)")
-    out = check_output(args.out, "--out", (".ply",))
-    dense = _single(_read(args.dense, "range"), "range")
+    inputs = (args.dense, args.intensity, args.confidence, args.partial, args.camera_file)
+    out = check_output(args.out, "--out", (".ply",), inputs=inputs)
+    _check_png_scale(args, [args.dense, args.partial])
+    dense = _single(_read_range(args.dense, "range", args), "range")
     if not args.disparity and (args.baseline is not None or args.doffs != 0.0):
         raise ValueError("--baseline and --doffs are for --disparity")
     if args.disparity and args.baseline is None:
@@ -238,12 +287,12 @@ def _cmd_build(args) -> int:
     confidence = _read(args.confidence, "confidence")
     if confidence is not None:
         confidence = _single(confidence, "confidence", dense.shape)
-    partial = _read(args.partial, "partial range")
-    measured = None
+    partial = _read_range(args.partial, "partial range", args)
     if partial is not None:
         partial = _single(partial, "partial range", dense.shape)
-        with np.errstate(invalid="ignore"):
-            measured = np.isfinite(partial) & (partial > 0)
+        measured = np.isfinite(partial)
+    else:  # a confidence of 1 does not say "measured": BP's belief reaches it too
+        measured = np.zeros(dense.shape, dtype=bool)
     model = build_model(dense, camera, intensity=intensity, confidence=confidence,
                         measured=measured, max_jump=args.max_jump,
                         min_confidence=args.min_confidence,
@@ -255,36 +304,90 @@ def _cmd_build(args) -> int:
     kept[model.pixels[:, 0], model.pixels[:, 1]] = True
     wrap = not args.no_wrap and camera.covers_360(dense.shape[1])
     every = len(grid_faces(dense, valid=kept, max_jump=None, wrap=wrap))
+    if partial is None:
+        print(NO_PARTIAL_NOTE, file=sys.stderr)
     print(f"wrote {out}: {model.n_vertices} vertices ({int(model.synthesized.sum())} "
           f"synthesized), {model.n_faces} triangles ({every - model.n_faces} dropped at depth "
           f"jumps), {'ascii' if args.ascii else 'binary'}")
     return 0
 
 
+#: A poses file holds a few numbers per scan: anything larger is not one.
+_MAX_POSES_BYTES = 1 << 24
+_POSE_KEYS = ("x", "y", "z", "heading")
+
+
+def _finite(value) -> float | None:
+    """``value`` as a finite float if it is a JSON number that is one, else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)  # an integer such as 10**400 overflows here
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _matrix(value, where: str) -> np.ndarray:
+    """A pose's ``"matrix"``: 4 rows of 4 finite numbers, a rigid transform."""
+    rows = value if isinstance(value, list) else None
+    if rows is None or len(rows) != 4 or not all(isinstance(r, list) and len(r) == 4
+                                                 for r in rows):
+        raise ValueError(f"{where}: matrix must be 4 rows of 4 numbers ([[R, t], [0, 0, 0, 1]])")
+    numbers = [[_finite(v) for v in row] for row in rows]
+    if any(v is None for row in numbers for v in row):
+        raise ValueError(f"{where}: matrix must hold finite numbers only")
+    try:
+        return pose_matrix(numbers)
+    except ValueError as error:
+        raise ValueError(f"{where}: {error}") from None
+
+
 def read_poses(path) -> list[np.ndarray]:
-    """The poses of ``poses.json``: 4×4 transforms (module docstring for the format)."""
+    """The poses of ``poses.json``: 4×4 transforms (module docstring for the format).
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        One line naming the file (and the pose): not UTF-8 JSON, nested too
+        deeply, not a list of objects, unknown keys, a value that is not a
+        finite number (``1e999``, ``10**400``, a string), a matrix that is
+        not 4×4 numbers or not rigid.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"poses file not found: {path}")
+    if path.stat().st_size > _MAX_POSES_BYTES:
+        raise ValueError(f"{path} is not a poses file ({path.stat().st_size} bytes)")
     try:
-        entries = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"cannot read {path} as JSON: {error}") from None
+        entries = json.loads(path.read_bytes().decode("utf-8"))
+    except RecursionError:
+        raise ValueError(f"cannot read {path} as JSON: it is nested too deeply") from None
+    except ValueError as error:  # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
+        reason = " ".join(str(error).split())
+        raise ValueError(f"cannot read {path} as JSON: {reason}") from None
     if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise ValueError(f"{path} must hold a JSON list of objects, one pose per PLY")
     poses = []
     for k, entry in enumerate(entries):
+        where = f"pose {k} in {path}"
         if "matrix" in entry:
-            poses.append(pose_matrix(entry["matrix"]))
+            if len(entry) > 1:
+                raise ValueError(f"{where}: give a matrix or x, z, heading, y, not both")
+            poses.append(_matrix(entry["matrix"], where))
             continue
-        unknown = set(entry) - {"x", "y", "z", "heading"}
+        unknown = set(entry) - set(_POSE_KEYS)
         if unknown:
-            raise ValueError(f"pose {k} in {path} has unknown keys {sorted(unknown)} "
+            raise ValueError(f"{where} has unknown keys {sorted(unknown)} "
                              "(x, z, heading in degrees, y; or matrix)")
-        values = {key: entry.get(key, 0.0) for key in ("x", "y", "z", "heading")}
-        if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                   for v in values.values()):
-            raise ValueError(f"pose {k} in {path} must hold numbers")
+        values = {key: _finite(entry.get(key, 0.0)) for key in _POSE_KEYS}
+        bad = [key for key, value in values.items() if value is None]
+        if bad:
+            raise ValueError(f"{where}: {', '.join(bad)} must be "
+                             f"{'a finite number' if len(bad) == 1 else 'finite numbers'}, got "
+                             f"{', '.join(repr(entry[key])[:30] for key in bad)}")
         values["heading"] = math.radians(values["heading"])
         poses.append(Pose(**values).matrix())
     return poses
@@ -296,6 +399,13 @@ def _cmd_merge(args) -> int:
                          "--partial)")
     if not args.poses:
         raise ValueError("--merge needs --poses poses.json")
+    if args.png_scale is not None or args.allow_nonpositive:
+        raise ValueError("--png-scale and --allow-nonpositive are for a DENSE range, not --merge")
+    inputs = (*args.merge, args.poses)
+    out = check_output(args.out, "--out", (".ply",), inputs=inputs)
+    poses_out = None if args.poses_out is None else check_output(args.poses_out, "--poses-out",
+                                                                 (".json",), inputs=inputs)
+    check_distinct({"--out": out, "--poses-out": poses_out})
     poses = read_poses(args.poses)
     if len(poses) != len(args.merge):
         raise ValueError(f"{args.poses} holds {len(poses)} poses for {len(args.merge)} PLY files")
@@ -304,9 +414,6 @@ def _cmd_merge(args) -> int:
         if not Path(name).is_file():
             raise FileNotFoundError(f"PLY file not found: {name}")
         models.append(read_ply(name))
-    out = check_output(args.out, "--out", (".ply",))
-    poses_out = None if args.poses_out is None else check_output(args.poses_out, "--poses-out",
-                                                                 (".json",))
     if args.refine:
         poses, results = refine_poses(models, poses, voxel=args.voxel)
         for k, result in enumerate(results[1:], start=1):
@@ -319,8 +426,8 @@ def _cmd_merge(args) -> int:
               coordinates="float32" if args.float32 else "float64",
               comments=[f"merged from {len(models)} scans"])
     if poses_out is not None:
-        make_parent(poses_out).write_text(json.dumps(
-            [{"matrix": np.asarray(p).tolist()} for p in poses], indent=1) + "\n")
+        write_atomic(make_parent(poses_out), (json.dumps(
+            [{"matrix": np.asarray(p).tolist()} for p in poses], indent=1) + "\n").encode())
         print(f"wrote {poses_out}")
     total = sum(m.n_vertices for m in models)
     print(f"wrote {out}: {merged.n_vertices} vertices from {len(models)} scans "
@@ -350,8 +457,10 @@ def add_model_parser(subparsers) -> argparse.ArgumentParser:
         "discontinuities and write a PLY; or merge several PLYs by their poses.",
         func=_cmd_model,
     )
-    parser.add_argument("dense", nargs="?", help="dense range: NPY/PFM (Euclidean distance "
-                        "for --camera cylindrical, depth or --disparity for pinhole)")
+    parser.add_argument("dense", nargs="?", help="dense range: NPY/PFM (values as stored) or "
+                        "a 16/8-bit PNG/TIFF/PGM (the stored integers / --png-scale, 0 = "
+                        "unknown), read as synth reads range: Euclidean distance for --camera "
+                        "cylindrical, depth or --disparity for pinhole")
     parser.add_argument("--out", required=True, metavar="PLY",
                         help="the .ply file to write (required)")
     parser.add_argument("--ascii", action="store_true",
@@ -364,9 +473,18 @@ def add_model_parser(subparsers) -> argparse.ArgumentParser:
                         "mid-grey points)")
     inputs.add_argument("--confidence", metavar="NPY",
                         help="per-pixel confidence in [0, 1] (default: 1 everywhere)")
-    inputs.add_argument("--partial", metavar="NPY",
-                        help="the partial (measured) range, NaN where unknown: marks each "
-                        "point measured or synthesized (default: confidence 1 = measured)")
+    inputs.add_argument("--partial", metavar="FILE",
+                        help="the partial (measured) range, NaN (0 in an image) where unknown, "
+                        "read as DENSE is: marks each point measured or synthesized (default: "
+                        "every point is marked synthesized, with a note on stderr; a "
+                        "confidence of 1 does not say measured)")
+    inputs.add_argument("--png-scale", type=real, metavar="S",
+                        help="stored integer per unit of range of an image DENSE / --partial, "
+                        "as synth's --png-scale (default: 1, the stored integers)")
+    inputs.add_argument("--allow-nonpositive", action="store_true",
+                        help="accept known values <= 0 in DENSE / --partial (e.g. a disparity "
+                        "with --doffs; a point whose depth is not > 0 is left out of the "
+                        "model; default: refused, range is a distance > 0)")
     mesh = parser.add_argument_group("meshing")
     mesh.add_argument("--max-jump", type=_max_jump, default=DEFAULT_MAX_JUMP,
                       metavar="FRACTION", help="drop triangles whose edge jumps by more than "

@@ -26,12 +26,12 @@ Examples::
 from __future__ import annotations
 
 import argparse
-import shutil
 import subprocess
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from refsynth._files import write_atomic
 from refsynth.cli.arguments import add_subcommand
 
 __all__ = [
@@ -204,7 +204,7 @@ def execute_tutorial(
     out.mkdir(parents=True, exist_ok=True)
     helper = source.parent / HELPER
     if helper.is_file() and helper.resolve() != (out / HELPER).resolve():
-        shutil.copyfile(helper, out / HELPER)
+        write_atomic(out / HELPER, helper.read_bytes())
     notebook = jupytext.read(source, fmt="py:percent")
     notebook.metadata["kernelspec"] = {
         "display_name": "Python 3", "language": "python", "name": "python3"}
@@ -218,7 +218,7 @@ def execute_tutorial(
         client.execute(stderr=subprocess.DEVNULL, **({} if env is None else {"env": env}))
     except (CellExecutionError, CellTimeoutError, DeadKernelError) as error:
         if path is not None:
-            nbformat.write(notebook, path)
+            _write_notebook(nbformat, notebook, path)
         if isinstance(error, CellExecutionError):
             what = _first_error(notebook)
         else:  # a cell over --timeout, or a kernel that died
@@ -227,8 +227,14 @@ def execute_tutorial(
         raise ValueError(f"{source.name}: {what}{where}") from None
     seconds = time.perf_counter() - start
     if path is not None:
-        nbformat.write(notebook, path)
+        _write_notebook(nbformat, notebook, path)
     return NotebookRun(source=source, notebook=notebook, path=path, seconds=seconds)
+
+
+def _write_notebook(nbformat, notebook, path: Path) -> None:
+    """``nbformat.write``'s text (ending in a newline), written all or nothing."""
+    text = nbformat.writes(notebook)
+    write_atomic(path, (text if text.endswith("\n") else text + "\n").encode("utf-8"))
 
 
 def _cmd_notebooks(args) -> int:

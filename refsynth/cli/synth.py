@@ -5,18 +5,22 @@
 optionally masks the range, runs :func:`refsynth.synthesize` (NP or BP) and
 writes the dense range, and optionally its confidence map and a figure.
 
-Units: the dense range comes back in the partial range's unit. A ``.npy``
-or ``.pfm`` range is read as stored (NaN or ±inf = unknown); an image range
-(PNG, TIFF, PGM …) as its stored integers (0 = unknown), divided by
-``--png-scale`` if it is given. ``--out`` writes the format its suffix names:
+Units: the dense range comes back in the partial range's unit. The range is
+read by :func:`refsynth.io.read_range`, as ``model`` and ``evaluate`` read
+it: a ``.npy`` or ``.pfm`` range as stored (NaN or ±inf = unknown); an image
+range (PNG, TIFF, PGM …) as its stored integers (0 = unknown), divided by
+``--png-scale`` if it is given; JPEG is refused (lossy), and so are known
+values <= 0 unless ``--allow-nonpositive`` is given. ``--out`` writes the format its suffix names:
 ``.npy``, ``.pfm`` (float32) or a 16-bit ``.png`` holding
 ``round(range × png-scale)`` (0 = unknown; default scale 1, which needs a
 range of whole numbers).
 
-Every output path, every option and every limit is checked before the work
-starts. :func:`pixel_progress` is the command line's progress line for one
-synthesis (the ``demo`` and ``figures`` commands use it too). User errors are
-raised as ValueError / TypeError / OSError with a one-line message.
+Every output path (writable, none of the inputs, no two the same), every
+option and every limit is checked before the work starts; every file is
+written all or nothing (:func:`refsynth._files.write_atomic`).
+:func:`pixel_progress` is the command line's progress line for one synthesis
+(the ``demo`` and ``figures`` commands use it too). User errors are raised as
+ValueError / TypeError / OSError with a one-line message.
 """
 
 from __future__ import annotations
@@ -31,9 +35,23 @@ from pathlib import Path
 import numpy as np
 from matplotlib.backend_bases import FigureCanvasBase
 
-from refsynth.cli.arguments import add_subcommand, check_output, integer, make_parent, real
-from refsynth.io import IMAGE_SUFFIXES, WRITE_SUFFIXES, read_array, write_array, write_unit_png16
-from refsynth.plotting.layouts import result_figure
+from refsynth.cli.arguments import (
+    add_subcommand,
+    check_distinct,
+    check_output,
+    integer,
+    make_parent,
+    real,
+)
+from refsynth.io import (
+    IMAGE_SUFFIXES,
+    WRITE_SUFFIXES,
+    read_array,
+    read_range,
+    write_array,
+    write_unit_png16,
+)
+from refsynth.plotting.layouts import result_figure, save_figure
 from refsynth.synthesis.api import synthesize
 from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
 from refsynth.synthesis.bp_model import COMPATIBILITIES
@@ -136,10 +154,10 @@ def pixel_progress(label: str, *, stream=None, interval: float | None = None,
 # ----------------------------------------------------------------------------- reading
 
 
-def _read(path: str, what: str, *, raw: bool = False) -> np.ndarray:
+def _read(path: str, what: str) -> np.ndarray:
     if not Path(path).is_file():
         raise FileNotFoundError(f"{what} file not found: {path}")
-    array = read_array(path, raw=raw)
+    array = read_array(path)
     if array.dtype.kind not in "biuf":
         raise TypeError(f"{what} file {path} must hold real numbers, got dtype {array.dtype}")
     return array
@@ -150,19 +168,16 @@ def _is_image(path: str) -> bool:
 
 
 def _read_range(args) -> np.ndarray:
-    """The partial range, float64 (H, W), NaN where unknown, in the file's unit."""
-    stored = _read(args.range, "range", raw=True)
-    if stored.ndim != 2:
-        raise ValueError(f"range file {args.range} must hold a single channel (H, W), "
-                         f"got shape {stored.shape}")
-    if stored.dtype == bool:
-        raise TypeError(f"range file {args.range} holds booleans, not range values")
-    partial = stored.astype(np.float64)
-    if _is_image(args.range):
-        partial[partial == 0] = np.nan  # image files: 0 marks unknown range
-        if args.png_scale is not None:
-            partial /= args.png_scale
-    partial[~np.isfinite(partial)] = np.nan  # PFM: inf marks unknown; NPY: NaN or inf
+    """The partial range, float64 (H, W), NaN where unknown, in the file's unit.
+
+    Read by :func:`refsynth.io.read_range`, as ``model`` and ``evaluate`` read
+    range: an image's stored integers divided by ``--png-scale``; JPEG and
+    values <= 0 (without ``--allow-nonpositive``) refused.
+    """
+    if not Path(args.range).is_file():
+        raise FileNotFoundError(f"range file not found: {args.range}")
+    partial = read_range(args.range, scale=args.png_scale if _is_image(args.range) else None,
+                         allow_nonpositive=args.allow_nonpositive)
     if args.mask is not None:
         mask = _read(args.mask, "mask")
         if mask.ndim == 3:
@@ -195,16 +210,16 @@ _DEFAULT_NEIGHBOURHOOD = 5
 
 def _check_options(args) -> tuple[Path, Path | None, Path | None]:
     """Everything that does not need the files: outputs, method options, --png-scale."""
-    out = check_output(args.out, "--out", WRITE_SUFFIXES)
+    inputs = (args.image, args.range, args.mask)
+    out = check_output(args.out, "--out", WRITE_SUFFIXES, inputs=inputs)
     confidence = (None if args.confidence is None
-                  else check_output(args.confidence, "--confidence", WRITE_SUFFIXES))
+                  else check_output(args.confidence, "--confidence", WRITE_SUFFIXES,
+                                    inputs=inputs))
     figure = None
     if args.figure is not None:
         kinds = sorted(f".{kind}" for kind in FigureCanvasBase.get_supported_filetypes())
-        figure = check_output(args.figure, "--figure", kinds)
-    written = [p.resolve() for p in (out, confidence, figure) if p is not None]
-    if len(set(written)) < len(written):
-        raise ValueError("--out, --confidence and --figure must be different files")
+        figure = check_output(args.figure, "--figure", kinds, inputs=inputs)
+    check_distinct({"--out": out, "--confidence": confidence, "--figure": figure})
     for option, (name, method) in _METHOD_OPTIONS.items():
         if getattr(args, name) is not None and args.method != method:
             raise ValueError(f"{option} applies to --method {method} only (got --method "
@@ -314,7 +329,7 @@ def _cmd_synth(args) -> int:
     if figure_path is not None:
         fig = result_figure(intensity, result.edges, partial, result.range,
                             title=f"{Path(args.image).name}: {args.method.upper()}")
-        fig.savefig(make_parent(figure_path), dpi=110)
+        save_figure(fig, make_parent(figure_path), dpi=110)
         print(f"wrote {figure_path}")
     return 0
 
@@ -330,7 +345,8 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     )
     synth.add_argument("image", help="intensity image: PNG/JPG/TIFF/NPY/PFM, grey or colour")
     synth.add_argument("range", help="partial range: NPY/PFM (NaN or inf = unknown, values as "
-                       "stored) or a 16/8-bit PNG/TIFF/PGM (0 = unknown, the stored integers)")
+                       "stored) or a 16/8-bit PNG/TIFF/PGM (0 = unknown, the stored integers "
+                       "/ --png-scale); JPEG is refused (lossy)")
     synth.add_argument("--mask", metavar="FILE",
                        help="known-range mask applied to RANGE (nonzero = known; default none)")
     synth.add_argument("--method", default="np", choices=["np", "bp"],
@@ -360,6 +376,9 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     outputs.add_argument("--png-scale", type=real, metavar="S",
                          help="stored integer per unit of range: divides a PNG range on input, "
                          "multiplies a .png --out (default: 1, the stored integers)")
+    synth.add_argument("--allow-nonpositive", action="store_true",
+                       help="accept known range values <= 0 (a signed map; default: refused, "
+                       "range is a distance > 0)")
     eq2 = synth.add_argument_group("Eq. 2's readings (both methods; the README's 'Real data' "
                                    "section audits each)")
     eq2.add_argument("--channels", choices=["sum", "mean"],

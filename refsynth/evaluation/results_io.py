@@ -8,10 +8,13 @@ byte-identical files once the timing column is left out
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
+
+from refsynth._files import write_atomic
 
 __all__ = ["CSV_FIELDS", "ROW_FIELDS", "write_json", "read_json", "write_csv"]
 
@@ -28,7 +31,8 @@ def write_json(path: str | Path, rows: Sequence[dict]) -> None:
     Parameters
     ----------
     path : str or Path
-        The file to write (overwritten if it exists).
+        The file to write; an existing file is replaced only once the new one
+        is complete (:func:`refsynth._files.write_atomic`).
     rows : sequence of dict
         Rows of :func:`refsynth.evaluation.aggregation.aggregate`; NaN is
         written as ``null``.
@@ -48,8 +52,8 @@ def write_json(path: str | Path, rows: Sequence[dict]) -> None:
     <BLANKLINE>
     """
     clean = [{k: _json_value(v) for k, v in row.items()} for row in rows]
-    Path(path).write_text(json.dumps(clean, indent=1, ensure_ascii=False) + "\n",
-                          encoding="utf-8")
+    write_atomic(path, (json.dumps(clean, indent=1, ensure_ascii=False) + "\n")
+                 .encode("utf-8"))
 
 
 #: The fields of a row and their types, as :func:`refsynth.evaluation.aggregation.aggregate`
@@ -183,19 +187,20 @@ def write_csv(path: str | Path, rows: Sequence[dict]) -> None:
     ['scene', 'size', 'units', 'sampling']
     """
     fields = [f for f in CSV_FIELDS if not rows or f in rows[0]]
-    with open(path, "w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(fields)
-        for row in rows:
-            cells = []
-            for field in fields:
-                value = row[field]
-                if isinstance(value, list):
-                    value = " ".join(repr(v) for v in value)
-                elif value is None:
-                    value = ""
-                elif isinstance(value, float):
-                    value = repr(value)
-                cells.append(value)
-            writer.writerow(cells)
+    handle = io.StringIO(newline="")
+    writer = csv.writer(handle, lineterminator="\n")
+    writer.writerow(fields)
+    for row in rows:
+        cells = []
+        for field in fields:
+            value = row[field]
+            if isinstance(value, list):
+                value = " ".join(repr(v) for v in value)
+            elif value is None:
+                value = ""
+            elif isinstance(value, float):
+                value = repr(value)
+            cells.append(value)
+        writer.writerow(cells)
+    write_atomic(path, handle.getvalue().encode("utf-8"))
 

@@ -5,7 +5,8 @@ range becomes a vertex (:mod:`refsynth.model.cameras`: Eqs. 14 and 19 for the
 panorama, the pinhole for Middlebury pairs), coloured by the registered
 intensity, carrying its confidence (1 where the range was measured; NP's
 Eq. 11 confidence or BP's belief, Eq. 8, where it was synthesized) and a
-flag saying which of the two it is; the triangles of
+flag saying which of the two it is (from the partial range: a vertex not
+known to be measured is flagged synthesized); the triangles of
 :func:`refsynth.model.mesh.grid_faces` join the vertices without bridging
 depth discontinuities. The result, a :class:`Model`, is what
 :func:`refsynth.model.ply.write_ply` writes and
@@ -178,9 +179,10 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
         default 1 everywhere.
     measured : ndarray of shape (H, W), bool, optional
         True where the range was measured (``np.isfinite(partial_range)``).
-        Default: ``confidence >= 1`` when ``confidence`` is given (1 is the
-        measured pixels' confidence, but a synthesized pixel may reach it
-        too: pass ``measured`` to be exact), else all measured.
+        Default: not known, so no vertex claims to be measured (every one is
+        marked synthesized). A confidence of 1 does not say "measured": BP's
+        belief and NP's confidence reach 1 at synthesized pixels too. For a
+        range measured everywhere, pass ``np.ones(shape, bool)``.
     max_jump : float or None, default 0.05
         ``τ`` of the discontinuity rule (:mod:`refsynth.model.mesh`); None
         keeps every triangle.
@@ -231,8 +233,8 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
         if not np.all(np.isfinite(values)) or values.min(initial=0) < 0 or values.max(
                 initial=0) > 1:
             raise ValueError("The parameter `confidence` must lie in [0, 1] where there is range")
-    if measured is None:
-        measured = conf >= 1.0
+    if measured is None:  # not known: nothing is claimed to be measured
+        measured = np.zeros(shape, dtype=bool)
     else:
         measured = _check_shape("measured", np.asarray(measured), shape)
         if measured.dtype != np.bool_:

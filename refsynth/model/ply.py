@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from refsynth._checks import check_choice
+from refsynth._files import write_atomic
 from refsynth.model.build import Model
 
 __all__ = ["write_ply", "read_ply", "PLY_TYPES"]
@@ -101,7 +102,9 @@ def write_ply(path, model: Model, *, ascii: bool = False, coordinates: str = "fl
     Parameters
     ----------
     path : str or Path
-        The file to write (its folder must exist).
+        The file to write (its folder must exist); an existing file is
+        replaced only once the new one is complete
+        (:func:`refsynth._files.write_atomic`).
     model : Model
         The model to write (vertices, colours, confidence, synthesized, faces).
     ascii : bool, default False
@@ -115,6 +118,12 @@ def write_ply(path, model: Model, *, ascii: bool = False, coordinates: str = "fl
     -------
     Path
         ``path``.
+
+    Raises
+    ------
+    OSError
+        Naming ``path``, if it cannot be written (the previous file is then
+        intact, and no temporary file is left behind).
 
     Examples
     --------
@@ -146,14 +155,17 @@ def write_ply(path, model: Model, *, ascii: bool = False, coordinates: str = "fl
     faces = np.empty(model.n_faces, dtype=[("n", "u1"), ("v", "<i4", (3,))])
     faces["n"] = 3
     faces["v"] = model.faces
-    with path.open("wb") as stream:
-        stream.write(_header(model, ascii, coordinates, comments))
+    header = _header(model, ascii, coordinates, comments)
+
+    def write(stream) -> None:
+        stream.write(header)
         if ascii:
             _write_ascii(stream, vertices, faces, coordinates)
         else:
             stream.write(vertices.tobytes())
             stream.write(faces.tobytes())
-    return path
+
+    return write_atomic(path, write)
 
 
 def _write_ascii(stream, vertices: np.ndarray, faces: np.ndarray, coordinates: str) -> None:
@@ -203,6 +215,9 @@ def _parse_header(data: bytes, path: Path):
             types = prop[1:] if prop and prop[1] != "list" else (prop[2:] if prop else ("?",))
             if prop is None or any(t not in PLY_TYPES for t in types):
                 raise ValueError(f"Cannot read '{path}' as PLY: bad property line {line!r}")
+            if any(p[0] == prop[0] for p in elements[-1][2]):
+                raise ValueError(f"Cannot read '{path}' as PLY: the {elements[-1][0]} element "
+                                 f"declares the property {prop[0]!r} twice")
             elements[-1][2].append(prop)
         else:
             raise ValueError(f"Cannot read '{path}' as PLY: unexpected header line {line!r}")
@@ -250,27 +265,81 @@ def _read_ascii(data: bytes, offset: int, elements, path: Path):
         block = lines[start:start + count]
         if len(block) != count:
             raise ValueError(f"Cannot read '{path}': the {name} data is truncated")
-        start += count
         if name == "face":
             array = np.empty(count, dtype=[("n", "u1"), ("v", "i8", (3,))])
             if count:
-                table = np.loadtxt(io.StringIO("\n".join(block)), dtype=np.int64, ndmin=2)
-                if table.shape[1] != 4 or np.any(table[:, 0] != 3):
-                    raise ValueError(f"Cannot read '{path}': only triangular faces are supported")
+                table = _ascii_faces(block, start, path)
                 array["n"], array["v"] = table[:, 0], table[:, 1:]
         else:
             dtype = _scalar_dtype(props, "<", path, name)
             array = np.empty(count, dtype=dtype)
             if count:
-                table = np.loadtxt(io.StringIO("\n".join(block)), dtype=np.float64, ndmin=2)
-                if table.shape[1] != len(props):
-                    raise ValueError(f"Cannot read '{path}': {name} lines have the wrong length")
+                table = _ascii_table(block, len(props), np.float64, start, path, name)
                 for column, prop in enumerate(props):
-                    array[prop[0]] = table[:, column]
+                    with np.errstate(over="ignore"):  # too large for float: inf, refused below
+                        array[prop[0]] = _fit(table[:, column], PLY_TYPES[prop[1]], path, name,
+                                              prop[0])
+        start += count
         out[name] = array
     if start != len(lines):
         raise ValueError(f"Cannot read '{path}': {len(lines) - start} lines after the data")
     return out
+
+
+def _ascii_table(block: list[str], columns: int, dtype, first: int, path: Path,
+                 name: str) -> np.ndarray:
+    """``block``'s lines as a (len, columns) table, or a ValueError naming the first bad line.
+
+    ``first`` is the 0-based index of the block's first line among the data
+    lines, for the message.
+    """
+    try:
+        table = np.loadtxt(io.StringIO("\n".join(block)), dtype=dtype, ndmin=2)
+    except ValueError:
+        table = None
+    if table is not None and table.shape == (len(block), columns):
+        return table
+    parse = float if np.dtype(dtype).kind == "f" else int
+    for k, line in enumerate(block):
+        words = line.split()
+        where = f"Cannot read '{path}': {name} {k} (data line {first + k + 1})"
+        if len(words) != columns:
+            raise ValueError(f"{where} has {len(words)} values, expected {columns}: {line!r}")
+        for word in words:
+            try:
+                parse(word)
+            except ValueError:
+                kind = "a number" if parse is float else "an integer"
+                raise ValueError(f"{where}: {word[:20]!r} is not {kind}") from None
+    raise ValueError(f"Cannot read '{path}': the {name} lines are not {columns} numbers each")
+
+
+def _ascii_faces(block: list[str], first: int, path: Path) -> np.ndarray:
+    """The face lines as an (M, 4) int64 table: the count 3 and three vertex indices."""
+    for k, line in enumerate(block):
+        words = line.split()
+        if words and words[0] != "3":
+            where = f"Cannot read '{path}': face {k} (data line {first + k + 1})"
+            if not words[0].isdigit():
+                raise ValueError(f"{where}: {words[0][:20]!r} is not a vertex count")
+            raise ValueError(f"{where} has {words[0]} vertices: only triangular faces are "
+                             "supported")
+    return _ascii_table(block, 4, np.int64, first, path, "face")
+
+
+def _fit(values: np.ndarray, kind: str, path: Path, element: str, name: str) -> np.ndarray:
+    """``values`` (float64, from text) checked to fit the property's type ``kind``."""
+    dtype = np.dtype(kind)
+    if dtype.kind in "iu":
+        info = np.iinfo(dtype)
+        bad = ~np.isfinite(values) | (values != np.round(values)) | (values < info.min) | (
+            values > info.max)
+        if bad.any():
+            raise ValueError(
+                f"Cannot read '{path}': the {element} property {name!r} ({dtype.name}) holds "
+                f"{float(values[bad][0]):g}, not an integer in {info.min}..{info.max}"
+            )
+    return values
 
 
 def read_ply(path) -> Model:
@@ -323,6 +392,18 @@ def read_ply(path) -> Model:
     if not {"x", "y", "z"} <= set(names):
         raise ValueError(f"Cannot read '{path}': the vertices lack x, y or z")
     n = len(vertex)
+    with np.errstate(invalid="ignore", over="ignore"):
+        coordinates = np.column_stack([vertex[a].astype(np.float64) for a in "xyz"]).reshape(n, 3)
+    finite = np.isfinite(coordinates).all(axis=1)
+    if not finite.all():
+        raise ValueError(f"Cannot read '{path}': vertex {int(np.argmin(finite))} has a "
+                         f"non-finite coordinate {coordinates[np.argmin(finite)].tolist()} "
+                         f"({int(n - finite.sum())} such vertices; x, y, z must be finite)")
+    confidence = (vertex["confidence"].astype(np.float64) if "confidence" in names
+                  else np.ones(n))
+    if not (np.isfinite(confidence).all() and (confidence >= 0).all()
+            and (confidence <= 1).all()):
+        raise ValueError(f"Cannot read '{path}': the vertices' confidence must lie in [0, 1]")
     colours = np.full((n, 3), 128, dtype=np.uint8)
     for channel, name in enumerate(("red", "green", "blue")):
         if name in names:
@@ -332,10 +413,9 @@ def read_ply(path) -> Model:
     if faces.size and (faces.min() < 0 or faces.max() >= n):
         raise ValueError(f"Cannot read '{path}': a face indexes a vertex that is not there")
     return Model(
-        vertices=np.column_stack([vertex[a].astype(np.float64) for a in "xyz"]).reshape(n, 3),
+        vertices=coordinates,
         colours=colours,
-        confidence=(vertex["confidence"].astype(np.float64) if "confidence" in names
-                    else np.ones(n)),
+        confidence=confidence,
         synthesized=(vertex["synthesized"] != 0 if "synthesized" in names
                      else np.zeros(n, dtype=bool)),
         faces=faces.reshape(-1, 3),

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from refsynth._checks import check_choice, check_size, is_int, is_real
-from refsynth.io import IMAGE_SUFFIXES, read_image, read_npy, read_pfm
+from refsynth.io import IMAGE_SUFFIXES, read_image, read_range
 from refsynth.scenes.resize import resize_area, resize_disparity
 from refsynth.scenes.scene import Scene
 
@@ -185,32 +185,15 @@ def _check_crop(crop) -> tuple[tuple[int, int], tuple[int, int]]:
 
 
 def _read_disparity(path: Path, disparity_scale: float) -> np.ndarray:
+    """The disparity, read as every refsynth command reads range (:func:`read_range`)."""
     suffix = path.suffix.lower()
-    if suffix == ".pfm":
-        values = read_pfm(path).astype(np.float64)
-        unknown = ~np.isfinite(values)
-    elif suffix == ".npy":
-        values = read_npy(path)
-        if values.dtype.kind not in "iuf":
-            raise ValueError(
-                f"The parameter `disparity` must hold real numbers, got dtype {values.dtype} "
-                f"from '{path}'"
-            )
-        values = values.astype(np.float64)
-        unknown = ~np.isfinite(values)
-    elif suffix in IMAGE_SUFFIXES:
-        values = read_image(path, raw=True).astype(np.float64)
-        unknown = values == 0
-    else:
+    if suffix not in (".pfm", ".npy") and suffix not in IMAGE_SUFFIXES:
         raise ValueError(
             f"The parameter `disparity` must be a .pfm, .npy or image file, got '{path}'"
         )
-    if values.ndim != 2:
-        raise ValueError(
-            f"The parameter `disparity` must hold a single-channel (H, W) map, "
-            f"got shape {values.shape} from '{path}'"
-        )
-    return np.where(unknown, np.nan, values / disparity_scale)
+    if suffix in IMAGE_SUFFIXES:
+        return read_range(path, scale=disparity_scale)
+    return read_range(path) / disparity_scale
 
 
 def load_middlebury(
@@ -229,10 +212,12 @@ def load_middlebury(
         The view (PNG, JPEG, PPM …), read with :func:`refsynth.io.read_image`
         as float64 in [0, 1] (alpha dropped).
     disparity : str or Path
-        Its disparity map: a PFM (Middlebury 2014 ``disp0.pfm``; ``inf`` =
-        unknown), a ``.npy`` (non-finite = unknown), or a single-channel
-        image (PNG, PGM …) of integers where 0 = unknown and the stored value
-        is ``disparity × disparity_scale``.
+        Its disparity map, read by :func:`refsynth.io.read_range` (as every
+        refsynth command reads range): a PFM (Middlebury 2014 ``disp0.pfm``;
+        ``inf`` = unknown), a ``.npy`` (non-finite = unknown), or a
+        single-channel lossless image (PNG, PGM …) of integers where 0 =
+        unknown and the stored value is ``disparity × disparity_scale``.
+        JPEG and known values <= 0 are refused.
     size : int or pair of int, optional
         ``(width, height)`` to resize to (as :func:`motorcycle`); default:
         keep the size.

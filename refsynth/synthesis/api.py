@@ -497,7 +497,13 @@ def synthesize(
     channels = check_choice("channels", channels, CHANNELS)
     use_edges = check_bool("use_edges", use_edges)
     if edges is not None:
-        edges = np.asarray(edges)
+        try:
+            edges = np.asarray(edges)
+        except (ValueError, TypeError):  # ragged lists: numpy's words name no argument
+            raise ValueError(
+                f"The parameter `edges` must be a boolean array of shape {range_values.shape}, "
+                "got ragged nested lists (rows of different lengths)"
+            ) from None
         if edges.shape != range_values.shape:
             raise ValueError(
                 f"The parameter `edges` must have shape {range_values.shape}, got {edges.shape}"
