@@ -90,7 +90,8 @@ def test_synth_range_copy_reaches_both_methods(files, method):
         out = files / f"{method}-{copy}.npy"
         assert main(["synth", str(files / "image.npy"), str(files / "partial.npy"), "--out",
                      str(out), "--method", method, "--range-copy", copy]) == 0
-        want = refsynth.synthesize(image, partial, method=method, range_copy=copy).range
+        want = refsynth.synthesize(image, partial, method=method,
+                                   readings={"range_copy": copy}).range
         np.testing.assert_array_equal(np.load(out), want)
 
 
@@ -307,8 +308,8 @@ def test_synth_bp_with_proposals_is_the_librarys(files, capsys):
             "--out", str(files / "p.npy")]
     assert _run(argv, capsys)[0] == 0
     image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
-    direct = __import__("refsynth").synthesize(image, partial, method="bp", seed=3,
-                                               proposals="np", proposal_runs=2).range
+    direct = __import__("refsynth").synthesize(
+        image, partial, method="bp", seed=3, readings={"proposals": "np", "proposal_runs": 2}).range
     np.testing.assert_array_equal(np.load(files / "p.npy"), direct)
 
 
@@ -344,7 +345,7 @@ def test_synth_bp_offset_tolerance_is_the_librarys(files, capsys):
             "--offset-tolerance", "0.5", "--out", str(files / "t.npy")]
     assert _run(argv, capsys)[0] == 0
     direct = __import__("refsynth").synthesize(image, partial, method="bp",
-                                               offset_tolerance=0.5).range
+                                               readings={"offset_tolerance": 0.5}).range
     np.testing.assert_array_equal(np.load(files / "t.npy"), direct)
 
 

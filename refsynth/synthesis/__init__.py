@@ -5,6 +5,9 @@ Read beside §3.2 of the paper, top to bottom:
 - :mod:`refsynth.synthesis.api`: :func:`synthesize`, the front door —
   validation, edges, dispatch to NP or BP, and which options belong to which
   method.
+- :mod:`refsynth.synthesis.readings`: the readings of the paper as presets —
+  ``"paper"`` as printed, ``"refsynth"`` (the default) with its measured
+  departures — each field with the paper's text and the evidence.
 - :mod:`refsynth.synthesis.limits`: the bounds of its parameters — where
   the arithmetic of Eqs. 2–9 stays finite, what the image can use (a radius
   beyond the image is the whole image), the memory a run needs.
@@ -37,7 +40,6 @@ Modeling", IJCV 79:137–158 (2008), §3.2, doi:10.1007/s11263-007-0108-2.
 """
 
 from refsynth.synthesis.api import (
-    BP_DEPARTURES,
     BP_OPTIONS,
     NP_OPTIONS,
     SynthesisResult,
@@ -74,6 +76,7 @@ from refsynth.synthesis.priority import (
     priority,
     range_gradient,
 )
+from refsynth.synthesis.readings import PRESETS, Readings
 from refsynth.synthesis.similarity import (
     PatchTable,
     intensity_scale,
@@ -85,9 +88,10 @@ __all__ = [
     # the front door
     "synthesize",
     "SynthesisResult",
+    "Readings",
+    "PRESETS",
     "NP_OPTIONS",
     "BP_OPTIONS",
-    "BP_DEPARTURES",
     # what it accepts (validate_inputs, normalise_intensity, PARAMETER_BOUNDS, image_reach, ...)
     *_LIMIT_NAMES,
     # §3.2.1: the MRF neighbourhood

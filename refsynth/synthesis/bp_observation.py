@@ -188,10 +188,10 @@ from refsynth.synthesis.limits import normalise_intensity
 
 __all__ = ["OBSERVATIONS", "observation_fill", "np_observation", "observed_ranges"]
 
-#: The observations :func:`refsynth.synthesize` accepts for BP: ``"measured"`` is Fig. 6's;
-#: the colorization ones complete them by a classical fill (see above), ``"np"`` by NP's own
-#: fill (:func:`np_observation`; the default since 0.9,
-#: :data:`refsynth.synthesis.api.BP_DEPARTURES`).
+#: The observations BP accepts (the reading ``observation``,
+#: :class:`refsynth.synthesis.readings.Readings`): ``"measured"`` is Fig. 6's; the colorization
+#: ones complete them by a classical fill (see above), ``"np"`` by NP's own fill
+#: (:func:`np_observation`; the default preset's).
 OBSERVATIONS = ("measured", "colorization", "colorization-completed", "np")
 
 
