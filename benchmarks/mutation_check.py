@@ -1,7 +1,7 @@
 """Mutation check: do the tests catch wrong assembly of the equations? (issue #11)
 
 Applies single-line mutations to the code that puts the paper's equations together — NP
-(refsynth/synthesis/nonparametric.py, its Eq. 2 table filltable.py), BP (bp.py, its candidate
+(refsynth/synthesis/nonparametric/fill.py, its Eq. 2 table filltable.py), BP (bp.py, its candidate
 search bp_search.py, Eq. 6 in bp_model.py, Eq. 9 in messages.py), the fill order (priority.py,
 its queue frontqueue.py, the onion order onion.py) and registration
 (refsynth/registration/*.py): operators, indices, dropped terms, swapped arguments, among them
@@ -38,7 +38,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-NP = "refsynth/synthesis/nonparametric.py"
+NP = "refsynth/synthesis/nonparametric/fill.py"
 RANGE_COPY = "refsynth/synthesis/range_copy.py"
 BP = "refsynth/synthesis/bp.py"
 PRIORITY = "refsynth/synthesis/priority.py"

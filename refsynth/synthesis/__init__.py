@@ -16,8 +16,11 @@ Read beside §3.2 of the paper, top to bottom:
 - :mod:`refsynth.synthesis.similarity` (§3.2.2, Eq. 2): the distance between
   two partial neighbourhoods, literal (:func:`neighbourhood_distance`) and
   expanded for a whole candidate set (:class:`PatchTable`).
-- :mod:`refsynth.synthesis.nonparametric` (§3.2.2, Eqs. 3–5): NP sampling,
-  :func:`np_fill` and the Eq. 5 set.
+- :mod:`refsynth.synthesis.nonparametric` (§3.2.2, Eqs. 3–5 in the order of
+  Eqs. 10–12): NP sampling — its literal reference
+  (:mod:`~refsynth.synthesis.nonparametric.reference`, the paper's readings as
+  its defaults) beside the fast fill (:mod:`~refsynth.synthesis.nonparametric.fill`,
+  :func:`np_fill`, and the Eq. 5 set).
 - :mod:`refsynth.synthesis.priority` (§3.2.4, Eqs. 10–12): the synthesis
   order — confidence, data term, edge count — and the onion-peel order of
   Fig. 7.
@@ -27,8 +30,9 @@ Read beside §3.2 of the paper, top to bottom:
   beliefs, :func:`belief_propagation`.
 - :mod:`refsynth.synthesis.canny` (§3.2): the Canny edges (σ = 0.8) that
   Eq. 10 and BP's edge-constraint rule use.
-- :mod:`refsynth.synthesis.reference` (§3.2.2–§3.2.4): the literal reference,
-  per-pixel loops that the fast modules above equal bit for bit.
+- :mod:`refsynth.synthesis.reference` (§3.2.2–§3.2.4): the literal reference of
+  NP and BP with refsynth's readings as its defaults, per-pixel loops that the
+  fast modules above equal bit for bit under every reading.
 
 Every decision runs on exact numbers, the numeric contract of
 :mod:`refsynth.numeric`: the same bits on any machine.
@@ -79,6 +83,7 @@ from refsynth.synthesis.priority import (
 from refsynth.synthesis.readings import PRESETS, Readings
 from refsynth.synthesis.similarity import (
     PatchTable,
+    eq2_distance,
     intensity_scale,
     neighbourhood_distance,
     range_scale,
@@ -102,6 +107,7 @@ __all__ = [
     "range_patches",
     # §3.2.2, Eq. 2: literal and expanded
     "neighbourhood_distance",
+    "eq2_distance",
     "PatchTable",
     "intensity_scale",
     "range_scale",

@@ -162,7 +162,7 @@ class Readings:
     --------
     >>> Readings.paper().range_copy, Readings().range_copy
     ('value', 'offset')
-    >>> sorted(Readings.paper().departures())
+    >>> sorted(Readings().departures())   # refsynth's departures from the paper
     ['missing_range', 'observation', 'range_copy', 'tolerance', 'training_radius']
     >>> Readings.paper().replace(range_copy="offset").range_copy
     'offset'

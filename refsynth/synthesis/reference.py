@@ -69,6 +69,7 @@ from refsynth.numeric import (
     window_weights,
 )
 from refsynth.synthesis.completion import portable_colorization
+from refsynth.synthesis.similarity import eq2_distance
 
 __all__ = [
     "quantise_intensity", "quantise_grey", "quantise_range", "window_weights", "portable_exp",
@@ -91,33 +92,6 @@ def disc_offsets(radius: float) -> list[tuple[int, int]]:
     k = int(math.floor(radius))
     return [(dr, dc) for dr in range(-k, k + 1) for dc in range(-k, k + 1)
             if dr * dr + dc * dc <= radius * radius and (dr, dc) != (0, 0)]
-
-
-# -- Eq. 2 --------------------------------------------------------------------------------
-
-
-def eq2_distance(qi_a, qr_a, qi_b, qr_b, window, range_weight=1.0, missing_range="mean",
-                 channels="sum"):
-    r"""Eq. 2 between two quantised neighbourhoods (§3.2.2).
-
-    .. math:: \|N_a - N_b\| = \sum_v G(\sigma, v - v_0) \left[ \sum_c
-              (I^a_{v,c} - I^b_{v,c})^2 + \lambda (R^a_v - R^b_v)^2 \right]
-
-    (``channels="sum"``, the paper's; ``"mean"`` divides the channel sum by ``C``).
-
-    ``qi_*`` (n, n, C) and ``qr_*`` (n, n) are quantised intensity and range (:data:`NO_RANGE`
-    where unknown), ``window`` is :func:`window_weights`; ``missing_range`` as in
-    :func:`combine_eq2`. The integer sums are exact, so their order is free.
-    """
-    has_a, has_b = qr_a != NO_RANGE, qr_b != NO_RANGE
-    shared = has_a & has_b
-    di = qi_a - qi_b
-    dr = np.where(shared, qr_a - qr_b, 0)
-    si = int(np.sum(window[:, :, None] * di * di))
-    sr = int(np.sum(window * dr * dr))
-    divisor = qi_a.shape[2] if channels == "mean" else 1   # Eq. 2 sums the channels
-    return combine_eq2(si, sr, int(np.sum(window[shared])), int(np.sum(window[has_a])),
-                       divisor, range_weight, missing_range)
 
 
 class _Frame:
