@@ -32,12 +32,14 @@ order of a floating-point reduction, so the quantities that feed decisions are *
 
 The helpers of the contract live in :mod:`refsynth.numeric` and are re-exported here.
 
-The options of issue #10 (each is a reading of the paper; the defaults are refsynth's
-readings until they are audited on real data) are implemented here as plainly as the rest:
-``confidence_update`` (Eq. 11's update), ``colour`` (Eq. 2 on the colour channels or on grey),
-``edges_last`` (NP's edge tier) and ``edge_rule`` (BP's edge-constraint rule); and BP's
-``observation`` and ``training_radius`` (Fig. 6's step 2), whose defaults since 0.4 are
-departures that won on real data (:func:`bp_reference`).
+Every reading of :class:`refsynth.synthesis.readings.Readings` is implemented here as plainly
+as the rest, with **refsynth's readings as the defaults** (the default preset, so that
+``fast == reference`` is tested under every reading): ``confidence_update`` (Eq. 11's
+update), ``colour`` (Eq. 2 on the colour channels or on grey), ``edges_last`` (NP's edge
+tier) and ``edge_rule`` (BP's edge-constraint rule); and BP's ``observation`` and
+``training_radius`` (Fig. 6's step 2), whose defaults are departures that won on real data
+(:func:`bp_reference`). NP with the paper's readings as its defaults, in the paper's order,
+is :mod:`refsynth.synthesis.nonparametric.reference`.
 
 References
 ----------
@@ -497,11 +499,11 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
     2. Labels of node ``i``: its ``k`` closest training patches (:func:`_bp_candidates`),
        ranked by Eq. 2 against its observation ``y_i``. refsynth's defaults depart from
-       Fig. 6 here (issue #10, measured in :mod:`refsynth.synthesis.bp_observation` and
-       :mod:`refsynth.synthesis.bp_gap_radius`): with ``observation="np"`` (the default
-       since 0.9) :func:`np_reference` (NP's defaults, drawing on ``rng``) fills the range
+       Fig. 6 here (measured in :mod:`refsynth.synthesis.bp_observation` and
+       :mod:`refsynth.synthesis.bp_gap_radius`): with ``observation="np"`` (the default)
+       :func:`np_reference` (NP's defaults, drawing on ``rng``) fills the range
        first and its result completes ``y_i``'s unknown range (:func:`_observed_frame`);
-       with ``"colorization"`` (0.4–0.8's default) the colorization fill completes it
+       with ``"colorization"`` the colorization fill completes it
        (``"colorization-completed"``: the training patches' too, in Eq. 2 only); and with
        ``training_radius="gap"`` the disc's radius is ``r + ⌊d_i⌋``
        (:func:`gap_depth_reference`; the prior μ then divides by that radius squared).
@@ -522,7 +524,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
        belief pooled over labels proposing the same range (within 1 % of the span) the
        confidence.
 
-    With ``range_copy="offset"`` (refsynth's default since 0.6, a departure:
+    With ``range_copy="offset"`` (refsynth's default, a departure:
     :mod:`refsynth.synthesis.range_copy`) every label ``l`` of node ``i`` carries the shift
     ``Δ_il`` of NP's offset copy between ``y_i``'s range (the observations: measured or
     completed) and the label's measured patch (:func:`offset_shift`); its patch's range is

@@ -13,21 +13,20 @@ neighbourhood being synthesized).
 
 Normalisation (our choice; the paper leaves it open)
 -----------------------------------------------------
-Intensity and range live in different units. refsynth divides the intensity
-by its span over the whole image and the range by the span of the *known*
-range, so both lie in [0, 1], and sums the intensity term over the colour
-channels, as Eq. 2 does (``channels="sum"``; ``"mean"``, refsynth's reading
-before 0.3, averages them so that grey and colour images weigh the same, which
-weighs the range term C times more: on the Motorcycle's choosing split NP's MAR
-was 0.467 / 0.700 / 0.790 px with the mean against 0.400 / 0.624 / 0.742 with
-the sum at 63 / 78 / 85 %, 3 seeds). The range term then gets
-the weight ``λ`` (``range_weight``, default 1: the two normalised terms
-weigh the same, the paper's reading). λ = 16, refsynth's default before 0.2,
-was chosen on synthetic rooms; on the Motorcycle (450×375, x-stripes 63 / 78 /
-85 %, 3 seeds) it raised NP's MAR at every fraction (0.692 / 0.813 / 0.979
-against 0.531 / 0.723 / 0.858 px with the literal Eq. 2) and left BP's within
-1 % (``benchmarks/audit_departures.py``). With ``λ = 0``
-Eq. 2 reduces to an intensity match.
+Intensity and range live in different units. refsynth divides the intensity by
+its span over the whole image and the range by the span of the *known* range, so
+both lie in [0, 1], and sums the intensity term over the colour channels, as Eq.
+2 does (``channels="sum"``; ``"mean"`` averages them so that grey and colour
+images weigh the same, which weighs the range term C times more: on the
+Motorcycle's choosing split NP's MAR was 0.467 / 0.700 / 0.790 px with the mean
+against 0.400 / 0.624 / 0.742 with the sum at 63 / 78 / 85 %, 3 seeds). The
+range term then gets the weight ``λ`` (``range_weight``, default 1: the two
+normalised terms weigh the same, the paper's reading). λ = 16, chosen on
+synthetic rooms, loses on the Motorcycle (450×375, x-stripes 63 / 78 / 85 %, 3
+seeds): it raises NP's MAR at every fraction (0.692 / 0.813 / 0.979 against
+0.531 / 0.723 / 0.858 px with the literal Eq. 2) and leaves BP's within 1 %
+(``benchmarks/audit_departures.py``). With ``λ = 0`` Eq. 2 reduces to an
+intensity match.
 
 Missing range (a departure from the paper)
 ------------------------------------------
@@ -344,7 +343,7 @@ class PatchTable:
         memory traffic but rounds ``R²`` and the sums: for experiments only.
     channels : {"sum", "mean"}, default "sum"
         Eq. 2's intensity term summed over the colour channels (the paper's)
-        or averaged over them (refsynth 0.2).
+        or averaged over them.
 
     Examples
     --------
