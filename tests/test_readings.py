@@ -123,3 +123,26 @@ def test_split_options_separates_keywords_from_readings():
                                         "proposals": None, "candidates": 4})
     assert keywords == {"method": "bp", "radius": 3.0, "candidates": 4}
     assert readings == {"observation": "measured"}
+
+
+def test_the_docstrings_table_gives_each_presets_value():
+    """Every field has a row in the module's table, with the two presets' values as set."""
+    import refsynth.synthesis.readings as module
+
+    rows = {}
+    for line in module.__doc__.splitlines():
+        cells = line.split()
+        if len(cells) >= 3 and cells[0].startswith("``") and cells[0].strip("`") in PAPER:
+            rows[cells[0].strip("`")] = (cells[1].strip("`"), cells[2].strip("`"))
+    assert set(rows) == set(Readings.names())
+
+    def as_written(value):   # numbers compare as numbers ("1e-4" is 0.0001), the rest as text
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        return float(value) if number else str(value)
+
+    def parse(cell):
+        return float(cell) if cell[0].isdigit() else cell
+
+    for name, (paper, ours) in rows.items():
+        assert (parse(paper), parse(ours)) == (as_written(getattr(Readings.paper(), name)),
+                                               as_written(getattr(Readings(), name))), name
