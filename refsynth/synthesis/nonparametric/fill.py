@@ -284,14 +284,15 @@ def np_fill(
         at[()] = p
         candidates = np.add(disc, at)  # Eq. 3, as np_reference's disc offsets
         candidates = candidates.compress(filled[candidates])
-        if candidates.size == 0:
+        if candidates.size == 0:  # np_reference's gap wider than r: d + r
             candidates = _widened_candidates(p, filled, Wp, radius)
-        # Eq. 2 of the candidates that can be the best match or in Eq. 5's set (in order)
+        # Eq. 2 (similarity.eq2_distance, bit for bit) of the candidates that can be the best
+        # match or in Eq. 5's set, in order
         candidates, d = shortlist(p, candidates, scale)
         if candidates.size == 1:  # the best match and Eq. 5's only member (j below: 0)
             best = j = 0
         else:
-            best = int(d.argmin())
+            best = int(d.argmin())  # Eq. 4: the first minimum, as np_reference's
             # Eq. 5 (eq5_set): the members within (1 + epsilon) of the best, in candidate order
             threshold[()] = scale * d[best]
             members = np.less_equal(d, threshold).nonzero()[0]  # indices into candidates
