@@ -414,7 +414,7 @@ MUTATIONS = [
              "return float(conf[rows, cols].sum()) / (n * n)",
              "Eq. 11's |N_p| counts the voxels off the image too"),
     Mutation("npref-d-unclipped", "np-reference", NP_REFERENCE,
-             "P = C * max(D, 0.0) + E", "P = C * D + E",
+             "return C * max(D, 0.0) + e_term", "return C * D + e_term",
              "Eq. 10 with a negative data term"),
     Mutation("npref-tier-dropped", "np-reference", NP_REFERENCE,
              "tier = int(use_edges and edges_last and bool(edges[r, c]))", "tier = 0",

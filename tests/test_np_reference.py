@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import inspect
+import math
 from pathlib import Path
 
 import numpy as np
@@ -150,6 +151,35 @@ def test_priority_terms_by_hand():
     assert (C, D, E) == (3 / 9, 0.5, 1 / 3)
     assert npref.priority_terms(1, 1, filled, qr, conf, None, 3, use_isophotes=False) == (
         3 / 9, 1.0, 1.0)
+
+
+def test_eq12_divides_by_the_norm_once_at_the_end():
+    """The contract's Eq. 12: ``1 − |g_row m_col − g_col m_row| / ‖m‖`` with ``m`` the
+    un-normalised Sobel vector. Normalising ``m`` first is the same number in exact
+    arithmetic but not in floating point: this window tells the two apart by one ulp."""
+    filled = np.array([[1, 0, 0, 1, 1], [0, 0, 1, 0, 1], [1, 0, 0, 1, 1], [0, 0, 0, 1, 1],
+                       [1, 1, 0, 1, 1]], dtype=bool)
+    qr = np.array([[31879, -1, -1, 41944, 5877], [-1, -1, 4483, -1, 5239],
+                   [31781, -1, -1, 37772, 21818], [-1, -1, -1, 9150, 18558],
+                   [26839, 54034, -1, 48887, 55393]])
+    _, D, _ = npref.priority_terms(2, 2, filled, qr, filled.astype(np.float64), None, 5)
+    g_row, g_col = (60631 * 2.0**-16) / 6, (-8912 * 2.0**-16) / 5   # the pairs' mean slopes
+    m_row, m_col = -1, 3                                            # Sobel of the mask
+    norm = math.sqrt(m_row * m_row + m_col * m_col)
+    assert D == 1.0 - abs(g_row * m_col - g_col * m_row) / norm
+    assert D != 1.0 - abs(g_row * (m_col / norm) - g_col * (m_row / norm))
+
+
+def test_eq10_counts_a_negative_data_term_as_zero():
+    """A range gradient steeper than the span per pixel across the front makes D < 0:
+    here (1, 1) sees a rise of the whole span down column 0 and along row 2."""
+    filled = np.zeros((3, 3), bool)
+    filled[0, 0] = filled[1, 0] = filled[2, 1] = filled[2, 2] = True
+    qr = np.where(filled, [[0, 0, 0], [2**16, 0, 0], [0, 0, 2**16]], -1)
+    C, D, E = npref.priority_terms(1, 1, filled, qr, filled.astype(np.float64), 0, 3)
+    assert D == 1.0 - 4 / math.sqrt(8) < 0
+    assert npref.priority(C, D, E) == E == 1.0
+    assert npref.priority(0.5, 0.5, 0.25) == 0.5
 
 
 def test_a_gap_wider_than_r_widens_the_search_to_d_plus_r():

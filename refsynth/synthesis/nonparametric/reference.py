@@ -94,8 +94,8 @@ from refsynth.numeric import (
 from refsynth.synthesis.neighbourhood import disc_offsets
 from refsynth.synthesis.similarity import eq2_distance
 
-__all__ = ["NPResult", "np_reference", "confidence_term", "priority_terms", "offset_shift",
-           "onion_schedule", "OFFSET_SLACK"]
+__all__ = ["NPResult", "np_reference", "confidence_term", "priority_terms", "priority",
+           "offset_shift", "onion_schedule", "OFFSET_SLACK"]
 
 #: The offset copy's agreement: every difference within ``2**-7`` of the span (on the grid).
 OFFSET_SLACK = 2 ** (RANGE_BITS - 7)
@@ -175,6 +175,15 @@ def priority_terms(r: int, c: int, filled: np.ndarray, qr: np.ndarray, conf: np.
     norm = math.sqrt(m_row * m_row + m_col * m_col) or 1.0
     D = 1.0 - abs(g_row * m_col - g_col * m_row) / norm
     return C, D, e_term
+
+
+def priority(C: float, D: float, e_term: float) -> float:
+    """Eq. 10 from its terms: ``P = C · max(D, 0) + 1 / (1 + E)`` (a negative D counts as 0).
+
+    >>> priority(0.5, -0.4, 1.0), priority(0.5, 0.5, 0.25)
+    (1.0, 0.5)
+    """
+    return C * max(D, 0.0) + e_term
 
 
 def onion_schedule(known: np.ndarray, rng: np.random.Generator) -> list[tuple[int, int]]:
@@ -305,9 +314,9 @@ def np_reference(image: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
                     if filled[r, c] or not filled[max(r - 1, 0) : r + 2,
                                                   max(c - 1, 0) : c + 2].any():
                         continue                                      # not on the front
-                    C, D, E = priority_terms(r, c, filled, qr, conf, edge_count(r, c), n,
-                                             use_isophotes=use_isophotes)
-                    P = C * max(D, 0.0) + E                                          # (10)
+                    terms = priority_terms(r, c, filled, qr, conf, edge_count(r, c), n,
+                                           use_isophotes=use_isophotes)    # (11), (12)
+                    P = priority(*terms)                                              # (10)
                     tier = int(use_edges and edges_last and bool(edges[r, c]))
                     if key is None or (tier, -P, int(tie[r, c])) < key:
                         key, p = (tier, -P, int(tie[r, c])), (r, c)
