@@ -226,6 +226,7 @@ def run_one(job: tuple) -> dict:
     import refsynth
     from refsynth.acquisition import x_stripes_for_fraction
     from refsynth.evaluation import BASELINES, evaluate
+    from refsynth.synthesis.readings import split_options
 
     name, size, fraction, phase, seed = job[:5]
     scene = _scene(size, crop=len(job) > 5 and job[5])
@@ -239,7 +240,9 @@ def run_one(job: tuple) -> dict:
         options = dict(VARIANTS[name])
         solver = options.pop("fill_solver", None)
         with _fill_solver(solver):
-            estimate = refsynth.synthesize(scene.intensity, partial, seed=seed, **options).range
+            keywords, readings = split_options(options)
+            estimate = refsynth.synthesize(scene.intensity, partial, seed=seed, **keywords,
+                                           readings=readings).range
     seconds = time.perf_counter() - start
     scores = evaluate(estimate, scene.range, known)
     return dict(name=name, size=f"crop{size}" if len(job) > 5 and job[5] else size,

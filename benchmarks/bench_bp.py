@@ -97,6 +97,7 @@ def _case(args):
     from refsynth.acquisition.sampling import unknown_fraction
     from refsynth.evaluation.baselines import BASELINES
     from refsynth.evaluation.metrics import evaluate
+    from refsynth.synthesis.readings import split_options
 
     scene = _scene(scene_name, size)
     known = _sampling(scene.range.shape, spec) & scene.has_truth
@@ -107,8 +108,9 @@ def _case(args):
     if method in BASELINES:
         estimate = BASELINES[method](scene.intensity, partial)
     else:
-        result = refsynth.synthesize(scene.intensity, partial, seed=seed,
-                                     **METHODS[method], **extra)
+        keywords, readings = split_options({**METHODS[method], **extra})
+        result = refsynth.synthesize(scene.intensity, partial, seed=seed, **keywords,
+                                     readings=readings)
         estimate = result.range
         if result.method == "bp":
             rows, cols = result.order[:, 0], result.order[:, 1]
@@ -146,6 +148,7 @@ def _proposal_case(args):
     import refsynth
     from refsynth.evaluation.baselines import BASELINES
     from refsynth.evaluation.metrics import evaluate
+    from refsynth.synthesis.readings import split_options
 
     name, scene_name, size, spec, phase, seed = args
     scene = _scene(scene_name, size)
@@ -156,8 +159,9 @@ def _proposal_case(args):
     if name in CLASSICAL:
         estimate = BASELINES[name](scene.intensity, partial)
     else:
-        result = refsynth.synthesize(scene.intensity, partial, seed=seed,
-                                     **PROPOSAL_VARIANTS[name])
+        keywords, readings = split_options(PROPOSAL_VARIANTS[name])
+        result = refsynth.synthesize(scene.intensity, partial, seed=seed, **keywords,
+                                     readings=readings)
         estimate = result.range
         if result.method == "bp":  # the candidate ceiling: each node's best candidate
             rows, cols = result.order[:, 0], result.order[:, 1]

@@ -75,6 +75,7 @@ def _case(args):
     from refsynth.acquisition.sampling import unknown_fraction
     from refsynth.evaluation.baselines import nearest_fill
     from refsynth.evaluation.metrics import evaluate
+    from refsynth.synthesis.readings import split_options
 
     scene = _scene(scene_name, size)
     known = _sampling(scene.range.shape, spec) & scene.has_truth
@@ -84,8 +85,9 @@ def _case(args):
     if method == "nearest":
         estimate = nearest_fill(scene.intensity, partial)
     else:
-        estimate = refsynth.synthesize(scene.intensity, partial, seed=seed,
-                                       **VARIANTS[method]).range
+        keywords, readings = split_options(VARIANTS[method])
+        estimate = refsynth.synthesize(scene.intensity, partial, seed=seed, **keywords,
+                                       readings=readings).range
     seconds = time.perf_counter() - start
     scores = evaluate(estimate, scene.range, known)
     return dict(scene=scene.name, sampling=spec, unknown=100 * unknown_fraction(known),

@@ -119,12 +119,13 @@ def _fill(method: str):
         "np": lambda image, partial: refsynth.synthesize(image, partial, seed=0),
         "bp": lambda image, partial: refsynth.synthesize(image, partial, method="bp", seed=0),
         "bp-colorization": lambda image, partial: refsynth.synthesize(
-            image, partial, method="bp", observation="colorization"),
+            image, partial, method="bp", readings={"observation": "colorization"}),
         "bp-fig6": lambda image, partial: refsynth.synthesize(
-            image, partial, method="bp", observation="measured", training_radius="fixed",
-            range_copy="value"),
-        "bp-obs-np": lambda image, partial: refsynth.synthesize(
-            image, partial, method="bp", observation="np", seed=0),
+            image, partial, method="bp", readings={"observation": "measured",
+                                                   "training_radius": "fixed",
+                                                   "range_copy": "value"}),
+        "bp-obs-np": lambda image, partial: refsynth.synthesize(image, partial, method="bp", seed=0,
+                                                                readings={"observation": "np"}),
         "colorization": baselines.colorization_fill,
         "nearest": baselines.nearest_fill,
         "joint-bilateral": baselines.joint_bilateral_fill,
@@ -345,9 +346,10 @@ def bp_stages(sizes, out=sys.stdout, observation: str = "colorization") -> dict:
             sweeps = int(sweeps)
         seen = []
         start = time.process_time()
-        refsynth.synthesize(image, partial, method="bp", observation=observation, seed=0,
+        refsynth.synthesize(image, partial, method="bp", seed=0,
                             progress=lambda done, total, seen=seen, start=start: seen.append(
-                                (time.process_time() - start, done)))
+                                (time.process_time() - start, done)),
+                            readings={"observation": observation})
         # a stage's end, in whole per mille, is reached to within 2 (two roundings down)
         stamps = [next(t for t, done in seen if done >= end - 2) for end in ends]
         times = np.diff([0.0, *stamps])
@@ -562,7 +564,7 @@ def fill_solvers_room(out=sys.stdout, grids=ROOM_GRIDS) -> dict:
             fill = portable_colorization(scene.intensity, partial, solver=solver)
             with _fill_solver(solver):
                 bp = refsynth.synthesize(scene.intensity, partial, method="bp",
-                                         observation="colorization").range
+                                         readings={"observation": "colorization"}).range
             results[(grid, solver)] = dict(fill=mar(fill, scene.range, known),
                                            bp=mar(bp, scene.range, known))
             print(f"| {grid} | {percent:.1f} % | {solver} | {results[(grid, solver)]['fill']:.3f}"

@@ -41,13 +41,15 @@ from bench_speed import _case, _size  # noqa: E402
 
 #: What a child runs: one fill from the tree on PYTHONPATH, its CPU seconds and its hash.
 CHILD = """
-import hashlib, sys, time
+import hashlib, inspect, sys, time
 import numpy as np
 import refsynth
 case = np.load(sys.argv[1])
 options = {"method": sys.argv[2], "seed": 0}
 if sys.argv[2] == "bp-colorization":  # BP on the colorization fill's observations
     options = {"method": "bp", "observation": "colorization"}
+    if "readings" in inspect.signature(refsynth.synthesize).parameters:  # a tree with presets
+        options = {"method": "bp", "readings": {"observation": "colorization"}}
 start = time.process_time()
 result = refsynth.synthesize(case["image"], case["partial"], **options)
 seconds = time.process_time() - start

@@ -1,7 +1,7 @@
 """Mutation check: do the tests catch wrong assembly of the equations? (issue #11)
 
 Applies single-line mutations to the code that puts the paper's equations together — NP
-(refsynth/synthesis/nonparametric.py, its Eq. 2 table filltable.py), BP (bp.py, its candidate
+(refsynth/synthesis/nonparametric/fill.py, its Eq. 2 table filltable.py), BP (bp.py, its candidate
 search bp_search.py, Eq. 6 in bp_model.py, Eq. 9 in messages.py), the fill order (priority.py,
 its queue frontqueue.py, the onion order onion.py) and registration
 (refsynth/registration/*.py): operators, indices, dropped terms, swapped arguments, among them
@@ -38,7 +38,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-NP = "refsynth/synthesis/nonparametric.py"
+NP = "refsynth/synthesis/nonparametric/fill.py"
+NP_REFERENCE = "refsynth/synthesis/nonparametric/reference.py"
 RANGE_COPY = "refsynth/synthesis/range_copy.py"
 BP = "refsynth/synthesis/bp.py"
 PRIORITY = "refsynth/synthesis/priority.py"
@@ -69,6 +70,7 @@ TESTS = {
                  "tests/test_np_speed_front.py", "tests/test_np_speed_steps.py",
                  "tests/test_mutation_gaps.py"],
     "completion": ["tests/test_completion.py", "tests/test_progress.py"],
+    "np-reference": ["tests/test_np_reference.py"],
     "registration": ["tests/test_panorama.py", "tests/test_laser_camera.py",
                      "tests/test_registration_scenes.py"],
 }
@@ -199,9 +201,9 @@ MUTATIONS = [
              "W, n,\n" + " " * 37 + "OFFSET_TOLERANCE)",
              "BP's labels shifted at NP's agreement whatever offset_tolerance says"),
     Mutation("api-tolerance-default", "bp", "refsynth/synthesis/api.py",
-             'default_offset_tolerance(departures["observation"])',
+             'default_offset_tolerance(chosen["observation"])',
              'default_offset_tolerance("colorization")',
-             "BP on NP's fill (the default since 0.9) keeps NP's agreement (2**-7)"),
+             "BP on NP's fill (the default preset's) keeps NP's agreement (2**-7)"),
     Mutation("rc-round", "np", RANGE_COPY,
              "if twice > denominator or (twice == denominator and quotient % 2):",
              "if twice > denominator:", "the shift rounded half down, not half to even"),
@@ -391,6 +393,46 @@ MUTATIONS = [
     Mutation("cascade-block-count", "completion", COMPLETION,
              "count[cells] = count[cells] + inside", "count[cells] = count[cells] + 1.0",
              "the coarse range's block mean divided by four, not by its measured pixels"),
+    # -- NP's literal reference: its tests must catch a wrong step as well ------------
+    Mutation("npref-eq5-strict", "np-reference", NP_REFERENCE,
+             "members = [i for i, d in enumerate(distances) if d <= threshold]",
+             "members = [i for i, d in enumerate(distances) if d < threshold] or [best]",
+             "Eq. 5 with < (the set keeps only strictly nearer matches)"),
+    Mutation("npref-eq4-last", "np-reference", NP_REFERENCE,
+             "best = distances.index(min(distances))",
+             "best = len(distances) - 1 - distances[::-1].index(min(distances))",
+             "Eq. 4's tie to the last minimum, not the first"),
+    Mutation("npref-draw-first", "np-reference", NP_REFERENCE,
+             "source = candidates[members[int(draws[step] * len(members))]]",
+             "source = candidates[members[0]]", "Eq. 5's draw replaced by its first member"),
+    Mutation("npref-confidence-own", "np-reference", NP_REFERENCE,
+             'new = c_best if confidence_update == "best" else',
+             'new = c_best if confidence_update != "best" else',
+             "the two readings of Eq. 11's update swapped"),
+    Mutation("npref-eq11-count", "np-reference", NP_REFERENCE,
+             "return float(conf[rows, cols].sum()) / count",
+             "return float(conf[rows, cols].sum()) / (n * n)",
+             "Eq. 11's |N_p| counts the voxels off the image too"),
+    Mutation("npref-d-unclipped", "np-reference", NP_REFERENCE,
+             "return C * max(D, 0.0) + e_term", "return C * D + e_term",
+             "Eq. 10 with a negative data term"),
+    Mutation("npref-tier-dropped", "np-reference", NP_REFERENCE,
+             "tier = int(use_edges and edges_last and bool(edges[r, c]))", "tier = 0",
+             "edge voxels not deferred to the end"),
+    Mutation("npref-tie-reversed", "np-reference", NP_REFERENCE,
+             "if key is None or (tier, -P, int(tie[r, c])) < key:",
+             "if key is None or (tier, -P, -int(tie[r, c])) < key:",
+             "equal priorities taken by the largest tie number"),
+    Mutation("npref-widened-d-only", "np-reference", NP_REFERENCE,
+             "if d <= min(dist) + radius]", "if d <= min(dist)]",
+             "the widened search keeps the nearest filled voxels only"),
+    Mutation("npref-offset-slack", "np-reference", NP_REFERENCE,
+             "abs(a * d - b) > OFFSET_SLACK * a", "abs(a * d - b) > 2 * OFFSET_SLACK * a",
+             "the offset copy's agreement twice as loose"),
+    Mutation("npref-eq12-sides", "np-reference", NP_REFERENCE,
+             "D = 1.0 - abs(g_row * m_col - g_col * m_row) / norm",
+             "D = 1.0 - abs(g_row * m_row - g_col * m_col) / norm",
+             "Eq. 12 with the isophote along the gradient, not turned by 90°"),
 ]
 
 

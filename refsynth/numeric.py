@@ -1,4 +1,4 @@
-r"""refsynth's numeric contract: the exact numbers behind every decision (issue #11).
+r"""refsynth's numeric contract: the exact numbers behind every decision.
 
 No decision of range synthesis — an argmin of Eq. 4, the threshold of Eq. 5, the fill order of
 Eqs. 10–12, BP's ranking and argmax, Canny's edges — may depend on the order in which numpy,

@@ -20,6 +20,7 @@ import refsynth
 from refsynth.numeric import NO_RANGE, on_confidence_grid, quantise_intensity, quantise_range
 from refsynth.synthesis import reference as ref
 from refsynth.synthesis.api import normalise_intensity
+from refsynth.synthesis.readings import split_options
 
 
 def _one_hole(image, truth, hole, **options):
@@ -30,7 +31,8 @@ def _one_hole(image, truth, hole, **options):
     partial = truth.copy()
     partial[hole] = np.nan
     options.setdefault("range_copy", "value")
-    result = refsynth.synthesize(image, partial, use_edges=False, **options)
+    keywords, readings = split_options(options)
+    result = refsynth.synthesize(image, partial, use_edges=False, **keywords, readings=readings)
     return result.range[hole], result.confidence[hole]
 
 
@@ -151,7 +153,9 @@ def test_every_step_assigns_eq11_of_its_own_window_and_of_its_best_match(seed, r
     known[0, 0] = True
     partial = np.where(known, np.round(1.0 + 3.0 * g.random((H, W)), 1), np.nan)
     options = dict(neighbourhood=n, radius=3.0, epsilon=0.2, confidence_update=rule)
-    fast = refsynth.synthesize(image, partial, seed=seed, use_edges=False, **options)
+    keywords, readings = split_options(options)
+    fast = refsynth.synthesize(image, partial, seed=seed, use_edges=False, **keywords,
+                               readings=readings)
     trace = ref.np_reference(normalise_intensity(image), partial, np.zeros((H, W), bool),
                              np.random.default_rng(seed), use_edges=False, trace=True,
                              **options).trace
@@ -240,10 +244,13 @@ def test_the_edge_tier_decides_the_order():
     partial = np.where(known, 2.0, np.nan)
     image = np.zeros(known.shape)
     for seed in range(4):
-        rule = dict(neighbourhood=3, edges=edges, confidence_update="product")
-        tiered = refsynth.synthesize(image, partial, seed=seed, **rule)
+        rule = dict(neighbourhood=3, edges=edges)
+        tiered = refsynth.synthesize(image, partial, seed=seed, **rule,
+                                     readings={"confidence_update": "product"})
         assert tuple(tiered.order[-1]) == (4, 5)
-        flat = refsynth.synthesize(image, partial, seed=seed, edges_last=False, **rule)
+        flat = refsynth.synthesize(image, partial, seed=seed, **rule,
+                                   readings={"confidence_update": "product",
+                                             "edges_last": False})
         position = [tuple(p) for p in flat.order].index((4, 5))
         assert position < len(flat.order) // 2
 
@@ -302,10 +309,11 @@ def test_bp_on_a_chain_with_fixed_neighbours_finds_the_brute_force_map(seed):
     partial[3, 2:6] = np.nan
     sigma_i, sigma_s, proximity, radius = 0.3, 0.08, 1.0, 3.0
     result = refsynth.synthesize(image, partial, method="bp", candidates=3, radius=radius,
-                                 neighbourhood=3, sigma_i=sigma_i, sigma_s=sigma_s,
-                                 proximity=proximity, iterations=30, tolerance=0.0,
-                                 use_edges=False, observation="measured",
-                                 training_radius="fixed")   # Fig. 6, as brute-forced
+                                 neighbourhood=3, iterations=30, use_edges=False,
+                                 readings={"sigma_i": sigma_i, "sigma_s": sigma_s,
+                                           "proximity": proximity, "tolerance": 0.0,
+                                           "observation": "measured",
+                                           "training_radius": "fixed"})   # Fig. 6, brute-forced
     scores = _brute_force_map(image, partial, result, sigma_i, sigma_s, proximity, radius)
     ranked = sorted(scores.values())
     if ranked[-1] - ranked[-2] < 1e-9 * max(1.0, abs(ranked[-1])):

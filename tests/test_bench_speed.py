@@ -88,7 +88,7 @@ def test_fill_solvers_on_the_room_put_the_default_fill_back(bench):
     known = stripes(scene.range.shape, 10, 20, axes="xy") & scene.has_truth
     partial = np.where(known, scene.range, np.nan)
     bp = refsynth.synthesize(scene.intensity, partial, method="bp",
-                             observation="colorization").range
+                             readings={"observation": "colorization"}).range
     assert results[("10/20", "cascadic")]["bp"] == mar(bp, scene.range, known)
     assert "| 10/20 | 39.1 % | gauss-seidel |" in out.getvalue()
 

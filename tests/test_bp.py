@@ -226,8 +226,8 @@ def test_grid_edges_classify_pairs():
 def test_bp_fill_keeps_measurements_and_copies_candidate_centres(scene, product, copy):
     image, truth, known = scene
     partial = np.where(known, truth, np.nan)
-    result = refsynth.synthesize(image, partial, method="bp", product=product,
-                                 neighbourhood=3, candidates=3, iterations=5, range_copy=copy)
+    result = refsynth.synthesize(image, partial, method="bp", neighbourhood=3, candidates=3,
+                                 iterations=5, readings={"product": product, "range_copy": copy})
     np.testing.assert_array_equal(result.range[known], truth[known])
     assert np.all(np.isfinite(result.range))
     if copy == "value":  # Fig. 6's labels: a measured value
@@ -270,9 +270,9 @@ def test_bp_is_deterministic_and_edge_rule_matters():
     partial = np.where(known, scene.range, np.nan)
     # on the colorization fill's observations BP makes no random choice
     a = refsynth.synthesize(scene.intensity, partial, method="bp", seed=0,
-                            observation="colorization")
+                            readings={"observation": "colorization"})
     b = refsynth.synthesize(scene.intensity, partial, method="bp", seed=99,
-                            observation="colorization")
+                            readings={"observation": "colorization"})
     np.testing.assert_array_equal(a.range, b.range)
     np.testing.assert_array_equal(a.confidence, b.confidence)
     # on NP's fill (the default) it draws through NP: the seed reproduces it, and matters
@@ -283,8 +283,9 @@ def test_bp_is_deterministic_and_edge_rule_matters():
     np.testing.assert_array_equal(c.bp.beliefs, d.bp.beliefs)
     assert not np.array_equal(c.bp.unary, e.bp.unary)
     off = refsynth.synthesize(scene.intensity, partial, method="bp", use_edges=False,
-                              sigma_s=0.02, sigma_i=1.0)
-    on = refsynth.synthesize(scene.intensity, partial, method="bp", sigma_s=0.02, sigma_i=1.0)
+                              readings={"sigma_s": 0.02, "sigma_i": 1.0})
+    on = refsynth.synthesize(scene.intensity, partial, method="bp",
+                             readings={"sigma_s": 0.02, "sigma_i": 1.0})
     assert not np.array_equal(off.confidence, on.confidence)
 
 
@@ -321,8 +322,8 @@ def _neighbours_of(mask, partial):
 
 #: BP on the colorization fill's observations: NP's fill (the default) would take the edges
 #: too, and the tests below are about what BP's own edge rule does with them.
-BP_SMALL = dict(method="bp", candidates=3, neighbourhood=3, radius=4.0, sigma_s=0.05,
-                observation="colorization")
+BP_SMALL = dict(method="bp", candidates=3, neighbourhood=3, radius=4.0)
+BP_SMALL_READINGS = {"sigma_s": 0.05, "observation": "colorization"}
 
 
 @pytest.mark.parametrize("rule", ["silent", "paper"])
@@ -334,8 +335,10 @@ def test_a_measured_node_on_an_edge_constrains_no_neighbour(rule, seed):
     image, partial = _edge_scene(seed)
     known = np.isfinite(partial)
     edges = known & (np.random.default_rng(seed + 50).random(known.shape) < 0.3)
-    on = refsynth.synthesize(image, partial, edges=edges, edge_rule=rule, **BP_SMALL)
-    off = refsynth.synthesize(image, partial, use_edges=False, **BP_SMALL)
+    on = refsynth.synthesize(image, partial, edges=edges, **BP_SMALL,
+                             readings={**BP_SMALL_READINGS, "edge_rule": rule})
+    off = refsynth.synthesize(image, partial, use_edges=False, **BP_SMALL,
+                              readings=BP_SMALL_READINGS)
     affected = _neighbours_of(edges, partial)[on.order[:, 0], on.order[:, 1]]
     differs = np.any(on.bp.unary != off.bp.unary, axis=1)
     assert differs.any() and not np.any(differs & ~affected)
@@ -350,8 +353,10 @@ def test_the_papers_edge_rule_isolates_edge_nodes(seed):
     image, partial = _edge_scene(seed)
     unknown = np.isnan(partial)
     edges = np.random.default_rng(seed + 70).random(partial.shape) < 0.2
-    paper = refsynth.synthesize(image, partial, edges=edges, edge_rule="paper", **BP_SMALL)
-    silent = refsynth.synthesize(image, partial, edges=edges, edge_rule="silent", **BP_SMALL)
+    paper = refsynth.synthesize(image, partial, edges=edges, **BP_SMALL,
+                                readings={**BP_SMALL_READINGS, "edge_rule": "paper"})
+    silent = refsynth.synthesize(image, partial, edges=edges, **BP_SMALL,
+                                 readings={**BP_SMALL_READINGS, "edge_rule": "silent"})
     node_on_edge = edges[paper.order[:, 0], paper.order[:, 1]]
     assert node_on_edge.any() and (~node_on_edge).any()
     bp = paper.bp

@@ -270,18 +270,20 @@ def _small():
 def test_synthesize_checks_the_options_by_name():
     image, partial = _small()
     with pytest.raises(ValueError, match="`observation`"):
-        refsynth.synthesize(image, partial, method="bp", observation="nearest")
+        refsynth.synthesize(image, partial, method="bp", readings={"observation": "nearest"})
     with pytest.raises(ValueError, match="`compatibility`"):
-        refsynth.synthesize(image, partial, method="bp", compatibility="centres")
+        refsynth.synthesize(image, partial, method="bp", readings={"compatibility": "centres"})
     with pytest.raises(ValueError, match="`observation` applies to method='bp' only"):
-        refsynth.synthesize(image, partial, method="np", observation="measured")
+        refsynth.synthesize(image, partial, method="np", readings={"observation": "measured"})
     with pytest.raises(ValueError, match="`compatibility` applies to method='bp' only"):
-        refsynth.synthesize(image, partial, method="np", compatibility="overlap-centres")
+        refsynth.synthesize(image, partial, method="np",
+                            readings={"compatibility": "overlap-centres"})
     # BP's defaults are accepted by NP and leave no trace
-    out = refsynth.synthesize(image, partial, method="np", observation="np",
-                              compatibility="overlap", training_radius="gap")
+    out = refsynth.synthesize(image, partial, method="np",
+                              readings={"observation": "np", "compatibility": "overlap",
+                                        "training_radius": "gap"})
     with pytest.raises(ValueError, match="`observation` applies to method='bp' only"):
-        refsynth.synthesize(image, partial, method="np", observation="colorization")
+        refsynth.synthesize(image, partial, method="np", readings={"observation": "colorization"})
     assert not {"observation", "compatibility", "training_radius"} & set(out.params)
 
 
@@ -289,8 +291,8 @@ def test_synthesize_passes_the_options_to_bp():
     image, partial = _small()
     plain = refsynth.synthesize(image, partial, method="bp", radius=3.0)
     named = refsynth.synthesize(image, partial, method="bp", radius=3.0,
-                                observation="np", compatibility="overlap",
-                                training_radius="gap")
+                                readings={"observation": "np", "compatibility": "overlap",
+                                          "training_radius": "gap"})
     np.testing.assert_array_equal(plain.range, named.range)
     np.testing.assert_array_equal(plain.bp.beliefs, named.bp.beliefs)
     # the defaults are recorded: a result says which BP made it (NP's fill since 0.9)
@@ -299,7 +301,7 @@ def test_synthesize_passes_the_options_to_bp():
     assert plain.params["training_radius"] == "gap"
     assert plain.params["compatibility"] == "overlap"
     fig6 = refsynth.synthesize(image, partial, method="bp", radius=3.0,
-                               observation="measured", training_radius="fixed")
+                               readings={"observation": "measured", "training_radius": "fixed"})
     want = bp_fill(image[:, :, None], partial, fig6.edges, radius=3.0)
     np.testing.assert_array_equal(fig6.range, want.range)
     np.testing.assert_array_equal(fig6.bp.beliefs, want.beliefs)
@@ -307,8 +309,9 @@ def test_synthesize_passes_the_options_to_bp():
     assert not np.array_equal(fig6.bp.unary, plain.bp.unary)
     fill = observation_fill(image, partial, "colorization")
     for name, completed in (("colorization", False), ("colorization-completed", True)):
-        out = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation=name,
-                                  compatibility="overlap-centres")
+        out = refsynth.synthesize(image, partial, method="bp", radius=3.0,
+                                  readings={"observation": name,
+                                            "compatibility": "overlap-centres"})
         edges = out.edges
         want = bp_fill(image[:, :, None], partial, edges, radius=3.0, observation=fill,
                        observation_completed=completed, compatibility="overlap-centres",
@@ -462,12 +465,12 @@ def test_bp_fill_training_radius():
         bp_fill(image, partial, edges, training_radius="wide")
     image2, partial2 = _small()
     with pytest.raises(ValueError, match="`training_radius`"):
-        refsynth.synthesize(image2, partial2, method="bp", training_radius="wide")
+        refsynth.synthesize(image2, partial2, method="bp", readings={"training_radius": "wide"})
     with pytest.raises(ValueError, match="`training_radius` applies to method='bp' only"):
-        refsynth.synthesize(image2, partial2, method="np", training_radius="fixed")
+        refsynth.synthesize(image2, partial2, method="np", readings={"training_radius": "fixed"})
     for name in ("gap", "fixed"):
         out = refsynth.synthesize(image2, partial2, method="bp", radius=2.0,
-                                  observation="measured", training_radius=name)
+                                  readings={"observation": "measured", "training_radius": name})
         want = bp_fill(image2[:, :, None], partial2, out.edges, radius=2.0,
                        training_radius=name)
         np.testing.assert_array_equal(out.range, want.range)
@@ -495,8 +498,8 @@ def test_observation_np_is_bp_on_nps_fill_from_the_same_seed():
 
     image, partial = _small()
     for seed in (0, 5):
-        out = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np",
-                                  seed=seed)
+        out = refsynth.synthesize(image, partial, method="bp", radius=3.0, seed=seed,
+                                  readings={"observation": "np"})
         nps = refsynth.synthesize(image, partial, method="np", radius=3.0, seed=seed)
         want = bp_fill(image[:, :, None], partial, out.edges, radius=3.0,
                        observation=np_observation(nps.range, partial), training_radius="gap")
@@ -504,8 +507,8 @@ def test_observation_np_is_bp_on_nps_fill_from_the_same_seed():
         np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
         assert out.params["observation"] == "np"
     # with proposals, NP runs once: its first proposal completes the observations
-    both = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np",
-                               proposals="np", seed=5)
+    both = refsynth.synthesize(image, partial, method="bp", radius=3.0, seed=5,
+                               readings={"observation": "np", "proposals": "np"})
     proposals = np_proposals(image[:, :, None], partial, both.edges, np.random.default_rng(5),
                              neighbourhood=5, radius=3.0)
     want = bp_fill(image[:, :, None], partial, both.edges, radius=3.0, proposals=proposals,
@@ -519,16 +522,19 @@ def test_observation_np_depends_on_the_seed_and_keeps_the_conventions():
     rng = np.random.default_rng(3)
     image = rng.integers(0, 256, (12, 14, 3)).astype(np.uint8)
     partial = np.where(np.arange(14) % 4 == 0, rng.random((12, 14)) * 3.0 + 1.0, np.nan)
-    plain = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np")
-    again = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np")
+    plain = refsynth.synthesize(image, partial, method="bp", radius=3.0,
+                                readings={"observation": "np"})
+    again = refsynth.synthesize(image, partial, method="bp", radius=3.0,
+                                readings={"observation": "np"})
     np.testing.assert_array_equal(plain.range, again.range)
-    other = [refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np",
-                                 seed=s).range for s in (1, 2, 3)]
+    other = [refsynth.synthesize(image, partial, method="bp", radius=3.0, seed=s,
+                                 readings={"observation": "np"}).range for s in (1, 2, 3)]
     assert any(not np.array_equal(plain.range, o) for o in other)
     # an intensity offset, uint8 against the same values as floats, a range scale: bit for bit
     for intensity, rv, scale in ((image + 17.5, partial, 1.0), (image / 255.0, partial, 1.0),
                                  (image, partial * 41.0 + 3.0, 41.0)):
-        out = refsynth.synthesize(intensity, rv, method="bp", radius=3.0, observation="np")
+        out = refsynth.synthesize(intensity, rv, method="bp", radius=3.0,
+                                  readings={"observation": "np"})
         np.testing.assert_allclose((out.range - (3.0 if scale != 1 else 0.0)) / scale,
                                    plain.range, rtol=1e-12)
         np.testing.assert_array_equal(out.bp.labels, plain.bp.labels)
@@ -543,7 +549,7 @@ def test_the_reference_runs_np_first_from_its_generator():
         ref.bp_reference(image[:, :, None], partial, edges, radius=3.0, observation="np")
     slow = ref.bp_reference(image[:, :, None], partial, edges, radius=3.0, observation="np",
                             rng=np.random.default_rng(2))
-    fast = refsynth.synthesize(image, partial, method="bp", radius=3.0, observation="np",
-                               seed=2, edges=edges)
+    fast = refsynth.synthesize(image, partial, method="bp", radius=3.0, seed=2, edges=edges,
+                               readings={"observation": "np"})
     np.testing.assert_array_equal(fast.range, slow.range)
     np.testing.assert_array_equal(fast.bp.beliefs, slow.beliefs)

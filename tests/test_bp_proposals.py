@@ -8,6 +8,7 @@ import refsynth
 from refsynth.numeric import quantise_range
 from refsynth.synthesis.bp import bp_fill
 from refsynth.synthesis.bp_proposals import np_proposals, proposal_frame
+from refsynth.synthesis.readings import split_options
 
 
 def _scene(h=14, w=18):
@@ -25,7 +26,7 @@ IMAGE, TRUTH, PARTIAL = _scene()
 
 def test_default_is_the_paper_bit_for_bit():
     plain = refsynth.synthesize(IMAGE, PARTIAL, method="bp", seed=3)
-    none = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals=None, seed=3)
+    none = refsynth.synthesize(IMAGE, PARTIAL, method="bp", seed=3, readings={"proposals": None})
     for name in ("range", "confidence", "order", "candidate_values"):
         np.testing.assert_array_equal(getattr(none, name), getattr(plain, name))
     np.testing.assert_array_equal(none.bp.unary, plain.bp.unary)
@@ -120,8 +121,9 @@ def test_np_proposals_are_nps_fills_from_the_same_seed():
     # on the colorization fill's observations, against which no proposal here is shifted
     # (on NP's fill, the default, the second proposal's labels take the offset copy's shift
     # against the first, which is the observation)
-    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals="np", seed=4,
-                                 proposal_runs=2, observation="colorization")
+    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", seed=4,
+                                 readings={"proposals": "np", "proposal_runs": 2,
+                                           "observation": "colorization"})
     first = refsynth.synthesize(IMAGE, PARTIAL, method="np", seed=4)
     rows, cols = result.order[:, 0], result.order[:, 1]
     assert result.candidate_values.shape[1] == 10
@@ -132,8 +134,9 @@ def test_np_proposals_are_nps_fills_from_the_same_seed():
     both = np_proposals(image, rv, result.edges, rng, runs=2)
     np.testing.assert_array_equal(both[0], first.range)
     np.testing.assert_array_equal(result.candidate_values[:, 9], both[1][rows, cols])
-    again = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals="np", seed=4,
-                                proposal_runs=2, observation="colorization")
+    again = refsynth.synthesize(IMAGE, PARTIAL, method="bp", seed=4,
+                                readings={"proposals": "np", "proposal_runs": 2,
+                                          "observation": "colorization"})
     np.testing.assert_array_equal(again.range, result.range)
     assert result.params["proposals"] == "np" and result.params["proposal_runs"] == 2
     assert np.all(np.isfinite(result.range))
@@ -142,10 +145,10 @@ def test_np_proposals_are_nps_fills_from_the_same_seed():
 def test_completed_changes_only_the_training_patches():
     # with the labels' values copied (Fig. 6); the offset copy's shifts are read off the
     # training patches, so with it the completed patches move the candidates' values too
-    a = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals="np", seed=0,
-                            range_copy="value")
-    b = refsynth.synthesize(IMAGE, PARTIAL, method="bp", proposals="np-completed", seed=0,
-                            range_copy="value")
+    a = refsynth.synthesize(IMAGE, PARTIAL, method="bp", seed=0,
+                            readings={"proposals": "np", "range_copy": "value"})
+    b = refsynth.synthesize(IMAGE, PARTIAL, method="bp", seed=0,
+                            readings={"proposals": "np-completed", "range_copy": "value"})
     np.testing.assert_array_equal(a.candidate_values, b.candidate_values)
     assert not np.array_equal(a.bp.unary, b.bp.unary)  # the measured neighbours' terms
 
@@ -161,7 +164,9 @@ def test_completed_changes_only_the_training_patches():
 def test_bad_proposals_are_refused_before_any_work(kwargs, error, match):
     calls = []
     with pytest.raises(error, match=match):
-        refsynth.synthesize(IMAGE, PARTIAL, progress=lambda *a: calls.append(a), **kwargs)
+        keywords, readings = split_options(kwargs)
+        refsynth.synthesize(IMAGE, PARTIAL, progress=lambda *a: calls.append(a), **keywords,
+                            readings=readings)
     assert calls == []
 
 

@@ -90,7 +90,8 @@ def test_synth_range_copy_reaches_both_methods(files, method):
         out = files / f"{method}-{copy}.npy"
         assert main(["synth", str(files / "image.npy"), str(files / "partial.npy"), "--out",
                      str(out), "--method", method, "--range-copy", copy]) == 0
-        want = refsynth.synthesize(image, partial, method=method, range_copy=copy).range
+        want = refsynth.synthesize(image, partial, method=method,
+                                   readings={"range_copy": copy}).range
         np.testing.assert_array_equal(np.load(out), want)
 
 
@@ -263,7 +264,7 @@ def test_synth_exposes_bp_and_its_options(files, capsys, monkeypatch):
     real = __import__("refsynth.cli.synth", fromlist=["synthesize"]).synthesize
 
     def spy(*args, **kwargs):
-        seen.update(kwargs)
+        seen.update(kwargs, **dict(kwargs.get("readings", {})))   # the readings, flat
         return real(*args, **kwargs)
 
     monkeypatch.setattr("refsynth.cli.synth.synthesize", spy)
@@ -283,7 +284,7 @@ def test_synth_passes_eq2s_readings_on_only_when_given(files, capsys, monkeypatc
     real = __import__("refsynth.cli.synth", fromlist=["synthesize"]).synthesize
 
     def spy(*args, **kwargs):
-        seen.append(kwargs)
+        seen.append({**kwargs, **dict(kwargs.get("readings", {}))})   # the readings, flat
         return real(*args, **kwargs)
 
     monkeypatch.setattr("refsynth.cli.synth.synthesize", spy)
@@ -296,8 +297,9 @@ def test_synth_passes_eq2s_readings_on_only_when_given(files, capsys, monkeypatc
             seen[1]["colour"]) == ("mean", 0.5, "ignore", False)
     # the same call through the library gives the same bits
     image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
-    direct = real(image, partial, method=method, seed=0, channels="mean", range_weight=0.5,
-                  missing_range="ignore", colour=False).range
+    direct = real(image, partial, method=method, seed=0,
+                  readings={"channels": "mean", "range_weight": 0.5, "missing_range": "ignore",
+                            "colour": False}).range
     np.testing.assert_array_equal(np.load(files / "b.npy"), direct)
 
 
@@ -307,8 +309,8 @@ def test_synth_bp_with_proposals_is_the_librarys(files, capsys):
             "--out", str(files / "p.npy")]
     assert _run(argv, capsys)[0] == 0
     image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
-    direct = __import__("refsynth").synthesize(image, partial, method="bp", seed=3,
-                                               proposals="np", proposal_runs=2).range
+    direct = __import__("refsynth").synthesize(
+        image, partial, method="bp", seed=3, readings={"proposals": "np", "proposal_runs": 2}).range
     np.testing.assert_array_equal(np.load(files / "p.npy"), direct)
 
 
@@ -321,7 +323,7 @@ def test_synth_bp_with_the_observation_departures_is_the_librarys(files, capsys)
     options = dict(observation="colorization", training_radius="gap",
                    compatibility="overlap-centres")
     library = __import__("refsynth").synthesize
-    direct = library(image, partial, method="bp", seed=0, **options).range
+    direct = library(image, partial, method="bp", seed=0, readings=options).range
     np.testing.assert_array_equal(np.load(files / "d.npy"), direct)
     # the flags reach the fill: without them BP is Fig. 6's, another result here
     assert not np.array_equal(direct, library(image, partial, method="bp", seed=0).range)
@@ -334,7 +336,8 @@ def test_synth_bp_on_nps_fill_is_the_librarys_and_follows_the_seed(files, capsys
         argv = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--method", "bp",
                 "--observation", "np", "--seed", seed, "--out", str(files / f"n{seed}.npy")]
         assert _run(argv, capsys)[0] == 0
-        direct = library(image, partial, method="bp", observation="np", seed=int(seed)).range
+        direct = library(image, partial, method="bp", readings={"observation": "np"},
+                         seed=int(seed)).range
         np.testing.assert_array_equal(np.load(files / f"n{seed}.npy"), direct)
 
 
@@ -344,7 +347,7 @@ def test_synth_bp_offset_tolerance_is_the_librarys(files, capsys):
             "--offset-tolerance", "0.5", "--out", str(files / "t.npy")]
     assert _run(argv, capsys)[0] == 0
     direct = __import__("refsynth").synthesize(image, partial, method="bp",
-                                               offset_tolerance=0.5).range
+                                               readings={"offset_tolerance": 0.5}).range
     np.testing.assert_array_equal(np.load(files / "t.npy"), direct)
 
 

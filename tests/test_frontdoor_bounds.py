@@ -20,6 +20,7 @@ from refsynth.synthesis import validate_inputs
 from refsynth.synthesis.bp import bp_fill
 from refsynth.synthesis.limits import PARAMETER_BOUNDS, image_reach, search_radius
 from refsynth.synthesis.nonparametric import np_fill
+from refsynth.synthesis.readings import split_options
 
 RNG = np.random.default_rng(14)
 IMAGE = RNG.random((12, 12, 3))
@@ -83,7 +84,8 @@ BOUNDED = [("np", "range_weight"), ("bp", "range_weight"), ("np", "epsilon"),
 def test_each_bounded_parameter_runs_at_its_bounds(method, name):
     low, high = PARAMETER_BOUNDS[name]
     for value in (low, high):
-        _sane(refsynth.synthesize(IMAGE, PARTIAL, method=method, **{name: value}))
+        keywords, readings = split_options({name: value})
+        _sane(refsynth.synthesize(IMAGE, PARTIAL, method=method, **keywords, readings=readings))
 
 
 @pytest.mark.parametrize(("method", "name"), BOUNDED)
@@ -92,8 +94,9 @@ def test_each_bounded_parameter_is_refused_beyond_its_bounds_naming_the_range(me
     and below NaN confidence; 1e200 was accepted though Eqs. 6-7 are then flat."""
     low, high = PARAMETER_BOUNDS[name]
     for value in (high * 10, 1e308, max(low / 10, -1.0) if low else -1e-300):
+        keywords, readings = split_options({name: value})
         with pytest.raises(ValueError, match=rf"`{name}` must be (in \[|>= |finite)"):
-            refsynth.synthesize(IMAGE, PARTIAL, method=method, **{name: value})
+            refsynth.synthesize(IMAGE, PARTIAL, method=method, **keywords, readings=readings)
 
 
 def test_canny_sigma_is_bounded_by_the_image():
@@ -115,9 +118,9 @@ def test_bp_runs_a_radius_beyond_the_image_as_the_whole_image(radius):
     the way out."""
     reach = image_reach(PARTIAL.shape)
     assert reach == math.ceil(math.hypot(11, 11)) == 16
-    fill = dict(method="bp", observation="colorization")
-    _same(refsynth.synthesize(IMAGE, PARTIAL, proximity=0.0, radius=radius, **fill),
-          refsynth.synthesize(IMAGE, PARTIAL, proximity=0.0, radius=float(reach), **fill))
+    fill = dict(method="bp", readings={"observation": "colorization", "proximity": 0.0})
+    _same(refsynth.synthesize(IMAGE, PARTIAL, radius=radius, **fill),
+          refsynth.synthesize(IMAGE, PARTIAL, radius=float(reach), **fill))
     _sane(refsynth.synthesize(IMAGE, PARTIAL, radius=radius, **fill))
     with pytest.raises(ValueError, match=r"synthesize\(method='bp'\) runs NP first "
                        r"\(`observation='np'`, BP's default\) on a 12x12 image with "
@@ -126,7 +129,8 @@ def test_bp_runs_a_radius_beyond_the_image_as_the_whole_image(radius):
                        r"image\), or take `observation='colorization'`$"):
         refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=radius)
     with pytest.raises(ValueError, match=r"runs NP first \(`proposals`\).*or drop `proposals`$"):
-        refsynth.synthesize(IMAGE, PARTIAL, radius=radius, proposals="np", **fill)
+        refsynth.synthesize(IMAGE, PARTIAL, radius=radius, method="bp",
+                            readings={"observation": "colorization", "proposals": "np"})
 
 
 @pytest.mark.parametrize("radius", [1e4, 1e30, 1e308])
@@ -156,8 +160,9 @@ def test_np_runs_a_radius_beyond_the_image_as_given():
 @pytest.mark.parametrize("proximity", [1.0, 0.3, 1e-90, 1e100])
 def test_bp_with_a_radius_beyond_the_image_keeps_the_priors_scale_bit_for_bit(proximity):
     """BP's prior mu (|p - q| / r)^2 scales with r: it keeps the caller's r (Fig. 6's disc)."""
-    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=40.0, proximity=proximity,
-                                 observation="measured", training_radius="fixed")
+    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=40.0,
+                                 readings={"proximity": proximity, "observation": "measured",
+                                           "training_radius": "fixed"})
     image, values, edges = _prepared(result)
     direct = bp_fill(image, values, edges, radius=40.0, proximity=proximity)
     assert np.array_equal(result.range, direct.range)
@@ -172,7 +177,7 @@ def test_bp_with_the_gap_radius_beyond_the_image_is_the_reference_bit_for_bit(pr
     mu (|p - q| / (r + d))^2: the literal reference (no cut) gives the same bits."""
     small_image, small = IMAGE[:8, :9], PARTIAL[:8, :9]
     result = refsynth.synthesize(small_image, small, method="bp", radius=20.0, candidates=3,
-                                 neighbourhood=3, proximity=proximity, iterations=5)
+                                 neighbourhood=3, iterations=5, readings={"proximity": proximity})
     slow = ref.bp_reference(small_image, small, result.edges, neighbourhood=3, radius=20.0,
                             k=3, proximity=proximity, iterations=5,
                             rng=np.random.default_rng(0))   # NP's fill first, seed 0
@@ -187,7 +192,7 @@ def test_bp_with_more_candidates_than_the_cut_radius_disc_holds_is_unchanged():
     partial[1, 1] = np.nan
     partial[0, 2] = 5.0
     result = refsynth.synthesize(image, partial, method="bp", candidates=60, radius=10.0,
-                                 observation="measured", training_radius="fixed")
+                                 readings={"observation": "measured", "training_radius": "fixed"})
     assert search_radius("bp", 10.0, 1.0, (3, 3))[0] == 4.0  # a disc of 48 offsets < 60
     prepared, values = validate_inputs(image, partial)
     direct = bp_fill(prepared, values, result.edges, radius=10.0, k=60)
@@ -317,7 +322,9 @@ def test_extreme_options_are_refused_by_name_or_give_a_sane_result(option, value
     low, high = ACCEPTED[name]
     inside = math.isfinite(value) and low <= value <= high
     try:
-        result = refsynth.synthesize(IMAGE, partial, method=method, **{name: value})
+        keywords, readings = split_options({name: value})
+        result = refsynth.synthesize(IMAGE, partial, method=method, **keywords,
+                                     readings=readings)
     except (ValueError, TypeError) as error:
         # NP keeps its radius: beyond the image, only as far as its padded frame fits in memory
         # (BP's default observations run NP first, at BP's radius)

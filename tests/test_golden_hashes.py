@@ -96,14 +96,25 @@ GOLDEN_02 = {
     ("texture", "bp"): "b631a82b1c6716aedcb65810",
 }
 
+#: The paper's readings as printed (``readings="paper"``: Eq. 2 as written, Eq. 5's value
+#: copy, Fig. 6's BP with 50 sweeps): the preset that the literal references default to.
+PAPER = {"np": "paper", "bp": "paper"}
+GOLDEN_PAPER = {
+    ("steps", "np"): "acbf89ebf41be1aed63b8b32",
+    ("steps", "bp"): "f2e49efd1db8c74dc595c748",
+    ("texture", "np"): "6fc14a94079c3ffc937d339e",
+    ("texture", "bp"): "4e872206931ebe5c39956138",
+}
 
-#: Every pinned reading: its name, its options by method and its hashes.
+
+#: Every pinned reading: its name, its readings by method and its hashes.
 PINNED = [
     ("the defaults", {"np": {}, "bp": {}}, GOLDEN),
     ("0.2's readings", READINGS_02, GOLDEN_02),
     ("Eq. 5's value copy", VALUE_COPY, GOLDEN_VALUE_COPY),
     ("Fig. 6", {"bp": FIG6}, GOLDEN_FIG6),
     ("the colorization fill's observations", {"bp": COLORIZATION}, GOLDEN_COLORIZATION),
+    ("the paper's readings", PAPER, GOLDEN_PAPER),
 ]
 CASES = [pytest.param(reading, scene, method, options[method], golden[scene, method],
                       id=f"{reading}-{scene}-{method}")
@@ -114,6 +125,6 @@ CASES = [pytest.param(reading, scene, method, options[method], golden[scene, met
 def test_the_golden_hash_holds(reading, scene, method, options, expected):
     intensity, partial = SCENES[scene]()
     result = refsynth.synthesize(intensity, partial, method=method, seed=7, radius=5.0,
-                                 **options)
+                                 readings=options)
     assert _digest(result) == expected, (
         f"{scene}/{method} ({reading}): the output changed; new hash {_digest(result)}")

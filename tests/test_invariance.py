@@ -38,11 +38,11 @@ def scenes(draw):
     known[g.integers(H), g.integers(W)] = False
     method = draw(st.sampled_from(["np", "bp"]))
     options = dict(method=method, seed=seed % 1000, neighbourhood=draw(st.sampled_from([3, 5])),
-                   radius=4.0, colour=draw(st.booleans()))
+                   radius=4.0, readings={"colour": draw(st.booleans())})
     if method == "bp":
         options.update(candidates=3, iterations=5)
     else:
-        options.update(range_copy=draw(st.sampled_from(["offset", "value"])))
+        options["readings"]["range_copy"] = draw(st.sampled_from(["offset", "value"]))
     return image, np.where(known, truth, np.nan), options
 
 
@@ -91,6 +91,6 @@ def test_grey_eq2_is_eq2_on_the_grey_level_image(scene):
     that grey level as the image (and Canny sees the same image either way)."""
     image, partial, options = scene
     levels = quantise_grey(quantise_intensity(normalise_intensity(image))) / 2.0**16
-    options = dict(options, colour=False)
+    options = dict(options, readings={**options["readings"], "colour": False})
     _same(refsynth.synthesize(levels, partial, **options),
           refsynth.synthesize(image, partial, **options))

@@ -50,7 +50,7 @@ def test_result_is_finite_keeps_measurements_and_copies_known_values(scene, seed
     image, truth, known = scene
     partial = np.where(known, truth, np.nan)
     result = refsynth.synthesize(image, partial, seed=seed, neighbourhood=3, radius=3,
-                                 range_copy="value")
+                                 readings={"range_copy": "value"})
     assert np.all(np.isfinite(result.range))
     np.testing.assert_array_equal(result.range[known], truth[known])
     assert np.isin(result.range[~known], truth[known]).all()

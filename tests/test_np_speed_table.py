@@ -305,8 +305,8 @@ def test_np_gives_the_same_bits_with_either_rows(options, monkeypatch):
     rng = np.random.default_rng(8)
     image = rng.random((24, 30, 3))
     partial = np.where(np.arange(30) % 3 == 0, 1.0 + rng.random((24, 30)), np.nan)
-    wide = refsynth.synthesize(image, partial, method="np", seed=2, **options)
+    wide = refsynth.synthesize(image, partial, method="np", seed=2, readings=options)
     monkeypatch.setattr(filltable, "WIDE_TABLE_BYTES", 0)
-    narrow = refsynth.synthesize(image, partial, method="np", seed=2, **options)
+    narrow = refsynth.synthesize(image, partial, method="np", seed=2, readings=options)
     for field in ("range", "confidence", "order"):
         assert np.array_equal(getattr(wide, field), getattr(narrow, field)), field

@@ -82,13 +82,13 @@ def test_the_colorization_fill_reports_its_sweeps_and_changes_no_bit():
     assert all(0 <= done < PER_MILLE for done in values[:-1])
 
 
-def _bp_reports(**options):
+def _bp_reports(**readings):
     image, partial = _scene()
     seen = []
     result = refsynth.synthesize(image, partial, method="bp",
                                  progress=lambda done, total: seen.append((done, total)),
-                                 **options)
-    plain = refsynth.synthesize(image, partial, method="bp", **options)
+                                 readings=readings)
+    plain = refsynth.synthesize(image, partial, method="bp", readings=readings)
     np.testing.assert_array_equal(result.range, plain.range)  # reporting changes no bit
     np.testing.assert_array_equal(result.confidence, plain.confidence)
     values = [done for done, _ in seen]

@@ -104,7 +104,7 @@ def test_a_slanted_plane_fills_as_a_plane_with_the_shift_and_as_steps_without():
     unknown = np.isnan(partial)
     span = np.nanmax(partial) - np.nanmin(partial)
     shifted = refsynth.synthesize(image, partial, seed=0)  # the default since 0.5
-    copied = refsynth.synthesize(image, partial, seed=0, range_copy="value")
+    copied = refsynth.synthesize(image, partial, seed=0, readings={"range_copy": "value"})
     error_shifted = np.abs(shifted.range - truth)[unknown]
     error_copied = np.abs(copied.range - truth)[unknown]
     assert error_shifted.max() <= 2 * span * 2.0**-RANGE_BITS  # the grid's rounding, twice
@@ -114,10 +114,11 @@ def test_a_slanted_plane_fills_as_a_plane_with_the_shift_and_as_steps_without():
 
 def test_an_intensity_offset_changes_nothing_and_a_range_scale_scales_to_rounding():
     image, _, partial = _ramp()
-    plain = refsynth.synthesize(image, partial, seed=1, range_copy="offset")
-    moved = refsynth.synthesize(image * 0.5 + 0.25, partial, seed=1, range_copy="offset")
+    plain = refsynth.synthesize(image, partial, seed=1, readings={"range_copy": "offset"})
+    moved = refsynth.synthesize(image * 0.5 + 0.25, partial, seed=1,
+                                readings={"range_copy": "offset"})
     np.testing.assert_array_equal(plain.range, moved.range)
-    scaled = refsynth.synthesize(image, partial * 3.7, seed=1, range_copy="offset")
+    scaled = refsynth.synthesize(image, partial * 3.7, seed=1, readings={"range_copy": "offset"})
     np.testing.assert_array_equal(plain.order, scaled.order)
     np.testing.assert_array_equal(plain.confidence, scaled.confidence)
     np.testing.assert_allclose(plain.range * 3.7, scaled.range, rtol=1e-12)
@@ -127,7 +128,7 @@ def test_bad_range_copy_is_refused_by_name_before_any_work():
     image, _, partial = _ramp()
     for method in ("np", "bp"):
         with pytest.raises(ValueError, match="`range_copy` must be one of"):
-            refsynth.synthesize(image, partial, method=method, range_copy="shift")
+            refsynth.synthesize(image, partial, method=method, readings={"range_copy": "shift"})
 
 
 # -- BP's labels (0.6) --------------------------------------------------------------------
@@ -191,7 +192,7 @@ def test_bps_labels_fill_a_slanted_plane_as_a_plane_with_the_shift_and_as_steps_
     partial = np.where(cols % 9 < 3, truth, np.nan)
     unknown = np.isnan(partial)
     shifted = refsynth.synthesize(image, partial, method="bp")  # the default since 0.6
-    copied = refsynth.synthesize(image, partial, method="bp", range_copy="value")
+    copied = refsynth.synthesize(image, partial, method="bp", readings={"range_copy": "value"})
     error_shifted = np.abs(shifted.range - truth)[unknown]
     error_copied = np.abs(copied.range - truth)[unknown]
     assert set(copied.range[unknown]) <= set(partial[~unknown])
@@ -273,17 +274,18 @@ def test_the_tolerance_is_a_power_of_two_from_2_to_the_minus_16_to_1():
 def test_synthesize_takes_the_tolerance_for_bp_only_and_records_the_one_it_used():
     image, _, partial = _ramp()
     assert refsynth.synthesize(image, partial, method="bp").params["offset_tolerance"] == 2**-3
-    on_np = refsynth.synthesize(image, partial, method="bp", observation="np")
+    on_np = refsynth.synthesize(image, partial, method="bp", readings={"observation": "np"})
     assert on_np.params["offset_tolerance"] == 2**-3
     for observation in ("colorization", "colorization-completed", "measured"):
-        other = refsynth.synthesize(image, partial, method="bp", observation=observation)
+        other = refsynth.synthesize(image, partial, method="bp",
+                                    readings={"observation": observation})
         assert other.params["offset_tolerance"] == 2**-7
-    given = refsynth.synthesize(image, partial, method="bp", offset_tolerance=0.5)
+    given = refsynth.synthesize(image, partial, method="bp", readings={"offset_tolerance": 0.5})
     assert given.params["offset_tolerance"] == 0.5
     with pytest.raises(ValueError, match="`offset_tolerance` applies to method='bp' only"):
-        refsynth.synthesize(image, partial, method="np", offset_tolerance=0.125)
+        refsynth.synthesize(image, partial, method="np", readings={"offset_tolerance": 0.125})
     with pytest.raises(ValueError, match="`offset_tolerance` must be a power of two"):
-        refsynth.synthesize(image, partial, method="bp", offset_tolerance=0.1)
+        refsynth.synthesize(image, partial, method="bp", readings={"offset_tolerance": 0.1})
 
 
 def test_bps_tolerance_reaches_the_labels_and_the_reference_agrees():
@@ -302,7 +304,8 @@ def test_bps_tolerance_reaches_the_labels_and_the_reference_agrees():
         out = {}
         for tolerance in (2.0**-7, 2.0**-1):
             fast = refsynth.synthesize(image, partial, method="bp", radius=3.0, edges=edges,
-                                       offset_tolerance=tolerance, observation=observation)
+                                       readings={"offset_tolerance": tolerance,
+                                                 "observation": observation})
             slow = ref.bp_reference(image[:, :, None], partial, edges, radius=3.0,
                                     offset_tolerance=tolerance, observation=observation,
                                     rng=np.random.default_rng(0))

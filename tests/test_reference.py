@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 import refsynth
 from refsynth.synthesis import reference as ref
 from refsynth.synthesis.api import normalise_intensity
+from refsynth.synthesis.readings import split_options
 from refsynth.synthesis.similarity import neighbourhood_distance
 
 # the agreement tests: many cases, no shrinking needed to read a failure (the case is small)
@@ -92,8 +93,9 @@ def run_reference(intensity, partial, edges, options, seed, method):
 
 
 def run_fast(intensity, partial, edges, options, seed, method):
+    keywords, readings = split_options(options)
     return refsynth.synthesize(intensity, partial, method=method, seed=seed, edges=edges,
-                               **options)
+                               **keywords, readings=readings)
 
 
 # -- fast = reference (the targets of issue #11) --------------------------------------------

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import refsynth
+from refsynth.synthesis.readings import split_options
 
 IMAGE = np.zeros((6, 6))
 PARTIAL = np.full((6, 6), np.nan)
@@ -72,8 +73,9 @@ def test_bad_arrays_are_rejected(intensity, partial, error, match):
     ],
 )
 def test_bad_parameters_are_rejected(kwargs, error, match):
+    keywords, readings = split_options(kwargs)   # the readings' names go in readings=
     with pytest.raises(error, match=match):
-        refsynth.synthesize(IMAGE, PARTIAL, **kwargs)
+        refsynth.synthesize(IMAGE, PARTIAL, **keywords, readings=readings)
 
 
 def test_result_fields_and_provenance():
@@ -104,13 +106,25 @@ def test_integer_seed_types():
 
 # --------------------------------------------------------------------------- the options split
 
-NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion",
-           "confidence_update": "product", "edges_last": False}
-BP_ONLY = {"candidates": 4, "proximity": 1.0, "sigma_i": 0.3, "sigma_s": 0.1,
-           "iterations": 3, "tolerance": 0.0, "product": "sum", "edge_rule": "paper",
-           "offset_tolerance": 0.25}
-#: Both methods' options (in both tables, with the same default).
-SHARED = {"range_copy": "value"}
+NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion"}
+BP_ONLY = {"candidates": 4, "iterations": 3}
+NP_READINGS_CHANGED = {"confidence_update": "product", "edges_last": False}
+BP_READINGS_CHANGED = {"proximity": 1.0, "sigma_i": 0.3, "sigma_s": 0.1, "tolerance": 0.0,
+                       "product": "sum", "edge_rule": "paper", "offset_tolerance": 0.25,
+                       "observation": "measured", "training_radius": "fixed",
+                       "compatibility": "overlap-centres", "proposals": "np"}
+#: Both methods' readings, changed from the default.
+SHARED = {"range_copy": "value", "missing_range": "ignore", "channels": "mean",
+          "range_weight": 2.0, "colour": False}
+
+
+def test_synthesize_takes_at_most_fourteen_keyword_options():
+    import inspect
+
+    parameters = inspect.signature(refsynth.synthesize).parameters.values()
+    keywords = [p.name for p in parameters if p.kind is p.KEYWORD_ONLY]
+    assert len(keywords) <= 14 and "readings" in keywords
+    assert not any(p.kind is p.VAR_KEYWORD for p in parameters)
 
 
 def test_options_after_the_arrays_are_keyword_only():
@@ -134,6 +148,20 @@ def test_a_bp_option_given_to_np_is_rejected(name, value):
         refsynth.synthesize(IMAGE, PARTIAL, method="np", **{name: value})
 
 
+@pytest.mark.parametrize(("name", "value"), NP_READINGS_CHANGED.items())
+def test_an_np_reading_given_to_bp_is_rejected(name, value):
+    match = rf"reading `{name}` applies to method='np' only; method='bp' does not use it"
+    with pytest.raises(ValueError, match=match):
+        refsynth.synthesize(IMAGE, PARTIAL, method="bp", readings={name: value})
+
+
+@pytest.mark.parametrize(("name", "value"), BP_READINGS_CHANGED.items())
+def test_a_bp_reading_given_to_np_is_rejected(name, value):
+    match = rf"reading `{name}` applies to method='bp' only; method='np' does not use it"
+    with pytest.raises(ValueError, match=match):
+        refsynth.synthesize(IMAGE, PARTIAL, method="np", readings={name: value})
+
+
 def test_the_paper_example_of_an_ignored_option_is_now_an_error():
     with pytest.raises(ValueError, match="The parameter `ordering` applies to method='np' only; "
                                          "method='bp' does not use it"):
@@ -145,47 +173,55 @@ def test_a_bad_value_is_reported_as_such_even_for_the_other_method():
         refsynth.synthesize(IMAGE, PARTIAL, method="bp", ordering="spiral")
     with pytest.raises(ValueError, match="`candidates` must be >= 1"):
         refsynth.synthesize(IMAGE, PARTIAL, method="np", candidates=0)
+    with pytest.raises(ValueError, match="`observation` must be one of"):
+        refsynth.synthesize(IMAGE, PARTIAL, method="np", readings={"observation": "nope"})
 
 
 def test_the_other_methods_defaults_and_none_are_accepted_silently():
-    np_defaults = {"epsilon": 0.1, "use_isophotes": True, "ordering": "priority",
-                   "confidence_update": "best", "edges_last": True, "range_copy": "offset"}
-    bp_defaults = {"candidates": 8, "proximity": 0.0, "sigma_i": 0.1, "sigma_s": 0.2,
-                   "iterations": 50, "tolerance": 1e-4, "product": "max", "edge_rule": "silent"}
+    np_defaults = {"epsilon": 0.1, "use_isophotes": True, "ordering": "priority"}
+    bp_defaults = {"candidates": 8, "iterations": 50}
+    np_readings = {"confidence_update": "best", "edges_last": True}
+    bp_readings = {"proximity": 0.0, "sigma_i": 0.1, "sigma_s": 0.2, "tolerance": 1e-4,
+                   "product": "max", "edge_rule": "silent", "observation": "np",
+                   "training_radius": "gap", "proposals": None}
     plain_np = refsynth.synthesize(IMAGE, PARTIAL, method="np", seed=0)
     plain_bp = refsynth.synthesize(IMAGE, PARTIAL, method="bp")
-    for extra in (bp_defaults, dict.fromkeys(bp_defaults), {**np_defaults, **bp_defaults}):
-        other = refsynth.synthesize(IMAGE, PARTIAL, method="np", seed=0, **extra)
+    for extra in (bp_defaults, dict.fromkeys(bp_defaults)):
+        other = refsynth.synthesize(IMAGE, PARTIAL, method="np", seed=0, **extra,
+                                    readings=bp_readings)
         np.testing.assert_array_equal(other.range, plain_np.range)
         np.testing.assert_array_equal(other.order, plain_np.order)
         assert other.params == plain_np.params
-    for extra in (np_defaults, dict.fromkeys(np_defaults), {**np_defaults, **bp_defaults}):
-        other = refsynth.synthesize(IMAGE, PARTIAL, method="bp", **extra)
+    for extra in (np_defaults, dict.fromkeys(np_defaults)):
+        other = refsynth.synthesize(IMAGE, PARTIAL, method="bp", **extra, readings=np_readings)
         np.testing.assert_array_equal(other.range, plain_bp.range)
         np.testing.assert_array_equal(other.confidence, plain_bp.confidence)
         assert other.params == plain_bp.params
 
 
 def test_none_means_the_methods_default_and_params_hold_only_its_options():
-    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", candidates=None, product=None)
+    result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", candidates=None,
+                                 readings={"product": None})
     assert result.params["candidates"] == 8 and result.params["product"] == "max"
     assert not {"epsilon", "use_isophotes", "ordering"} & result.params.keys()
+    assert not set(NP_READINGS_CHANGED) & result.params.keys()
     result = refsynth.synthesize(IMAGE, PARTIAL, seed=0, ordering=None, epsilon=None)
     assert result.params["ordering"] == "priority" and result.params["epsilon"] == 0.1
-    assert not set(BP_ONLY) & result.params.keys()
+    assert not (set(BP_ONLY) | set(BP_READINGS_CHANGED)) & result.params.keys()
 
 
 def test_the_options_tables_name_every_method_specific_option():
     from refsynth.synthesis import BP_OPTIONS, NP_OPTIONS
+    from refsynth.synthesis.readings import BP_READINGS, NP_READINGS, Readings
 
-    assert set(NP_OPTIONS) == set(NP_ONLY) | set(SHARED)
-    assert set(BP_OPTIONS) == set(BP_ONLY) | set(SHARED)
-    assert set(NP_OPTIONS) & set(BP_OPTIONS) == set(SHARED)
-    assert all(NP_OPTIONS[name] == BP_OPTIONS[name] for name in SHARED)
+    assert set(NP_OPTIONS) == set(NP_ONLY) and set(BP_OPTIONS) == set(BP_ONLY)
+    assert set(NP_READINGS) == set(NP_READINGS_CHANGED) | set(SHARED)
+    assert set(BP_READINGS) == set(BP_READINGS_CHANGED) | set(SHARED) | {"proposal_runs"}
+    assert set(NP_READINGS) | set(BP_READINGS) == set(Readings.names())
 
 
 @pytest.mark.parametrize("method", ["np", "bp"])
 @pytest.mark.parametrize(("name", "value"), SHARED.items())
-def test_a_shared_option_is_taken_by_both_methods(method, name, value):
-    result = refsynth.synthesize(IMAGE, PARTIAL, method=method, **{name: value})
+def test_a_shared_reading_is_taken_by_both_methods(method, name, value):
+    result = refsynth.synthesize(IMAGE, PARTIAL, method=method, readings={name: value})
     assert result.params[name] == value

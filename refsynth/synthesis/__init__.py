@@ -5,6 +5,9 @@ Read beside §3.2 of the paper, top to bottom:
 - :mod:`refsynth.synthesis.api`: :func:`synthesize`, the front door —
   validation, edges, dispatch to NP or BP, and which options belong to which
   method.
+- :mod:`refsynth.synthesis.readings`: the readings of the paper as presets —
+  ``"paper"`` as printed, ``"refsynth"`` (the default) with its measured
+  departures — each field with the paper's text and the evidence.
 - :mod:`refsynth.synthesis.limits`: the bounds of its parameters — where
   the arithmetic of Eqs. 2–9 stays finite, what the image can use (a radius
   beyond the image is the whole image), the memory a run needs.
@@ -13,8 +16,11 @@ Read beside §3.2 of the paper, top to bottom:
 - :mod:`refsynth.synthesis.similarity` (§3.2.2, Eq. 2): the distance between
   two partial neighbourhoods, literal (:func:`neighbourhood_distance`) and
   expanded for a whole candidate set (:class:`PatchTable`).
-- :mod:`refsynth.synthesis.nonparametric` (§3.2.2, Eqs. 3–5): NP sampling,
-  :func:`np_fill` and the Eq. 5 set.
+- :mod:`refsynth.synthesis.nonparametric` (§3.2.2, Eqs. 3–5 in the order of
+  Eqs. 10–12): NP sampling — its literal reference
+  (:mod:`~refsynth.synthesis.nonparametric.reference`, the paper's readings as
+  its defaults) beside the fast fill (:mod:`~refsynth.synthesis.nonparametric.fill`,
+  :func:`np_fill`, and the Eq. 5 set).
 - :mod:`refsynth.synthesis.priority` (§3.2.4, Eqs. 10–12): the synthesis
   order — confidence, data term, edge count — and the onion-peel order of
   Fig. 7.
@@ -24,8 +30,9 @@ Read beside §3.2 of the paper, top to bottom:
   beliefs, :func:`belief_propagation`.
 - :mod:`refsynth.synthesis.canny` (§3.2): the Canny edges (σ = 0.8) that
   Eq. 10 and BP's edge-constraint rule use.
-- :mod:`refsynth.synthesis.reference` (§3.2.2–§3.2.4): the literal reference,
-  per-pixel loops that the fast modules above equal bit for bit.
+- :mod:`refsynth.synthesis.reference` (§3.2.2–§3.2.4): the literal reference of
+  NP and BP with refsynth's readings as its defaults, per-pixel loops that the
+  fast modules above equal bit for bit under every reading.
 
 Every decision runs on exact numbers, the numeric contract of
 :mod:`refsynth.numeric`: the same bits on any machine.
@@ -37,7 +44,6 @@ Modeling", IJCV 79:137–158 (2008), §3.2, doi:10.1007/s11263-007-0108-2.
 """
 
 from refsynth.synthesis.api import (
-    BP_DEPARTURES,
     BP_OPTIONS,
     NP_OPTIONS,
     SynthesisResult,
@@ -74,8 +80,10 @@ from refsynth.synthesis.priority import (
     priority,
     range_gradient,
 )
+from refsynth.synthesis.readings import PRESETS, Readings
 from refsynth.synthesis.similarity import (
     PatchTable,
+    eq2_distance,
     intensity_scale,
     neighbourhood_distance,
     range_scale,
@@ -85,9 +93,10 @@ __all__ = [
     # the front door
     "synthesize",
     "SynthesisResult",
+    "Readings",
+    "PRESETS",
     "NP_OPTIONS",
     "BP_OPTIONS",
-    "BP_DEPARTURES",
     # what it accepts (validate_inputs, normalise_intensity, PARAMETER_BOUNDS, image_reach, ...)
     *_LIMIT_NAMES,
     # §3.2.1: the MRF neighbourhood
@@ -98,6 +107,7 @@ __all__ = [
     "range_patches",
     # §3.2.2, Eq. 2: literal and expanded
     "neighbourhood_distance",
+    "eq2_distance",
     "PatchTable",
     "intensity_scale",
     "range_scale",

@@ -7,10 +7,13 @@ Every other part of refsynth (the command line, the tutorials, the
 benchmarks, a faster port checking itself against this one) calls this
 function.
 
-Each method has options of its own (:data:`NP_OPTIONS`, :data:`BP_OPTIONS`,
-checked in :mod:`refsynth.synthesis.options`): they default to ``None``, which
-means the method's default, and giving one to the other method raises
-``ValueError`` unless it is that option's default.
+The paper's parameters are keywords; the readings of the paper — the paper as
+printed, or refsynth's measured departures (the default) — travel together as
+``readings=`` (:mod:`refsynth.synthesis.readings`). A few keywords belong to
+one method (:data:`NP_OPTIONS`, :data:`BP_OPTIONS`, checked in
+:mod:`refsynth.synthesis.options`): they default to ``None``, which means the
+method's default, and giving one to the other method raises ``ValueError``
+unless it is that option's default.
 
 The intensity convention
 ------------------------
@@ -36,7 +39,7 @@ Torres-Méndez & Dudek (2008), §3.2 (the paper's full reference is in
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,40 +59,36 @@ from refsynth.synthesis.limits import (
 )
 from refsynth.synthesis.nonparametric import np_fill
 from refsynth.synthesis.options import (
-    BP_DEPARTURES,
     BP_OPTIONS,
     METHODS,
     NP_OPTIONS,
     at_least,
-    bounded,
-    check_bp_departures,
     check_method_options,
-    check_proposals,
     random_source,
 )
 from refsynth.synthesis.progress import StagedProgress
 from refsynth.synthesis.range_copy import default_offset_tolerance
-from refsynth.synthesis.similarity import CHANNELS, MISSING_RANGE
+from refsynth.synthesis.readings import DEFAULT_PRESET, Readings, resolve_readings
 
 __all__ = [
     "SynthesisResult",
     "synthesize",
     "validate_inputs",
     "normalise_intensity",
+    "Readings",
     "NP_OPTIONS",
     "BP_OPTIONS",
-    "BP_DEPARTURES",
     "OBSERVATION_SHARE",
+    "NP_OBSERVATION_SHARE",
 ]
 
 #: The observations' fill's share of BP's work with ``observation="colorization"`` (BP's
-#: progress reports, :mod:`refsynth.synthesis.progress`): CPU time on the Motorcycle,
-#: x-stripes 78 % (``python benchmarks/bench_speed.py --bp-stages``: 9 % at 450×375 and 10 % at
-#: 900×750 since 0.7's cascade; 0.6's Gauss–Seidel alone took about a quarter).
+#: progress reports, :mod:`refsynth.synthesis.progress`): its share of the CPU time on the
+#: Motorcycle, x-stripes 78 %, at 450×375 and 900×750, which
+#: ``python benchmarks/bench_speed.py --bp-stages`` prints.
 OBSERVATION_SHARE = 0.10
-#: The same with ``observation="np"``, NP's fill first: NP's wall time over BP-on-NP's, 0.55
-#: at 450×375 and 0.59 at 900×750 in 0.8's run, 0.59 and 0.60 in 0.9's, 0.67 and 0.69 in
-#: 0.9.3's (``python benchmarks/bench_speed.py``; 0.55 until 0.9.2).
+#: The same with ``observation="np"``, NP's fill first: NP's wall time over that of BP on
+#: NP's fill at 450×375 and 900×750, which ``python benchmarks/bench_speed.py`` prints.
 NP_OBSERVATION_SHARE = 0.67
 
 @dataclass(frozen=True)
@@ -156,41 +155,24 @@ def synthesize(
     seed: int | np.random.Generator | None = 0,
     neighbourhood: int = 5,
     radius: float = 10.0,
-    range_weight: float = 1.0,
-    missing_range: str = "mean",
-    colour: bool = True,
-    channels: str = "sum",
+    epsilon: float | None = None,
+    iterations: int | None = None,
+    candidates: int | None = None,
     canny_sigma: float = 0.8,
     edges: np.ndarray | None = None,
     use_edges: bool = True,
-    progress: Callable[[int, int], None] | None = None,
-    epsilon: float | None = None,
     use_isophotes: bool | None = None,
     ordering: str | None = None,
-    candidates: int | None = None,
-    proximity: float | None = None,
-    sigma_i: float | None = None,
-    sigma_s: float | None = None,
-    iterations: int | None = None,
-    tolerance: float | None = None,
-    product: str | None = None,
-    confidence_update: str | None = None,
-    edges_last: bool | None = None,
-    range_copy: str | None = None,
-    offset_tolerance: float | None = None,
-    edge_rule: str | None = None,
-    proposals: str | None = None,
-    proposal_runs: int | None = None,
-    observation: str | None = None,
-    compatibility: str | None = None,
-    training_radius: str | None = None,
+    readings: str | Readings | Mapping = DEFAULT_PRESET,
+    progress: Callable[[int, int], None] | None = None,
 ) -> SynthesisResult:
     """Infer the missing range from intensity and partial range (§3.2).
 
     Everything after ``partial_range`` is keyword-only. The options of one
-    method (NP or BP only, see the table under Notes) default to ``None``,
-    the method's default; giving one to the other method raises
-    ``ValueError``, unless it is that option's default.
+    method (``epsilon``, ``use_isophotes``, ``ordering`` for NP; ``candidates``,
+    ``iterations`` for BP) default to ``None``, the method's default; giving one
+    to the other method raises ``ValueError``, unless it is that option's
+    default. The readings of the paper travel together in ``readings``.
 
     Parameters
     ----------
@@ -208,10 +190,10 @@ def synthesize(
     seed : int, numpy.random.Generator or None, default 0
         Source of every random choice of NP (the draw from the Eq. 5 set,
         ties in the fill order). The same seed gives bit-identical output.
-        BP draws through NP's fill, which completes its observations by default
-        (``observation="np"``, since 0.9), so its output depends on the seed too;
-        with another ``observation`` and no ``proposals`` BP makes no random
-        choice and the seed does not matter.
+        BP draws through NP's fill when NP completes its observations (the
+        default preset's ``observation="np"``) or proposes labels
+        (``proposals``); otherwise BP makes no random choice and the seed does
+        not matter.
     neighbourhood : int, default 5
         Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1).
     radius : float, default 10
@@ -221,31 +203,17 @@ def synthesize(
         diagonal does: BP runs it as the next power of two at or above the
         diagonal (bit for bit the given radius's result; its prior keeps the
         scale ``r``, and with ``proximity=0`` the result is the diagonal's
-        too); NP's tie-break
-        permutation is drawn over the frame padded by ``r`` (as the literal
-        reference draws it), so its result can differ from the diagonal's, and
-        a radius whose padded frame does not fit in memory is refused (see
-        :mod:`refsynth.synthesis.limits`).
-    range_weight : float, default 1
-        Weight λ of the range term of Eq. 2 against the intensity term,
-        both normalised (see :mod:`refsynth.synthesis.similarity`); in
-        ``[0, 1e100]``.
-    missing_range : {"mean", "ignore"}
-        How Eq. 2's range term treats window offsets where the target has range
-        and a candidate has none: ``"mean"`` charges them the mean discrepancy
-        of the offsets both have; ``"ignore"`` drops them, the literal Eq. 2
-        (see :mod:`refsynth.synthesis.similarity` for why refsynth
-        departs from it). BP ranks its candidates with the same distance.
-    colour : bool, default True
-        Eq. 2's intensity term on the colour channels; ``False`` uses the grey
-        level (BT.709 luminance, brought to its span). No effect on a grey
-        image.
-    channels : {"sum", "mean"}, default "sum"
-        Eq. 2's intensity term over the colour channels: their sum, the
-        paper's Eq. 2 (each channel's squared difference weighs as much as
-        the range's), or their mean (refsynth before 0.3, which weighs the
-        range term C times more). On the Motorcycle the sum wins for NP at
-        every fraction (the README's audit). No effect on grey.
+        too); NP's tie-break permutation is drawn over the frame padded by
+        ``r`` (as the literal reference draws it), so its result can differ
+        from the diagonal's, and a radius whose padded frame does not fit in
+        memory is refused (see :mod:`refsynth.synthesis.limits`).
+    epsilon : float, NP only, default 0.1
+        Tolerance ε of Eq. 5, in ``[0, 1e100]``.
+    iterations : int, BP only, default 50
+        At most this many message-passing sweeps (the paper's 50).
+    candidates : int, BP only, default 8
+        ``k``, the candidates (labels) per unknown pixel (Ψ holds ``k²``
+        numbers per pair of neighbours: a ``k`` beyond memory is refused).
     canny_sigma : float, default 0.8
         σ of the Canny edge detector's Gaussian (the paper's setting), in
         ``[0, max(H, W)]``. Canny runs on the grey level brought to [0, 1]
@@ -253,134 +221,37 @@ def synthesize(
     edges : ndarray of shape (H, W), bool, optional
         A precomputed edge map; overrides the Canny detector.
     use_edges : bool, default True
-        NP: use the edge count of Eq. 10 and (with ``edges_last``) fill edge
-        pixels last. BP: the edge-constraint rule (``edge_rule``). ``False``
-        is the paper's no-edge ablation (Fig. 13, Table 3).
+        NP: use the edge count of Eq. 10 and (with the reading ``edges_last``)
+        fill edge pixels last. BP: the edge-constraint rule (the reading
+        ``edge_rule``). ``False`` is the paper's no-edge ablation (Fig. 13,
+        Table 3).
+    use_isophotes : bool, NP only, default True
+        Use the isophote data term of Eq. 12. ``False`` sets D = 1 (Fig. 16).
+    ordering : {"priority", "onion"}, NP only, default "priority"
+        The paper's information-driven order (Eqs. 10–12) or the onion-peel
+        order it compares against (Fig. 7).
+    readings : str, Readings or mapping, default "refsynth"
+        The readings of the paper (:class:`~refsynth.synthesis.readings.Readings`,
+        whose docstring lists every field with the paper's text, both presets
+        and the evidence): ``"refsynth"``, refsynth's measured readings (the
+        default); ``"paper"``, the paper as printed (Eq. 2 as written, Eq. 5's
+        value copy, Fig. 6's BP); a mapping of overrides on the default
+        preset, e.g. ``{"range_copy": "value"}`` to turn one departure off;
+        or a ``Readings``, e.g. ``Readings.paper().replace(range_copy="offset")``.
+        An unknown name raises ``ValueError`` listing the valid ones; in a
+        mapping, a reading the method does not use raises ``ValueError``
+        unless it is the default's value.
     progress : callable, optional
         Called as ``progress(done, total)``: NP in pixels, every few hundred
         pixels; BP in per mille of its estimated work, as the observations'
         fill sweeps, the candidates are searched and the messages are sent
         (:data:`refsynth.synthesis.bp.BP_STAGES`, :data:`OBSERVATION_SHARE`),
         so that no stage runs long without a report.
-    epsilon : float, NP only, default 0.1
-        Tolerance ε of Eq. 5, in ``[0, 1e100]``.
-    use_isophotes : bool, NP only, default True
-        Use the isophote data term of Eq. 12. ``False`` sets D = 1 (Fig. 16).
-    ordering : {"priority", "onion"}, NP only, default "priority"
-        The paper's information-driven order (Eqs. 10–12) or the onion-peel
-        order it compares against (Fig. 7).
-    confidence_update : {"best", "product"}, NP only, default "best"
-        The confidence a synthesized pixel receives (Eq. 11): ``"best"``,
-        ``C(N_best)``, the confidence of the neighbourhood it matched best
-        (the text after Eq. 11 read literally; chosen on the Motorcycle, see
-        the README's audit), or ``"product"``, ``C(p) · C(N_best)`` (refsynth's
-        reading before 0.2, which drives synthesized confidence towards 0).
-    range_copy : {"offset", "value"}, default "offset"
-        What a pixel gets from the neighbourhood Eq. 5 drew (NP) or from its
-        MAP label (BP, Eq. 8): ``"value"``, its centre range (the paper, Efros
-        & Leung's copy; Fig. 6's labels); ``"offset"`` (**a departure, the
-        default since 0.5 for NP and 0.6 for BP**: it won on the Motorcycle at
-        every fraction and size, see the README's audit), that value shifted by
-        the consistent difference in range between the two windows, so that a
-        slanted surface fills as a surface, not a staircase of copies
-        (:mod:`refsynth.synthesis.range_copy`). BP shifts every label against
-        its node's observation (measured or completed range) and compares the
-        shifted patches in Eq. 6.
-    offset_tolerance : float, BP only, default by ``observation``
-        How closely the two windows' range differences must agree for BP's
-        labels to be shifted (``range_copy="offset"``), as a fraction of the
-        measured span: a power of two from ``2**-16`` to 1. None: ``2**-3``
-        with ``observation="np"``, the default (0.8.4, chosen on the
-        Motorcycle: with NP's dense fill as the observation a looser agreement
-        shifts more labels and wins), else ``2**-7``, NP's own agreement (a
-        looser one loses with the colorization fill's observations). See
-        :mod:`refsynth.synthesis.range_copy`.
-    edges_last : bool, NP only, default True
-        With ``use_edges``: pixels on an edge form a second tier, filled only
-        when no other pixel is left on the front. ``False`` keeps only Eq. 10's
-        ``1 / (1 + E)`` term.
-    candidates : int, BP only, default 8
-        ``k``, the candidates (labels) per unknown pixel (Ψ holds ``k²``
-        numbers per pair of neighbours: a ``k`` beyond memory is refused).
-    proximity : float, BP only, default 0
-        μ, the weight of a spatial prior ``μ (|p − q| / r)²`` added to
-        Eq. 2 when ranking candidates and in Φ (a departure from the paper,
-        see :mod:`refsynth.synthesis.bp`); 0, the default, ranks by Eq. 2
-        alone as Fig. 6 does (μ = 1 was the default before 0.3; on the
-        Motorcycle it loses at every fraction). In ``[0, 1e100]``.
-    sigma_i : float, BP only, default 0.1
-        σ_i of Eq. 7, in units of the Eq. 2 distance's square root; in
-        ``[1e-50, 1e50]``.
-    sigma_s : float, BP only, default 0.2
-        σ_s of Eq. 6, in units of the known range's span; in ``[1e-50, 1e50]``.
-    iterations : int, BP only, default 50
-        At most this many message-passing sweeps (the paper's 50).
-    tolerance : float, BP only, default 1e-4
-        Stop when no (log) message changes by more than this.
-    product : {"max", "sum"}, BP only, default "max"
-        Max-product (MAP) or sum-product messages.
-    edge_rule : {"silent", "paper"}, BP only, default "silent"
-        With ``use_edges``, how edges stop messages (§3.2.3). ``"silent"``: a
-        node on an edge sends nothing — an unknown one no message, a measured
-        one no Ψ term on its unknown neighbours — but still receives.
-        ``"paper"``: no message crosses an edge — a node on an edge neither
-        sends nor receives (no message, no measured neighbour's term), so its
-        belief is its own evidence Φ.
-    proposals : {None, "np", "np-completed"}, BP only, default None
-        **A departure from Fig. 6** (issue #10;
-        :mod:`refsynth.synthesis.bp_proposals`). None: the paper's candidates,
-        bit for bit. ``"np"``: NP (§3.2.2, its default options, seeded from
-        ``seed``) first fills the range; each unknown pixel gets, after its
-        ``candidates`` training patches, one more label per fill — the patch
-        of NP's result centred on it, so Ψ (Eq. 6) and the measured
-        neighbours' terms see synthesized range — whose Φ (Eq. 7) is that of
-        the best training candidate proposing the same range (within 1 % of
-        the known span), or of the worst candidate when none does.
-        ``"np-completed"``: the same, and the training patches' unknown range
-        is NP's too. BP then depends on ``seed``; NP's own options
-        (``epsilon`` …) stay refused, NP runs at its defaults. The
-        candidates' ceiling drops at every fraction; the measured gain in MAR
-        (and where it loses) is in :mod:`refsynth.synthesis.bp_proposals`.
-    proposal_runs : int, BP with ``proposals`` only, default 1
-        How many NP fills propose (each a label per pixel; the seeds follow one
-        another from ``seed``'s generator).
-    observation : {None, "colorization", "measured", "colorization-completed", "np"}, BP only
-        Fig. 6, step 2's observations ``y_i`` (issue #10;
-        :mod:`refsynth.synthesis.bp_observation`). None or ``"np"`` (the
-        default since 0.9, **a departure from Fig. 6** that won on real data):
-        NP's fill (at NP's defaults, the result ``method="np"`` gives with the
-        same ``seed``; with ``proposals`` their first fill) completes every
-        observation (:func:`refsynth.synthesis.bp_observation.np_observation`),
-        so Eq. 2 ranks the candidates with a range term deep in a gap too; BP
-        then depends on ``seed`` and takes NP's time on top of its own (its
-        measured gain and cost are in :mod:`refsynth.synthesis.bp_observation`).
-        ``"colorization"`` (0.4–0.8's default, a departure): the colorization
-        fill of the measured range
-        (:func:`refsynth.synthesis.bp_observation.observation_fill`: the
-        portable solve, the same bits on every machine, of the quantised range
-        guided by the quantised intensity, so the intensity convention below
-        holds for it too) completes them instead: cheaper, no seed, less
-        accurate. ``"colorization-completed"``: the training patches' range in
-        Eq. 2 is completed by it as well. ``"measured"``: the observations hold
-        the measured range only, as printed.
-    compatibility : {None, "overlap", "overlap-centres"}, BP only
-        **A departure in Eq. 6** (:mod:`refsynth.synthesis.bp_centres`). None
-        or ``"overlap"``: the mean square over the shared measured pixels, Ψ = 1
-        with none. ``"overlap-centres"``: the two labels' centre ranges count as
-        one more shared pixel.
-    training_radius : {None, "gap", "fixed"}, BP only
-        Fig. 6, step 2's training disc (:mod:`refsynth.synthesis.bp_gap_radius`).
-        None or ``"gap"`` (the default, **a departure** that won on real data
-        together with the completed observations): within ``radius`` plus the
-        node's distance to the nearest measured pixel (floored), so a node
-        deep in a gap searches as far past its edge as one beside it.
-        ``"fixed"``: the measured pixels within ``radius``, as printed.
-        ``observation="measured", training_radius="fixed", range_copy="value"``
-        is Fig. 6's BP.
 
     Returns
     -------
     SynthesisResult
+        ``params`` records the run's keywords and the readings the method used.
 
     Raises
     ------
@@ -390,11 +261,12 @@ def synthesize(
         (:data:`refsynth.synthesis.limits.PARAMETER_BOUNDS`, the ranges given
         above), and a run whose estimated memory exceeds the machine's
         physical memory (the message says how much it would need); and
-        ``ValueError`` for an option the chosen method does not use.
+        ``ValueError`` for an option or reading the chosen method does not
+        use.
 
     Notes
     -----
-    The options, by the method that uses them. The options of one method
+    The keywords, by the method that uses them. The options of one method
     default to ``None``, which stands for the default in the last column:
 
     =======================  ===========  ===========  ================================
@@ -403,40 +275,23 @@ def synthesize(
     ``seed``                 yes          (NP first)   0
     ``neighbourhood``        yes          yes          5
     ``radius``               yes          yes          10
-    ``range_weight``         yes          yes          1
-    ``missing_range``        yes          yes          ``"mean"``
-    ``colour``               Eq. 2        Eq. 2        True
-    ``channels``             Eq. 2        Eq. 2        ``"sum"``
+    ``epsilon``              Eq. 5        —            0.1
+    ``iterations``           —            Eq. 9        50
+    ``candidates``           —            ``k``        8
     ``canny_sigma``          yes          yes          0.8
     ``edges``                yes          yes          Canny's
     ``use_edges``            Eq. 10       edge rule    True
-    ``progress``             yes          yes          none
-    ``epsilon``              Eq. 5        —            0.1
     ``use_isophotes``        Eq. 12       —            True
     ``ordering``             §3.2.4       —            ``"priority"``
-    ``confidence_update``    Eq. 11       —            ``"best"``
-    ``edges_last``           Eq. 10       —            True
-    ``range_copy``           Eq. 5        Eq. 8        ``"offset"`` (departure)
-    ``offset_tolerance``     —            Eq. 8        ``2**-3``; ``2**-7`` on colorization
-    ``candidates``           —            ``k``        8
-    ``proximity``            —            μ            0
-    ``sigma_i``              —            Eq. 7        0.1
-    ``sigma_s``              —            Eq. 6        0.2
-    ``iterations``           —            Eq. 9        50
-    ``tolerance``            —            Eq. 9        1e-4
-    ``product``              —            Eq. 9        ``"max"``
-    ``edge_rule``            —            §3.2.3       ``"silent"``
-    ``proposals``            —            departure    None
-    ``proposal_runs``        —            departure    1
-    ``observation``          —            step 2       ``"np"`` (departure)
-    ``compatibility``        —            Eq. 6        ``"overlap"``
-    ``training_radius``      —            step 2       ``"gap"`` (departure)
+    ``readings``             yes          yes          ``"refsynth"``
+    ``progress``             yes          yes          none
     =======================  ===========  ===========  ================================
 
     An option marked "—" raises ``ValueError`` for that method unless it is
     ``None`` or its default, e.g. ``method="bp", ordering="onion"``: "The
     parameter `ordering` applies to method='np' only; method='bp' does not use
-    it".
+    it". NP uses the readings :data:`~refsynth.synthesis.readings.NP_READINGS`,
+    BP :data:`~refsynth.synthesis.readings.BP_READINGS`.
 
     **The intensity convention.** The intensity (any real dtype) is brought
     to its own span before anything else: ``q = rint(2**16 (I − min I) /
@@ -453,8 +308,10 @@ def synthesize(
     **Reproducibility.** Every decision runs on exact numbers (the numeric
     contract of :mod:`refsynth.numeric`), so the same call gives the same bits
     whatever the BLAS library, its kernel and thread count, or the CPU's SIMD
-    width, and the same as the literal reference
-    :mod:`refsynth.synthesis.reference`.
+    width, and the same as the literal references
+    (:mod:`refsynth.synthesis.nonparametric.reference` for NP under
+    ``readings="paper"``, :mod:`refsynth.synthesis.reference` under every
+    reading).
 
     Examples
     --------
@@ -464,6 +321,11 @@ def synthesize(
     >>> result = refsynth.synthesize(image, partial, seed=0)
     >>> bool(np.all(result.range == 2.0))
     True
+    >>> paper = refsynth.synthesize(image, partial, readings="paper")
+    >>> paper.params["range_copy"], paper.params["missing_range"]
+    ('value', 'ignore')
+    >>> refsynth.synthesize(image, partial, readings={"range_copy": "value"}).params["range_copy"]
+    'value'
     >>> refsynth.synthesize(image, partial, method="bp", ordering="onion")
     Traceback (most recent call last):
     ...
@@ -473,15 +335,10 @@ def synthesize(
     method = check_choice("method", method, METHODS)
     options = check_method_options(method, dict(
         epsilon=epsilon, use_isophotes=use_isophotes, ordering=ordering,
-        candidates=candidates, proximity=proximity, sigma_i=sigma_i, sigma_s=sigma_s,
-        iterations=iterations, tolerance=tolerance, product=product,
-        confidence_update=confidence_update, edges_last=edges_last, edge_rule=edge_rule,
-        range_copy=range_copy, offset_tolerance=offset_tolerance,
-    ))
-    proposal_options = check_proposals(method, proposals, proposal_runs)
-    departures = check_bp_departures(method, observation, compatibility, training_radius)
-    if method == "bp" and options["offset_tolerance"] is None:  # by the observation
-        options["offset_tolerance"] = default_offset_tolerance(departures["observation"])
+        candidates=candidates, iterations=iterations))
+    chosen = resolve_readings(readings, method).for_method(method)
+    if method == "bp" and chosen["offset_tolerance"] is None:  # by the observation
+        chosen["offset_tolerance"] = default_offset_tolerance(chosen["observation"])
     neighbourhood = at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
         raise ValueError(f"The parameter `neighbourhood` must be odd, got {neighbourhood}")
@@ -491,10 +348,6 @@ def synthesize(
     if radius < 1:
         raise ValueError(f"The parameter `radius` must be >= 1 pixel, got {radius}")
     canny_sigma = check_canny_sigma(canny_sigma, range_values.shape)
-    range_weight = bounded("range_weight")(range_weight)
-    missing_range = check_choice("missing_range", missing_range, MISSING_RANGE)
-    colour = check_bool("colour", colour)
-    channels = check_choice("channels", channels, CHANNELS)
     use_edges = check_bool("use_edges", use_edges)
     if edges is not None:
         try:
@@ -513,19 +366,22 @@ def synthesize(
     if progress is not None and not callable(progress):
         raise TypeError("The parameter `progress` must be callable or None")
     rng = random_source(seed)
+    proposal_runs = chosen.pop("proposal_runs", 1)
+    proposals = chosen.pop("proposals", None)
+    colour = chosen["colour"]
     # beyond the image's diagonal the radius means the whole image (bit for bit); the gap's
     # discs (r plus each node's depth) are cut one by one (bp_gap_radius)
-    cut_radius, cut_proximity = search_radius(method, radius, options.get("proximity", 0.0),
+    cut_radius, cut_proximity = search_radius(method, radius, chosen.get("proximity", 0.0),
                                               range_values.shape)
     run_radius, proximity = cut_radius, cut_proximity
-    if departures.get("training_radius") == "gap":
-        run_radius, proximity = radius, options.get("proximity", 0.0)
-    extra_labels = proposal_options.get("proposal_runs", 0)
-    np_first = bool(proposal_options) or departures.get("observation") == "np"
+    if chosen.get("training_radius") == "gap":
+        run_radius, proximity = radius, chosen["proximity"]
+    extra_labels = proposal_runs if proposals is not None else 0
+    np_first = proposals is not None or chosen.get("observation") == "np"
     if np_first:  # NP runs first, at its own radius
         np_radius = search_radius("np", radius, 0.0, range_values.shape)[0]
         check_memory("np", image, range_values, neighbourhood=neighbourhood, radius=np_radius,
-                     colour=colour, before="proposals" if proposal_options else "observation")
+                     colour=colour, before="proposals" if proposals else "observation")
     check_memory(method, image, range_values, neighbourhood=neighbourhood, radius=cut_radius,
                  candidates=options.get("candidates", 8) + extra_labels, colour=colour)
 
@@ -540,44 +396,49 @@ def synthesize(
         edge_map = np.zeros(range_values.shape, dtype=bool)
 
     params = dict(method=method, neighbourhood=neighbourhood, radius=radius,
-                  canny_sigma=canny_sigma, use_edges=use_edges, range_weight=range_weight,
-                  missing_range=missing_range, colour=colour, channels=channels, **options,
-                  **proposal_options, **departures)
+                  canny_sigma=canny_sigma, use_edges=use_edges, **options, **chosen)
+    if proposals is not None:
+        params.update(proposals=proposals, proposal_runs=proposal_runs)
     common = dict(neighbourhood=neighbourhood, radius=run_radius, use_edges=use_edges,
-                  range_weight=range_weight, missing_range=missing_range, colour=colour,
-                  channels=channels, progress=progress)
-    if method == "bp":
-        options["k"] = options.pop("candidates")  # bp_fill's name for it
-        options["proximity"] = proximity
-        if proposal_options:  # the departure: NP's fills as more labels (bp_proposals)
-            options["proposals"] = np_proposals(
-                image, range_values, edge_map, rng, runs=proposal_options["proposal_runs"],
-                **{**common, "radius": np_radius, "progress": None})
-            options["proposal_phi"] = "match"
-            options["proposal_completed"] = proposal_options["proposals"] == "np-completed"
-        observation = departures["observation"]
-        share = {"measured": 0.0, "np": NP_OBSERVATION_SHARE}.get(observation,
-                                                                 OBSERVATION_SHARE)
-        stages = StagedProgress(progress, [share, 1.0 - share])
-        if observation == "np":  # the departure: NP's fill completes them
-            if proposal_options:  # NP has run already: its first fill
-                filled = options["proposals"][0]
-            else:
-                filled = np_fill(image, range_values, edge_map, rng,
-                                 **{**common, "radius": np_radius, "progress": stages.stage(0)})[0]
-            options["observation"] = np_observation(filled, range_values)
-        elif observation != "measured":  # the default: completed by the colorization fill
-            options["observation"] = observation_fill(image, range_values, observation,
-                                                      colour=colour, progress=stages.stage(0))
-            options["observation_completed"] = observation.endswith("-completed")
-        options["compatibility"] = departures["compatibility"]
-        options["training_radius"] = departures["training_radius"]
-        bp = bp_fill(image, range_values, edge_map, **options,
-                     **{**common, "progress": stages.stage(1)})
-        return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
-                               edges=edge_map, method=method, params=params,
-                               iterations=bp.iterations, candidate_values=bp.candidate_values,
-                               bp=bp)
-    filled, confidence, order = np_fill(image, range_values, edge_map, rng, **options, **common)
-    return SynthesisResult(range=filled, confidence=confidence, order=order, edges=edge_map,
-                           method=method, params=params)
+                  range_weight=chosen["range_weight"], missing_range=chosen["missing_range"],
+                  colour=colour, channels=chosen["channels"], progress=progress)
+    if method == "np":
+        filled, confidence, order = np_fill(
+            image, range_values, edge_map, rng, **common, **options,
+            range_copy=chosen["range_copy"], confidence_update=chosen["confidence_update"],
+            edges_last=chosen["edges_last"])
+        return SynthesisResult(range=filled, confidence=confidence, order=order,
+                               edges=edge_map, method=method, params=params)
+    bp_options = dict(k=options["candidates"], iterations=options["iterations"],
+                      proximity=proximity, sigma_i=chosen["sigma_i"], sigma_s=chosen["sigma_s"],
+                      tolerance=chosen["tolerance"], product=chosen["product"],
+                      edge_rule=chosen["edge_rule"], range_copy=chosen["range_copy"],
+                      offset_tolerance=chosen["offset_tolerance"],
+                      compatibility=chosen["compatibility"],
+                      training_radius=chosen["training_radius"])
+    if proposals is not None:  # the departure: NP's fills as more labels (bp_proposals)
+        bp_options["proposals"] = np_proposals(
+            image, range_values, edge_map, rng, runs=proposal_runs,
+            **{**common, "radius": np_radius, "progress": None})
+        bp_options["proposal_phi"] = "match"
+        bp_options["proposal_completed"] = proposals == "np-completed"
+    observation = chosen["observation"]
+    share = {"measured": 0.0, "np": NP_OBSERVATION_SHARE}.get(observation, OBSERVATION_SHARE)
+    stages = StagedProgress(progress, [share, 1.0 - share])
+    if observation == "np":  # the departure: NP's fill completes them
+        if proposals is not None:  # NP has run already: its first fill
+            filled = bp_options["proposals"][0]
+        else:
+            filled = np_fill(image, range_values, edge_map, rng,
+                             **{**common, "radius": np_radius, "progress": stages.stage(0)})[0]
+        bp_options["observation"] = np_observation(filled, range_values)
+    elif observation != "measured":  # the departure: completed by the colorization fill
+        bp_options["observation"] = observation_fill(image, range_values, observation,
+                                                     colour=colour, progress=stages.stage(0))
+        bp_options["observation_completed"] = observation.endswith("-completed")
+    bp = bp_fill(image, range_values, edge_map, **bp_options,
+                 **{**common, "progress": stages.stage(1)})
+    return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
+                           edges=edge_map, method=method, params=params,
+                           iterations=bp.iterations, candidate_values=bp.candidate_values,
+                           bp=bp)

@@ -63,13 +63,13 @@ limit is refused then (:mod:`refsynth.synthesis.bp_memory`).
 
 Φ, Ψ and the grid of pairs (steps 3–4) are :mod:`refsynth.synthesis.bp_model`.
 
-**A departure, the default since 0.6** (``range_copy="offset"``,
+**A departure, the default preset's** (``range_copy="offset"``,
 :mod:`refsynth.synthesis.range_copy`): each label is moved by the consistent difference in
 range between its node's observation and its patch (NP's offset copy), in Ψ, in the measured
 neighbours' terms and in the value step 6 gives. ``range_copy="value"`` keeps Fig. 6's
 labels.
 
-**A departure, off by default** (issue #10 item 4): with ``proposals``, dense
+**A departure, off by default**: with ``proposals``, dense
 fills of the range (NP's, from :func:`refsynth.synthesize` with
 ``proposals="np"``) give every node more labels after its ``k`` training
 candidates — their patches centred on it, from frames stacked below the
@@ -148,11 +148,9 @@ __all__ = ["BPResult", "BP_STAGES", "bp_fill", "bp_memory_estimate", "BP_MEMORY_
            "grid_edges", "belief_propagation"]
 
 #: BP's stages and their shares of its work, for its progress reports
-#: (:class:`~refsynth.synthesis.progress.StagedProgress`): CPU time on the Motorcycle,
-#: x-stripes 78 % (``python benchmarks/bench_speed.py --bp-stages --sizes
-#: 450x375,900x750``: in 0.9.3 the search 44 and 43 % of BP's stages, the measured
-#: neighbours with the labels' shifts 9 %, the messages with Ψ 45 and 46 %, MAP 2 %; until
-#: 0.9.2 the shares were 0.60 / 0.01 / 0.01 / 0.37 / 0.01).
+#: (:class:`~refsynth.synthesis.progress.StagedProgress`): each stage's share of BP's CPU
+#: time on the Motorcycle, x-stripes 78 %, at 450×375 and 900×750, which
+#: ``python benchmarks/bench_speed.py --bp-stages --sizes 450x375,900x750`` prints.
 BP_STAGES = (("search", 0.43), ("measured neighbours", 0.09), ("compatibilities", 0.01),
              ("messages", 0.45), ("MAP", 0.02))
 

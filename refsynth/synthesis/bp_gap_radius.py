@@ -8,7 +8,7 @@ nearest one: on the Motorcycle's x-stripes at 85 % unknown (17 unknown
 columns between 3 known ones, ``r = 10``) a node in the middle of a gap reaches
 each neighbouring stripe only over about ±5 rows.
 
-**This option is not the paper, and it is refsynth's default since 0.4**,
+**This option is not the paper, and it is the default preset's**,
 with the completed observations (``training_radius="gap"``,
 :func:`refsynth.synthesize`, BP; ``"fixed"`` is Fig. 6's): node ``i``'s disc has radius
 ``r + ⌊d_i⌋``, ``d_i`` its Euclidean distance to the nearest measured pixel,
@@ -22,8 +22,7 @@ holding nodes of every depth), then runs
 ``⌊d_i⌋`` on the nodes whose disc held fewer than ``k`` candidates (which
 that search widens), all from patch rows built once
 (:func:`~refsynth.synthesis.bp_search.search_features`), so each node's
-candidates are exactly those of the search at its own radius (until 0.9.2
-every node ran its depth's search, for the same bits). The distances are those of
+candidates are exactly those of the search at its own radius. The distances are those of
 :func:`scipy.ndimage.distance_transform_edt` (square roots of integers,
 correctly rounded): exact, so the grouping is portable. A disc beyond the
 image runs at the image's reach with the prior's coefficient

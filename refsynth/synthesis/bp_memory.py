@@ -16,9 +16,9 @@ block by block, and :attr:`refsynth.synthesis.bp.BPResult.log_psi` computes
 the whole array on first access (:func:`psi_bytes` says how much that takes).
 :func:`bp_memory_estimate` is an upper bound of the peak resident memory BP adds
 to the process, calibrated on the Motorcycle (x-stripes, 78 % unknown) from
-225×188 to 2048×2048 (``python benchmarks/bench_speed.py --memory SIZE``: 0.7.0's
-estimate, without Ψ's cache and the margin per node, was 10–23 % under the measured
-peak); :func:`check_bp_memory` refuses, up front, a call that
+225×188 to 2048×2048 (``python benchmarks/bench_speed.py --memory SIZE`` prints the
+estimate beside the measured peak; without Ψ's cache and the margin per node it falls
+10–23 % under it); :func:`check_bp_memory` refuses, up front, a call that
 would need more than a limit (:data:`BP_MEMORY_LIMIT`, 4 GiB, by default).
 
 References
@@ -38,8 +38,8 @@ _BLOCKS = 96 * 2**20  # the bounded blocks of the search, Ψ and the sends
 _PSI_CACHE = 1 << 27  # Ψ's rows kept between sweeps (messages._PSI_CACHE), when E k² fills it
 #: Float64 per node that BP holds beyond the arrays counted below, found by calibration
 #: (tracemalloc's peak and the resident peak, the Motorcycle at x-stripes 78 %, 225×188 to
-#: 2048×2048): 0.7's 2048×2048 run held 235 MiB more than the count and the cache, 9 float64
-#: per node, and the process's peak was 60 MiB above the traced one
+#: 2048×2048): a 2048×2048 run holds about 235 MiB more than the count and the cache, 9
+#: float64 per node, and the process's peak is about 60 MiB above the traced one
 _PER_NODE_MARGIN = 16
 
 
@@ -80,9 +80,9 @@ def bp_memory_estimate(
 
     Examples
     --------
-    2048×2048 with 80 % unknown fits in 4 GiB (about 3.1 GiB with Ψ's 128 MiB cache, 3.0
-    until 0.9.1's 64 MiB; the run's resident peak is 2955 MiB, 2.9 GiB, above the process
-    before it, in 0.9.1 and in 0.9.2):
+    2048×2048 with 80 % unknown fits in 4 GiB (about 3.1 GiB with Ψ's 128 MiB cache; the
+    run's resident peak, which ``python benchmarks/bench_speed.py --memory 2048x2048``
+    prints, is about 2.9 GiB above the process before it):
 
     >>> round(bp_memory_estimate((2048, 2048), 3_356_000, n_pairs=6_418_000) / 2**30, 1)
     3.1

@@ -11,10 +11,10 @@ pixels two partial training patches share, rarely overrules it.
 NP (§3.2.2) avoids this by comparing each pixel with the range it has
 already synthesized.
 
-**This module is not the paper, and a fill completes BP's observations by
-default since 0.4**: NP's own fill since 0.9 (``observation="np"``, below),
-the colorization fill from 0.4 to 0.8. Both won on real data (the README's
-"Real data"). With ``observation="colorization"`` (:func:`refsynth.synthesize`,
+**This module is not the paper, and a fill completes BP's observations in the default
+preset**: NP's own fill (``observation="np"``, below), or, as an option, the
+colorization fill. Both won on real data against Fig. 6's measured observations (the
+README's "Real data"). With ``observation="colorization"`` (:func:`refsynth.synthesize`,
 BP), a classical fill
 of the measured range (Levin et al.'s colorization, :func:`observation_fill`:
 no random choice, so BP stays deterministic) gives every observation a range:
@@ -29,7 +29,7 @@ compares measured range).
 
 The fill is :func:`refsynth.synthesis.completion.portable_colorization` (the
 system of :func:`refsynth.evaluation.baselines.colorization_fill` solved by
-a cascadic multigrid of Gauss–Seidel sweeps, linear in the pixels since 0.7, with
+a cascadic multigrid of Gauss–Seidel sweeps, linear in the pixels, with
 fixed-order sums and
 :func:`~refsynth.numeric.portable_exp`: the same bits on every machine, which
 the baseline's SuperLU solve is not) of the *quantised* range guided by the
@@ -71,8 +71,8 @@ report split 1–6 % lower. On the room NP (0.114 / 0.153 m)
 stays far better: the candidates' ceiling (0.148 / 0.193 m) is above NP's
 MAR, so no choice among measured patches can reach it.
 
-**Observations completed by NP's fill** (``observation="np"``, 0.8: another
-departure, an option; **the default since 0.9**). BP's MAP is the value of each node's
+**Observations completed by NP's fill** (``observation="np"``: another
+departure, **the default preset's**). BP's MAP is the value of each node's
 first-ranked label
 (Eq. 2's best match against ``y_i``) at 95–98 % of the Motorcycle's nodes, so
 BP is about as good as the range that completes ``y_i``. With ``"np"`` NP's
@@ -107,16 +107,16 @@ choosing split (by 2.9–4.8 %, beyond the spread), 0.57–0.72× the best
 classical fill; against the default it ties at 63 and 78 % on the choosing
 split and wins at 85 % (−6.5 %), and with that split's stripe phase at
 741×500 (``--split choose --sizes 741x500``) it wins at every fraction
-(−5.7 / −3.9 / −14.9 %). 0.8 kept it an option: on the choosing split
-it did not win beyond the 3 % band at every fraction, and it costs NP's time
-(10× the colorization fill at 450×375 against 0.8's default's 4.8× in the same
-run: the README's "BP on NP's fill"). On the room it halves BP's error and lowers the
+(−5.7 / −3.9 / −14.9 %). At NP's agreement (the table's) it did not win
+beyond the 3 % band at every fraction of the choosing split, and it costs
+NP's time (about twice the colorization fill's BP at 450×375: the README's
+"BP on NP's fill"). On the room it halves BP's error and lowers the
 candidate ceiling below NP's MAR (0.063 / 0.079 m), but BP keeps Eq. 2's
 first-ranked label at 95 % of the nodes and stays above NP.
 
-**The labels' shift on NP's fill agrees to 2**-3 of the span** (0.8.4,
-``offset_tolerance``; the rows above are 0.8's, at NP's ``2**-7``, which
-``bp-obs-np-tolerance7`` gives again). The offset
+**The labels' shift on NP's fill agrees to 2**-3 of the span**
+(``offset_tolerance``; the rows above are at NP's ``2**-7``, which
+``bp-obs-np-tolerance7`` gives). The offset
 copy shifts a label only when every range difference between its patch and the
 observation lies within the agreement of their mean
 (:mod:`refsynth.synthesis.range_copy`). NP's agreement, ``2**-7`` of the span,
@@ -151,15 +151,15 @@ ties, so it is not an independent check of this choice. On the report split
 ``2**-3`` gives 0.278 / 0.447 / 0.605 at 450×375 and 0.225 / 0.442 / 0.659 at
 741×500 (README, "BP on NP's fill").
 
-**0.9 makes it the default.** With ``2**-3`` it wins against the colorization
+**Why it is the default.** With ``2**-3`` it wins against the colorization
 fill's observations on the choosing split at every fraction by the seed-to-seed
 rule (0.266 ± 0.002 / 0.475 ± 0.007 / 0.617 ± 0.004 against 0.283 / 0.484 /
 0.668): BP on NP's fill has a seed spread of its own, so the rule for NP, not
 the 3 % band for deterministic BP, applies to it. It is lower on the report
 split, the crop and 19 of the 22 cases of ``evaluate``'s grid; it loses on the
 distance-driven sampling, where NP's own fill fails and BP inherits it (the
-README's Results). ``observation="colorization"`` gives 0.4–0.8's BP (0.6–0.8's
-bit for bit), faster and without a seed.
+README's Results). ``observation="colorization"`` is faster and draws no random
+number.
 
 References
 ----------
@@ -188,10 +188,10 @@ from refsynth.synthesis.limits import normalise_intensity
 
 __all__ = ["OBSERVATIONS", "observation_fill", "np_observation", "observed_ranges"]
 
-#: The observations :func:`refsynth.synthesize` accepts for BP: ``"measured"`` is Fig. 6's;
-#: the colorization ones complete them by a classical fill (see above), ``"np"`` by NP's own
-#: fill (:func:`np_observation`; the default since 0.9,
-#: :data:`refsynth.synthesis.api.BP_DEPARTURES`).
+#: The observations BP accepts (the reading ``observation``,
+#: :class:`refsynth.synthesis.readings.Readings`): ``"measured"`` is Fig. 6's; the colorization
+#: ones complete them by a classical fill (see above), ``"np"`` by NP's own fill
+#: (:func:`np_observation`; the default preset's).
 OBSERVATIONS = ("measured", "colorization", "colorization-completed", "np")
 
 

@@ -6,7 +6,7 @@ BP (Eqs. 8–9) can only *choose* among them, so its error is bounded below by
 the *candidate ceiling*, the MAR if every node took its best label. On the
 Motorcycle's x-stripes the training patches near a wide gap hold range only
 where the stripes are, Ψ (Eq. 6) compares them on a few shared pixels, and at
-85 % unknown BP ends up worse than NP (issue #10, item 4).
+85 % unknown Fig. 6's BP ends up worse than NP.
 
 **This module is not the paper.** With ``proposals="np"``
 (:func:`refsynth.synthesize`), NP (§3.2.2, :func:`np_proposals`) first fills

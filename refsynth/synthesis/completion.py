@@ -17,7 +17,7 @@ Gauss–Seidel sweeps that use only what :mod:`refsynth.numeric` allows:
 
 So the same call gives the same bits on any CPU, SIMD width, BLAS and thread count.
 
-**Cascadic multigrid** (``solver="cascadic"``, the default since 0.7; Bornemann & Deuflhard
+**Cascadic multigrid** (``solver="cascadic"``, the default; Bornemann & Deuflhard
 1996). Plain Gauss–Seidel needs more sweeps the larger the image (the stopping rule is met
 after 641 / 388 / 968 / 1438 sweeps at 112×94 … 900×750 on the Motorcycle's x-stripes at
 78 %), so its cost per unknown pixel grew from 5.3 µs at 225×188 to 17–19 µs at 900×750. The
@@ -40,9 +40,9 @@ Gauss–Seidel converges (the bound ``max_sweeps`` holds in any case). Over-rela
 (ω > 1) does not always converge here (it diverged on the Motorcycle at 85 % unknown with
 ω = 1.6) and is not offered.
 
-Measured with ``solver="gauss-seidel"`` (0.6's fill) on the Motorcycle's x-stripes (phase 1,
-63 / 78 / 85 % unknown, MAR in disparity px; one run each on a shared 2-core machine, so the
-times are rough):
+Measured with ``solver="gauss-seidel"`` (Gauss–Seidel on the image alone) on the
+Motorcycle's x-stripes (phase 1, 63 / 78 / 85 % unknown, MAR in disparity px; one run
+each on a shared 2-core machine, so the times are rough):
 
 ================================  =======================  =======================
 \                                 450×375                  900×750
@@ -204,8 +204,8 @@ def portable_colorization(
         The most sweeps of the coarsest level (of the only one with
         ``solver="gauss-seidel"``) and of any level, >= 1.
     solver : {"cascadic", "gauss-seidel"}, default "cascadic"
-        The cascadic multigrid (linear cost) or Gauss–Seidel on the image alone (0.6's fill,
-        whose sweeps grow with the image). Both give the same bits on an image whose smaller
+        The cascadic multigrid (linear cost) or Gauss–Seidel on the image alone (whose
+        sweeps grow with the image). Both give the same bits on an image whose smaller
         side is below ``2 * COARSEST``.
     sweeps : int, default 200
         The cascade's most sweeps on the finest level (doubled on each coarser level), >= 1.

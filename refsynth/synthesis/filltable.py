@@ -23,9 +23,9 @@ float64 for the product took about 9 % of the fill's instructions. Both hold the
 integers, so the distances are the same bits either way. A float32 row is 520 bytes
 (316 + 204) for a colour 5×5 window, against 1200 for
 :class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]`` (BP's
-table): the table of a 900×750 image takes about 370 MB instead of 850. (Until 0.8.2 the
-range rows held ``R²`` too, as two float32 parts: 200 bytes more a pixel, 820 MiB more at
-2048×2048, for 1.4 % less time at 450×375 and 4 % at 900×750.)
+table): the table of a 900×750 image takes about 370 MB instead of 850. (Holding ``R²`` in
+the range rows too, as two float32 parts, would cost 200 bytes more a pixel, 820 MiB more at
+2048×2048, for a few per cent less time.)
 
 The gathered rows are float64, or widened to it, and the four sums of Eq. 2
 
@@ -55,7 +55,7 @@ Per step, :meth:`FillTable.shortlist` gathers the range rows only of the candida
 intensity term alone does not already exceed ``1 + ε`` times one candidate's whole distance
 (Eq. 2's range term is never negative, so the others can be neither Eq. 4's best match nor
 in Eq. 5's set): on the Motorcycle about 12 of 190 candidates, the same decisions and
-distances bit for bit. Since 0.9.2, beside float64 intensity rows, it gathers the intensity
+distances bit for bit. Beside float64 intensity rows, it gathers the intensity
 rows only of the candidates that a lower bound on their intensity term, from five weighted
 sums of each window (:mod:`refsynth.synthesis.window_bound`: 16 numbers a row for a colour
 image, against 79), does not already rule out by the same test: about one in nine. At 43 %

@@ -87,7 +87,7 @@ class FrontQueue:
         dozen blocks, a pop scans ``N / block`` maxima and two blocks). Replaying
         NP's queue on the Motorcycle (``python benchmarks/bench_queue.py``), blocks
         of 32 to 512 cost the same at 112×94, and at 900×750 blocks of 512 took
-        3.9 µs a step, of 64 (``sqrt(N) / 10``, the default until 0.9.1) 4.6.
+        3.9 µs a step, of 64 (``sqrt(N) / 10``) 4.6.
 
     Examples
     --------

@@ -357,8 +357,8 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     :func:`~refsynth.synthesis.api.synthesize`'s own copies of the inputs (float64 intensity
     and range, the edge map). The table goes before the outputs are made.
 
-    Measured (0.8.2, and the same on 0.8.3): on the Motorcycle at 2048×2048 (colour, n = 5,
-    r = 10, x-stripes 78 %) the run's peak resident memory is 3222 MiB, 3013 MiB above the
+    Measured on the Motorcycle at 2048×2048 (colour, n = 5, r = 10, x-stripes 78 %), the
+    run's peak resident memory is 3222 MiB, 3013 MiB above the
     process before the call, against this estimate's 3120 MiB (``python
     benchmarks/bench_speed.py --memory 2048x2048 --methods np``; the padding's rows of the
     table, counted here, are never touched); ``tests/test_np_memory.py`` checks the

@@ -47,7 +47,7 @@ from refsynth.numeric import left_to_right_sum, portable_exp, portable_log
 __all__ = ["belief_propagation"]
 
 _CHUNK_FLOATS = 1 << 22  # about 32 MB of float64 per temporary block
-_PSI_CACHE = 1 << 27  # bytes of Ψ rows kept between sweeps (128 MB; 64 MB until 0.9.1)
+_PSI_CACHE = 1 << 27  # bytes of Ψ rows kept between sweeps (128 MB)
 _SEND_EDGES = 2048  # edges per block of a max-product send (128 KB of Ψ)
 
 
@@ -138,10 +138,10 @@ def belief_propagation(
     function, its rows are kept in a cache of 128 MB (:data:`_PSI_CACHE`) that
     prefers the edges whose messages changed, so that each edge's Ψ is
     computed about once (once at 450×375, where the cache holds every edge;
-    with 64 MB, until 0.9.1, 1.7 times, and BP on the colorization fill's
-    observations took 8 % more CPU there). When every edge's rows fit, the
-    cache is the whole table, edge ``e`` in row ``e``, and a first sweep's
-    block of edges has its rows written there in place (since 0.9.3: no copy).
+    with 64 MB, 1.7 times, and BP on the colorization fill's observations
+    takes 8 % more CPU there). When every edge's rows fit, the cache is the
+    whole table, edge ``e`` in row ``e``, and a first sweep's block of edges
+    has its rows written there in place (no copy).
 
     The max-product maximum is taken label by label with ``np.maximum``: the
     same numbers as ``np.max`` over the (E, k, k) array, since a maximum of the

@@ -38,7 +38,7 @@ mean ± sd over seeds 0–2)::
     python benchmarks/audit_departures.py --split choose --variants np-value-copy,np-offset-copy
 
 =================  =======================================  ===================================
-split, size        ``"value"`` (Eq. 5)                      ``"offset"`` (the default, 0.5)
+split, size        ``"value"`` (Eq. 5)                      ``"offset"`` (the default)
 =================  =======================================  ===================================
 choose, 450×375    0.400±0.010 / 0.624±0.011 / 0.742±0.009  0.289±0.001 / 0.511±0.007 / 0.656±0.006
 report, 450×375    0.408 / 0.589 / 0.738                    0.300 / 0.473 / 0.636
@@ -48,7 +48,7 @@ report, 741×500    0.373 / 0.599 / 0.799                    0.243 / 0.485 / 0.7
 (``--split report``; on the synthetic room's grids 10/20 and 5/25, 0.114 / 0.153 m against
 0.069 / 0.091 m.) Without the agreement test a first trial won at 63 % and lost at 85 %.
 
-**BP's labels** (``method="bp"``, the default since 0.6): a label of Fig. 6 is a measured
+**BP's labels** (``method="bp"``, the default preset's): a label of Fig. 6 is a measured
 patch, and its centre is a value measured elsewhere, as Eq. 5's copy is. Each label ``l`` of
 node ``i`` gets the shift ``Δ_il`` above, between ``i``'s observation (the measured range
 around ``i`` or, with BP's default ``observation="np"``, that range completed by NP's fill;
@@ -60,7 +60,7 @@ measured neighbour's term compares the
 moved patch with the measured one, and the MAP label (Eq. 8) gives its centre plus its shift
 (:func:`shifted_values`, NP's arithmetic and clipping); the pooled confidence and
 ``candidate_values`` use the moved centres. Eq. 2's ranking and Φ are unchanged. Measured
-in 0.6, on the colorization fill's observations (BP deterministic: one run; NP mean over
+on the colorization fill's observations (BP deterministic: one run; NP mean over
 seeds 0–2 in brackets)::
 
     python benchmarks/audit_departures.py --split choose --variants bp-value-copy,bp-offset-copy \
@@ -69,7 +69,7 @@ seeds 0–2 in brackets)::
         --variants bp-value-copy,bp-offset-copy --seeds 0
 
 =================  =====================  =====================  ===========================
-split, size        ``"value"`` (0.5)      ``"offset"`` (0.6)     NP
+split, size        ``"value"``            ``"offset"``           NP
 =================  =====================  =====================  ===========================
 choose, 450×375    0.314 / 0.511 / 0.689  0.283 / 0.491 / 0.663  (0.289 / 0.511 / 0.656)
 choose, 741×500    0.309 / 0.521 / 0.725  0.258 / 0.487 / 0.708  (0.252 / 0.474 / 0.638)
@@ -82,7 +82,7 @@ not make BP beat NP at 85 %. ``observation="colorization-completed"`` with it ga
 default (it still loses to NP at 85 % on the larger size). The README's audit has the report
 split.
 
-**BP's agreement** (``offset_tolerance``, 0.8.4, BP only): the test above at ``2**-k`` of the
+**BP's agreement** (``offset_tolerance``, BP only): the test above at ``2**-k`` of the
 span instead of NP's :data:`OFFSET_TOLERANCE` (``2**-7``), any power of two from ``2**-16`` to
 1 (:func:`check_offset_tolerance`; the slack ``2**(16 − k)`` stays a whole number on the
 grid). :func:`default_offset_tolerance`: NP's ``2**-7`` with the measured or colorization-filled
@@ -120,7 +120,7 @@ OFFSET_BITS = 7
 #: :data:`OFFSET_BITS` as a fraction of the measured range's span (about 0.8 %).
 OFFSET_TOLERANCE = 2.0**-OFFSET_BITS
 
-#: BP's agreement when NP's fill completes its observations (``observation="np"``, 0.8.4):
+#: BP's agreement when NP's fill completes its observations (``observation="np"``):
 #: ``2**-3`` of the span (about 12 %; see the module docstring).
 NP_OBSERVATION_TOLERANCE = 2.0**-3
 
@@ -147,7 +147,7 @@ def check_offset_tolerance(value) -> float:
 
 def default_offset_tolerance(observation: str | None) -> float:
     """BP's agreement for its ``observation``: :data:`NP_OBSERVATION_TOLERANCE` on NP's fill
-    (``"np"``, or None: BP's default observation since 0.9), :data:`OFFSET_TOLERANCE` (NP's
+    (``"np"``, or None: the default preset's observation), :data:`OFFSET_TOLERANCE` (NP's
     own) otherwise.
 
     >>> default_offset_tolerance("np"), default_offset_tolerance("colorization")

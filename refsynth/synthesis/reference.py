@@ -32,12 +32,14 @@ order of a floating-point reduction, so the quantities that feed decisions are *
 
 The helpers of the contract live in :mod:`refsynth.numeric` and are re-exported here.
 
-The options of issue #10 (each is a reading of the paper; the defaults are refsynth's
-readings until they are audited on real data) are implemented here as plainly as the rest:
-``confidence_update`` (Eq. 11's update), ``colour`` (Eq. 2 on the colour channels or on grey),
-``edges_last`` (NP's edge tier) and ``edge_rule`` (BP's edge-constraint rule); and BP's
-``observation`` and ``training_radius`` (Fig. 6's step 2), whose defaults since 0.4 are
-departures that won on real data (:func:`bp_reference`).
+Every reading of :class:`refsynth.synthesis.readings.Readings` is implemented here as plainly
+as the rest, with **refsynth's readings as the defaults** (the default preset, so that
+``fast == reference`` is tested under every reading): ``confidence_update`` (Eq. 11's
+update), ``colour`` (Eq. 2 on the colour channels or on grey), ``edges_last`` (NP's edge
+tier) and ``edge_rule`` (BP's edge-constraint rule); and BP's ``observation`` and
+``training_radius`` (Fig. 6's step 2), whose defaults are departures that won on real data
+(:func:`bp_reference`). NP with the paper's readings as its defaults, in the paper's order,
+is :mod:`refsynth.synthesis.nonparametric.reference`.
 
 References
 ----------
@@ -69,6 +71,7 @@ from refsynth.numeric import (
     window_weights,
 )
 from refsynth.synthesis.completion import portable_colorization
+from refsynth.synthesis.similarity import eq2_distance
 
 __all__ = [
     "quantise_intensity", "quantise_grey", "quantise_range", "window_weights", "portable_exp",
@@ -91,33 +94,6 @@ def disc_offsets(radius: float) -> list[tuple[int, int]]:
     k = int(math.floor(radius))
     return [(dr, dc) for dr in range(-k, k + 1) for dc in range(-k, k + 1)
             if dr * dr + dc * dc <= radius * radius and (dr, dc) != (0, 0)]
-
-
-# -- Eq. 2 --------------------------------------------------------------------------------
-
-
-def eq2_distance(qi_a, qr_a, qi_b, qr_b, window, range_weight=1.0, missing_range="mean",
-                 channels="sum"):
-    r"""Eq. 2 between two quantised neighbourhoods (§3.2.2).
-
-    .. math:: \|N_a - N_b\| = \sum_v G(\sigma, v - v_0) \left[ \sum_c
-              (I^a_{v,c} - I^b_{v,c})^2 + \lambda (R^a_v - R^b_v)^2 \right]
-
-    (``channels="sum"``, the paper's; ``"mean"`` divides the channel sum by ``C``).
-
-    ``qi_*`` (n, n, C) and ``qr_*`` (n, n) are quantised intensity and range (:data:`NO_RANGE`
-    where unknown), ``window`` is :func:`window_weights`; ``missing_range`` as in
-    :func:`combine_eq2`. The integer sums are exact, so their order is free.
-    """
-    has_a, has_b = qr_a != NO_RANGE, qr_b != NO_RANGE
-    shared = has_a & has_b
-    di = qi_a - qi_b
-    dr = np.where(shared, qr_a - qr_b, 0)
-    si = int(np.sum(window[:, :, None] * di * di))
-    sr = int(np.sum(window * dr * dr))
-    divisor = qi_a.shape[2] if channels == "mean" else 1   # Eq. 2 sums the channels
-    return combine_eq2(si, sr, int(np.sum(window[shared])), int(np.sum(window[has_a])),
-                       divisor, range_weight, missing_range)
 
 
 class _Frame:
@@ -523,11 +499,11 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
     2. Labels of node ``i``: its ``k`` closest training patches (:func:`_bp_candidates`),
        ranked by Eq. 2 against its observation ``y_i``. refsynth's defaults depart from
-       Fig. 6 here (issue #10, measured in :mod:`refsynth.synthesis.bp_observation` and
-       :mod:`refsynth.synthesis.bp_gap_radius`): with ``observation="np"`` (the default
-       since 0.9) :func:`np_reference` (NP's defaults, drawing on ``rng``) fills the range
+       Fig. 6 here (measured in :mod:`refsynth.synthesis.bp_observation` and
+       :mod:`refsynth.synthesis.bp_gap_radius`): with ``observation="np"`` (the default)
+       :func:`np_reference` (NP's defaults, drawing on ``rng``) fills the range
        first and its result completes ``y_i``'s unknown range (:func:`_observed_frame`);
-       with ``"colorization"`` (0.4–0.8's default) the colorization fill completes it
+       with ``"colorization"`` the colorization fill completes it
        (``"colorization-completed"``: the training patches' too, in Eq. 2 only); and with
        ``training_radius="gap"`` the disc's radius is ``r + ⌊d_i⌋``
        (:func:`gap_depth_reference`; the prior μ then divides by that radius squared).
@@ -548,7 +524,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
        belief pooled over labels proposing the same range (within 1 % of the span) the
        confidence.
 
-    With ``range_copy="offset"`` (refsynth's default since 0.6, a departure:
+    With ``range_copy="offset"`` (refsynth's default, a departure:
     :mod:`refsynth.synthesis.range_copy`) every label ``l`` of node ``i`` carries the shift
     ``Δ_il`` of NP's offset copy between ``y_i``'s range (the observations: measured or
     completed) and the label's measured patch (:func:`offset_shift`); its patch's range is

@@ -13,21 +13,20 @@ neighbourhood being synthesized).
 
 Normalisation (our choice; the paper leaves it open)
 -----------------------------------------------------
-Intensity and range live in different units. refsynth divides the intensity
-by its span over the whole image and the range by the span of the *known*
-range, so both lie in [0, 1], and sums the intensity term over the colour
-channels, as Eq. 2 does (``channels="sum"``; ``"mean"``, refsynth's reading
-before 0.3, averages them so that grey and colour images weigh the same, which
-weighs the range term C times more: on the Motorcycle's choosing split NP's MAR
-was 0.467 / 0.700 / 0.790 px with the mean against 0.400 / 0.624 / 0.742 with
-the sum at 63 / 78 / 85 %, 3 seeds). The range term then gets
-the weight ``λ`` (``range_weight``, default 1: the two normalised terms
-weigh the same, the paper's reading). λ = 16, refsynth's default before 0.2,
-was chosen on synthetic rooms; on the Motorcycle (450×375, x-stripes 63 / 78 /
-85 %, 3 seeds) it raised NP's MAR at every fraction (0.692 / 0.813 / 0.979
-against 0.531 / 0.723 / 0.858 px with the literal Eq. 2) and left BP's within
-1 % (``benchmarks/audit_departures.py``). With ``λ = 0``
-Eq. 2 reduces to an intensity match.
+Intensity and range live in different units. refsynth divides the intensity by
+its span over the whole image and the range by the span of the *known* range, so
+both lie in [0, 1], and sums the intensity term over the colour channels, as Eq.
+2 does (``channels="sum"``; ``"mean"`` averages them so that grey and colour
+images weigh the same, which weighs the range term C times more: on the
+Motorcycle's choosing split NP's MAR was 0.467 / 0.700 / 0.790 px with the mean
+against 0.400 / 0.624 / 0.742 with the sum at 63 / 78 / 85 %, 3 seeds). The
+range term then gets the weight ``λ`` (``range_weight``, default 1: the two
+normalised terms weigh the same, the paper's reading). λ = 16, chosen on
+synthetic rooms, loses on the Motorcycle (450×375, x-stripes 63 / 78 / 85 %, 3
+seeds): it raises NP's MAR at every fraction (0.692 / 0.813 / 0.979 against
+0.531 / 0.723 / 0.858 px with the literal Eq. 2) and leaves BP's within 1 %
+(``benchmarks/audit_departures.py``). With ``λ = 0`` Eq. 2 reduces to an
+intensity match.
 
 Missing range (a departure from the paper)
 ------------------------------------------
@@ -82,8 +81,8 @@ window as the integer table :func:`refsynth.numeric.window_weights`. Every
 partial sum of the expanded squares is then an integer below ``2**53``, so the
 products are exact whatever BLAS, thread count or SIMD width computes them,
 and :func:`refsynth.numeric.combine_eq2` turns the four sums into the distance
-by a fixed sequence of IEEE operations: bit for bit the distance of the
-literal reference, :func:`refsynth.synthesis.reference.eq2_distance`.
+by a fixed sequence of IEEE operations: bit for bit the literal Eq. 2 on the same grid,
+:func:`eq2_distance`, which the literal references compute.
 
 References
 ----------
@@ -96,10 +95,18 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth._checks import check_choice
-from refsynth.numeric import INTENSITY_BITS, RANGE_BITS, SUPPORT_PRIOR, combine_eq2, window_weights
+from refsynth.numeric import (
+    INTENSITY_BITS,
+    NO_RANGE,
+    RANGE_BITS,
+    SUPPORT_PRIOR,
+    combine_eq2,
+    window_weights,
+)
 from refsynth.synthesis.neighbourhood import gaussian_window, intensity_patches, window_offsets
 
-__all__ = ["intensity_scale", "range_scale", "neighbourhood_distance", "PatchTable"]
+__all__ = ["intensity_scale", "range_scale", "neighbourhood_distance", "eq2_distance",
+           "PatchTable"]
 
 #: The treatments of missing range in Eq. 2's range term (see above).
 MISSING_RANGE = ("mean", "ignore")
@@ -235,6 +242,68 @@ def neighbourhood_distance(
     return float(np.sum(g * intensity_term) + range_weight * range_term)
 
 
+def eq2_distance(
+    qi_a: np.ndarray,
+    qr_a: np.ndarray,
+    qi_b: np.ndarray,
+    qr_b: np.ndarray,
+    window: np.ndarray,
+    range_weight: float = 1.0,
+    missing_range: str = "mean",
+    channels: str = "sum",
+) -> float:
+    r"""Eq. 2 between two quantised neighbourhoods, literally, on the numeric contract's grid.
+
+    .. math:: \|N_a - N_b\| = \sum_v G(\sigma, v - v_0) \left[ \sum_c
+              (I^a_{v,c} - I^b_{v,c})^2 + \lambda (R^a_v - R^b_v)^2 \right]
+
+    This is the Eq. 2 that the literal references
+    (:mod:`refsynth.synthesis.nonparametric.reference`, :mod:`refsynth.synthesis.reference`)
+    compute and that :class:`PatchTable` and the fast fills equal bit for bit.
+
+    Parameters
+    ----------
+    qi_a, qi_b : ndarray of int, shape (n, n, C)
+        Quantised intensity (:func:`refsynth.numeric.quantise_intensity`).
+    qr_a, qr_b : ndarray of int, shape (n, n)
+        Quantised range (:func:`refsynth.numeric.quantise_range`),
+        :data:`~refsynth.numeric.NO_RANGE` where unknown; ``a`` is the target, ``b`` the candidate.
+    window : ndarray of int, shape (n, n)
+        :func:`refsynth.numeric.window_weights`.
+    range_weight : float, default 1
+        λ.
+    missing_range : {"mean", "ignore"}, default "mean"
+        ``"ignore"``: Eq. 2 as written; ``"mean"``: the departure above.
+    channels : {"sum", "mean"}, default "sum"
+        Eq. 2's sum over the colour channels, or their mean.
+
+    Returns
+    -------
+    float
+        Four exact integer sums — ``si = Σ_v G_v Σ_c ΔI²``, ``sr = Σ_{v∈S} G_v ΔR²``,
+        ``ws = Σ_{v∈S} G_v``, ``wa = Σ_{v∈A} G_v`` (``S``: the offsets where both have range,
+        ``A``: where the target has) — turned into the distance by
+        :func:`refsynth.numeric.combine_eq2`. The sums are exact, so their order is free.
+
+    Examples
+    --------
+    >>> from refsynth.numeric import window_weights
+    >>> qi = np.zeros((3, 3, 1), dtype=np.int64); qr = np.full((3, 3), -1)
+    >>> d = eq2_distance(qi, qr, qi + 2**16, qr, window_weights(3), missing_range="ignore")
+    >>> d == int(window_weights(3).sum()) * 2.0**-18   # ΔI = 1 everywhere: the window's sum
+    True
+    """
+    has_a, has_b = qr_a != NO_RANGE, qr_b != NO_RANGE
+    shared = has_a & has_b
+    di = qi_a - qi_b
+    dr = np.where(shared, qr_a - qr_b, 0)
+    si = int(np.sum(window[:, :, None] * di * di))
+    sr = int(np.sum(window * dr * dr))
+    divisor = qi_a.shape[2] if channels == "mean" else 1   # Eq. 2 sums the channels
+    return combine_eq2(si, sr, int(np.sum(window[shared])), int(np.sum(window[has_a])),
+                       divisor, range_weight, missing_range)
+
+
 # ----------------------------------------------------------------------------- Eq. 2, expanded
 
 
@@ -274,7 +343,7 @@ class PatchTable:
         memory traffic but rounds ``R²`` and the sums: for experiments only.
     channels : {"sum", "mean"}, default "sum"
         Eq. 2's intensity term summed over the colour channels (the paper's)
-        or averaged over them (refsynth 0.2).
+        or averaged over them.
 
     Examples
     --------

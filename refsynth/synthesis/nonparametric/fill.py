@@ -1,4 +1,9 @@
-r"""Non-parametric sampling (NP) range synthesis (§3.2.2, Eqs. 2–5).
+r"""Non-parametric sampling (NP) range synthesis, the fast fill (§3.2.2, Eqs. 2–5).
+
+The steps are those of the literal reference
+:func:`refsynth.synthesis.nonparametric.reference.np_reference`, which reads as the paper;
+this module makes the same decisions, bit for bit, at a cost per voxel independent of the
+image's size.
 
 For the voxel ``V_p`` chosen next by the fill order (:mod:`refsynth.synthesis.priority`):
 
@@ -40,7 +45,7 @@ Eq. 2 runs on the intensity and range quantised to ``2**-16`` of their spans
 confidence is rounded to ``2**-40``: every decision of the loop (Eq. 4's
 argmin, Eq. 5's threshold, the fill order) is then the same on any machine,
 and the same as in the literal reference
-:func:`refsynth.synthesis.reference.np_reference`. Ties: Eq. 4 takes the first
+:func:`refsynth.synthesis.nonparametric.reference.np_reference`. Ties: Eq. 4 takes the first
 minimum in the raster order of the disc offsets, Eq. 5's members keep that
 order and the step's draw ``u`` picks member ``floor(u |Γ'|)``.
 
@@ -49,10 +54,9 @@ The confidence of a synthesized voxel (Eq. 11)
 ``confidence_update="best"`` (the default) gives ``V_p`` the confidence
 ``C(N_best)``, the text after Eq. 11 read literally ("the confidence of the
 augmented voxel which most resemble the neighborhood of V_p is assigned to
-C(V_p)"). ``"product"`` (refsynth's reading before 0.2) gives it
-``C(p) · C(N_best)``: its own Eq. 11 value times that of the neighbourhood it
-matched best. On the Motorcycle the literal reading ties or wins at every
-fraction (the README's audit).
+C(V_p)"). ``"product"`` gives it ``C(p) · C(N_best)``: its own Eq. 11 value
+times that of the neighbourhood it matched best. On the Motorcycle the literal
+reading ties or wins at every fraction (the README's audit).
 
 A gap wider than ``r``
 ----------------------
@@ -275,18 +279,20 @@ def np_fill(
         to_grid, span_unit, full = 2.0**RANGE_BITS, span * 2.0**-RANGE_BITS, 2**RANGE_BITS
         low, high = float(np.min(range_values[known])), float(np.max(range_values[known]))
     for step in range(total):
+        # np_reference's order: the onion schedule, or the front's (tier, -P, tie) minimum
         p = int(schedule[step]) if not update else pop()
         at[()] = p
-        candidates = np.add(disc, at)
+        candidates = np.add(disc, at)  # Eq. 3, as np_reference's disc offsets
         candidates = candidates.compress(filled[candidates])
-        if candidates.size == 0:
+        if candidates.size == 0:  # np_reference's gap wider than r: d + r
             candidates = _widened_candidates(p, filled, Wp, radius)
-        # Eq. 2 of the candidates that can be the best match or in Eq. 5's set (in order)
+        # Eq. 2 (similarity.eq2_distance, bit for bit) of the candidates that can be the best
+        # match or in Eq. 5's set, in order
         candidates, d = shortlist(p, candidates, scale)
         if candidates.size == 1:  # the best match and Eq. 5's only member (j below: 0)
             best = j = 0
         else:
-            best = int(d.argmin())
+            best = int(d.argmin())  # Eq. 4: the first minimum, as np_reference's
             # Eq. 5 (eq5_set): the members within (1 + epsilon) of the best, in candidate order
             threshold[()] = scale * d[best]
             members = np.less_equal(d, threshold).nonzero()[0]  # indices into candidates
@@ -295,14 +301,14 @@ def np_fill(
         value = values_at[q]
         original_at[p] = original_at[q]
         if shifting:
-            shift = offset_shift(j)  # range_copy.offset_shift on the rows just gathered
+            shift = offset_shift(j)  # np_reference's offset_shift, on the rows just gathered
             was = int(value * to_grid)
             now = min(max(was + shift, 0), full) if shift else was  # range_copy.shifted_value
             if now != was:
                 value = now * 2.0**-RANGE_BITS
                 # (+ commutes); in the measured span in the caller's unit too
                 original_at[p] = min(max((now - was) * span_unit + original_at[q], low), high)
-        confidence = confidence_of(int(candidates[best]))  # Eq. 11 of N_best
+        confidence = confidence_of(int(candidates[best]))  # Eq. 11 of N_best (confidence_term)
         if confidence_update == "product":
             confidence = confidence_of(p) * confidence
         # on_confidence_grid: round half to even onto multiples of 2**-40
