@@ -22,16 +22,24 @@ import refsynth
 from refsynth.numeric import NO_RANGE, portable_exp
 from refsynth.synthesis.belief import reference as belief
 from refsynth.synthesis.belief.reference import bp_reference
+from refsynth.synthesis.readings import Readings, split_options
 
 #: Fig. 6 as printed, in :func:`refsynth.synthesize`'s options: the observations hold the
 #: measured range only, the training disc is ``r``, the labels give their centre values,
-#: Eq. 2 is literal, no message crosses an edge, and the 50 sweeps all run (a sweep that
+#: Eq. 2 is literal, a node on an edge sends nothing, and the 50 sweeps all run (a sweep that
 #: moves nothing is a fixed point, so stopping there changes nothing).
 PAPER = dict(method="bp", observation="measured", training_radius="fixed", range_copy="value",
-             missing_range="ignore", edge_rule="paper", tolerance=0.0, compatibility="overlap",
+             missing_range="ignore", edge_rule="silent", tolerance=0.0, compatibility="overlap",
              proposals=None, proximity=0.0, product="max", iterations=50, candidates=8,
              neighbourhood=5, radius=10.0, range_weight=1.0, colour=True, channels="sum",
              sigma_i=0.1, sigma_s=0.2, canny_sigma=0.8, use_edges=True)
+
+def paper_synthesize(image, partial, **options):
+    """``refsynth.synthesize`` under :data:`PAPER`, with ``options`` (flat) on top."""
+    keywords, readings = split_options({**PAPER, **options})
+    return refsynth.synthesize(image, partial, **keywords,
+                               readings=Readings.paper().replace(**readings))
+
 
 #: At most this many sweeps of Eq. 9 in the random cases (the paper's 50 in the hand-built).
 MAX_ITERATIONS = 6
@@ -78,7 +86,7 @@ def paper_options(draw):
 
 def fast_and_reference(image, partial, edges=None, **options):
     """``synthesize`` under :data:`PAPER` (with ``options``) and the reference."""
-    fast = refsynth.synthesize(image, partial, **{**PAPER, **options, "edges": edges})
+    fast = paper_synthesize(image, partial, **{**options, "edges": edges})
     ref = bp_reference(image, partial, edges=edges, tolerance=0.0, **options)
     return fast, ref
 
@@ -112,13 +120,16 @@ def test_reference_equals_fast_under_the_paper_options(scene, options, own_edges
 
 
 def test_the_defaults_are_the_paper_options():
-    """``bp_reference(I, R)`` with no option is ``synthesize(I, R, **PAPER)``: 50 sweeps."""
+    """``bp_reference(I, R)`` with no option is ``synthesize(I, R, method="bp",
+    readings="paper")``, whose readings are :data:`PAPER`'s: 50 sweeps."""
+    keywords, readings = split_options(PAPER)
+    assert Readings.paper().replace(**readings) == Readings.paper()
     g = np.random.default_rng(7)
     image, partial = g.random((10, 12, 3)), 1.0 + g.random((10, 12))
     partial[:, 4:9] = np.nan
     partial[g.random((10, 12)) < 0.2] = np.nan
     ref = bp_reference(image, partial)
-    fast = refsynth.synthesize(image, partial, **PAPER)
+    fast = refsynth.synthesize(image, partial, method="bp", readings="paper")
     assert ref.iterations == 50 and fast.iterations <= 50
     assert fast.range.tobytes() == ref.range.tobytes()
     assert fast.confidence.tobytes() == ref.confidence.tobytes()
@@ -131,7 +142,7 @@ def test_synthesize_defaults_are_not_the_paper():
     image = np.tile(np.linspace(0, 1, 12), (8, 1))
     partial = np.tile(np.linspace(1.0, 4.0, 12), (8, 1))
     partial[:, 3:9] = np.nan
-    paper = refsynth.synthesize(image, partial, **PAPER)
+    paper = paper_synthesize(image, partial)
     ref = bp_reference(image, partial)
     assert paper.range.tobytes() == ref.range.tobytes()
     # the paper copies measured values: every filled value is one of the measured ones
@@ -175,8 +186,8 @@ def test_paper_edge_rule_leaves_edge_nodes_their_own_evidence():
     partial[:, 2:7] = np.nan
     edges = np.zeros((8, 9), bool)
     edges[:, 4] = edges[:, 1] = True
-    paper = bp_reference(image, partial, edges=edges, iterations=5)
-    silent = bp_reference(image, partial, edges=edges, iterations=5, edge_rule="silent")
+    paper = bp_reference(image, partial, edges=edges, iterations=5, edge_rule="paper")
+    silent = bp_reference(image, partial, edges=edges, iterations=5)
     on_edge = edges[paper.order[:, 0], paper.order[:, 1]]
     log_phi = -paper.distances / (2.0 * 0.1 * 0.1)
     np.testing.assert_array_equal(paper.beliefs[on_edge], log_phi[on_edge])

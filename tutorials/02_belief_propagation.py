@@ -217,7 +217,7 @@ def compare(scene, known, figure, title):
           f"nearest: MAR {mar(nearest_fill(scene.intensity, partial), scene.range, known):.3f}; "
           f"colorization: MAR "
           f"{mar(colorization_fill(scene.intensity, partial), scene.range, known):.3f}")
-    fig6 = refsynth.synthesize(scene.intensity, partial, method="bp", **FIG6)
+    fig6 = refsynth.synthesize(scene.intensity, partial, method="bp", readings=FIG6)
     # refsynth's BP draws through NP's fill: three seeds, as for NP
     defaults = [refsynth.synthesize(scene.intensity, partial, method="bp", seed=s)
                 for s in range(3)]

@@ -57,6 +57,7 @@ from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
 from refsynth.synthesis.bp_model import COMPATIBILITIES
 from refsynth.synthesis.bp_observation import OBSERVATIONS
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
+from refsynth.synthesis.readings import split_options
 
 __all__ = ["pixel_progress", "add_synth_parser"]
 
@@ -301,6 +302,7 @@ def _cmd_synth(args) -> int:
     options = {name: getattr(args, name) for name, _ in _METHOD_OPTIONS.values()}
     options.update({name: getattr(args, name) for name in _EQ2_OPTIONS + _BOTH_OPTIONS
                     if getattr(args, name) is not None})
+    keywords, readings = split_options(options)
     report = pixel_progress("synthesizing", rate="px")
     if args.method == "bp":  # BP reports per mille of its work: shown as pixels' worth of it
         unknown = int(np.count_nonzero(~np.isfinite(partial)))
@@ -310,7 +312,7 @@ def _cmd_synth(args) -> int:
     result = synthesize(
         intensity, partial, method=args.method, seed=args.seed,
         neighbourhood=args.neighbourhood, radius=args.radius, use_edges=not args.no_edges,
-        progress=progress, **options,
+        progress=progress, **keywords, readings=readings,
     )
     scale = 1.0 if args.png_scale is None else args.png_scale
     write_array(make_parent(out), result.range, png_scale=scale)

@@ -42,6 +42,7 @@ from refsynth.evaluation.cases import (
 )
 from refsynth.evaluation.metrics import evaluate
 from refsynth.synthesis.api import synthesize
+from refsynth.synthesis.readings import split_options
 
 __all__ = ["ProgressCallback", "score", "run_case", "case_cost", "run_cases"]
 
@@ -86,8 +87,9 @@ def score(scene, known: np.ndarray, method: str, seed: int = 0) -> dict:
     if method in BASELINES:
         estimate = BASELINES[method](scene.intensity, partial)
     else:
-        estimate = synthesize(scene.intensity, partial, seed=seed,
-                              **SYNTHESIS_METHODS[method]).range
+        keywords, readings = split_options(SYNTHESIS_METHODS[method])
+        estimate = synthesize(scene.intensity, partial, seed=seed, **keywords,
+                              readings=readings).range
     seconds = time.perf_counter() - start
     scores = evaluate(estimate, scene.range, known)
     return dict(

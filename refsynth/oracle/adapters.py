@@ -132,15 +132,17 @@ def refsynth_fast(inputs: dict, options: dict) -> dict | None:
     True
     """
     import refsynth
+    from refsynth.synthesis.readings import split_options
 
     options = dict(options)
     method = options.pop("method")
     seed = options.pop("seed")
     if method not in ("np", "bp"):
         return _fast_equation(method, inputs, options)
+    keywords, readings = split_options(options)
     result = refsynth.synthesize(inputs["intensity"], inputs["partial_range"], method=method,
                                  seed=seed, edges=inputs["edges"] & bool(options["use_edges"]),
-                                 **options)
+                                 **keywords, readings=readings)
     out = dict(range=result.range, confidence=result.confidence, order=result.order)
     model = getattr(result, "bp", None)
     if model is not None:

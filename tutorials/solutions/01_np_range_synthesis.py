@@ -172,7 +172,7 @@ def exercise_3() -> None:
     for copy in ("value", "offset"):
         for ordering in ("priority", "onion"):
             fills = [refsynth.synthesize(scene.intensity, partial, seed=s, ordering=ordering,
-                                         range_copy=copy).range for s in SEEDS]
+                                         readings={"range_copy": copy}).range for s in SEEDS]
             streaks[copy, ordering] = [
                 vertical_streaks(~known & (np.abs(f - scene.range) > threshold)) for f in fills]
             errors[copy, ordering] = np.mean([mar(f, scene.range, known) for f in fills])

@@ -133,7 +133,7 @@ def exercise_2b() -> None:
     for scene, known, partial in cases:
         scores = {}
         for name, options in READINGS.items():
-            bp = refsynth.synthesize(scene.intensity, partial, method="bp", **options)
+            bp = refsynth.synthesize(scene.intensity, partial, method="bp", readings=options)
             truth = scene.range[bp.order[:, 0], bp.order[:, 1]]
             scored = np.isfinite(truth)
             errors = np.abs(bp.candidate_values[scored] - truth[scored, None])
@@ -188,7 +188,7 @@ def exercise_2c() -> None:
             runs = []
             for seed in seeds:
                 bp = refsynth.synthesize(scene.intensity, partial, method="bp", seed=seed,
-                                         **options)
+                                         readings=options)
                 truth = scene.range[bp.order[:, 0], bp.order[:, 1]]
                 scored = np.isfinite(truth)
                 errors = np.abs(bp.candidate_values[scored] - truth[scored, None])
@@ -230,7 +230,7 @@ def exercise_3() -> None:
     changes, np_changes = {}, {}
     for scene, known, partial in (bike_case(), room_case()):
         on, off = (mar(refsynth.synthesize(scene.intensity, partial, method="bp",
-                                           observation="colorization",
+                                           readings={"observation": "colorization"},
                                            use_edges=flag).range, scene.range, known)
                    for flag in (True, False))
         changes[scene.name] = off - on

@@ -6,7 +6,8 @@ Fig. 6 in the paper's order — 1 :func:`patches`, 2 :func:`training_candidates`
 :func:`beliefs` (Eq. 9), 6 :func:`map_and_confidence` (Eq. 8) — in float64, looping over
 nodes and labels, with the paper's readings as its defaults. With them it equals
 ``synthesize(..., method="bp", observation="measured", training_radius="fixed",
-range_copy="value", missing_range="ignore", edge_rule="paper", tolerance=0.0)`` bit for bit:
+range_copy="value", missing_range="ignore", tolerance=0.0)``, that is
+``synthesize(..., method="bp", readings="paper")``, bit for bit:
 the range, the confidence, the labels, Φ, Ψ, the messages and the beliefs.
 
 The float sequences a port must reproduce (the numeric contract, :mod:`refsynth.numeric`):
@@ -284,7 +285,7 @@ def bp_reference(intensity, partial_range, *, neighbourhood: int = 5, radius: fl
                  iterations: int = 50, tolerance: float | None = None, product: str = "max",
                  range_weight: float = 1.0, colour: bool = True, edges=None,
                  canny_sigma: float = 0.8, use_edges: bool = True,
-                 edge_rule: str = "paper") -> BeliefReference:
+                 edge_rule: str = "silent") -> BeliefReference:
     r"""Range synthesis by the MRF-BP algorithm of Fig. 6, as printed (§3.2.3).
 
     Parameters
@@ -308,10 +309,9 @@ def bp_reference(intensity, partial_range, *, neighbourhood: int = 5, radius: fl
     edges, canny_sigma, use_edges : ndarray of bool (H, W) or None, float, bool
         The intensity edges (None: Canny of σ = ``canny_sigma`` on the grey level brought
         to [0, 1], as :func:`refsynth.synthesize`); ``use_edges=False`` ignores them.
-    edge_rule : {"paper", "silent"}, default "paper"
-        ``"paper"``: messages do not cross edges — a node on an edge neither sends nor
-        receives (messages, and measured neighbours' terms). ``"silent"``: it only sends
-        nothing. Measured neighbours' terms join the unary term in the order right, left,
+    edge_rule : {"silent", "paper"}, default "silent"
+        ``"silent"`` (§3.2.3's rule word for word): a node on an edge sends nothing but
+        still receives. ``"paper"``: a node on an edge neither sends nor receives. Measured neighbours' terms join the unary term in the order right, left,
         below, above.
 
     Returns
