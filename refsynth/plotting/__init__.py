@@ -37,6 +37,7 @@ from refsynth.plotting.layouts import (
     panel,
     range_scale,
     result_figure,
+    save_figure,
 )
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "range_scale",
     "panel",
     "finish_figure",
+    "save_figure",
     "result_figure",
     "comparison_figure",
     "methods_figure",

@@ -28,7 +28,12 @@ import numpy as np
 from refsynth.acquisition.sampling import stripes, unknown_fraction, x_stripes_for_fraction
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.evaluation.metrics import evaluate
-from refsynth.plotting.layouts import comparison_figure, methods_figure, result_figure
+from refsynth.plotting.layouts import (
+    comparison_figure,
+    methods_figure,
+    result_figure,
+    save_figure,
+)
 from refsynth.plotting.story import run_pipeline_demo
 from refsynth.scenes import synthetic_room
 from refsynth.synthesis.api import synthesize
@@ -133,14 +138,14 @@ def run_demo(out: Path, size: int = 128, seed: int = 0, *,
     res = full[(sampling, "NP")]
     fig = result_figure(scene.intensity, res.edges, partials[sampling], res.range, scene.range,
                         units=scene.units, title=f"{scene.name}: NP, {sampling}")
-    fig.savefig(out / DEMO_FIGURES[0], dpi=110)
+    save_figure(fig, out / DEMO_FIGURES[0], dpi=110)
     fig = methods_figure(
         scene.range, partials[sampling],
         {m: (full[(sampling, m)].range, full[(sampling, m)].confidence) for m in ("NP", "BP")},
         units=scene.units, title=f"{scene.name}, {sampling}: NP and BP",
     )
-    fig.savefig(out / DEMO_FIGURES[1], dpi=110)
+    save_figure(fig, out / DEMO_FIGURES[1], dpi=110)
     fig = comparison_figure(scene.range, partials, results, units=scene.units,
                             title=f"{scene.name}, seed {seed}: MAR (Eq. 13) per method")
-    fig.savefig(out / DEMO_FIGURES[2], dpi=110)
+    save_figure(fig, out / DEMO_FIGURES[2], dpi=110)
     return rows

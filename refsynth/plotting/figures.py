@@ -49,7 +49,7 @@ from refsynth.evaluation.aggregation import aggregate
 from refsynth.evaluation.cases import grid_cases, known_mask
 from refsynth.evaluation.runner import run_cases
 from refsynth.plotting.demo import DEMO_FIGURES, ProgressFactory, run_demo
-from refsynth.plotting.layouts import finish_figure, panel, range_scale
+from refsynth.plotting.layouts import finish_figure, panel, range_scale, save_figure
 from refsynth.scenes import motorcycle, synthetic_room
 from refsynth.synthesis.api import synthesize
 
@@ -356,7 +356,7 @@ def confidence_figure(
 
 def _save(fig: Figure, out: Path, name: str, written: list[Path]) -> None:
     path = out / name
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path, dpi=DPI)
     written.append(path)
 
 

@@ -11,13 +11,17 @@ Torres-Méndez & Dudek (2008), §3.3, Figs. 11–17, doi:10.1007/s11263-007-0108
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
+from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["range_scale", "panel", "finish_figure", "result_figure", "comparison_figure",
-           "methods_figure"]
+from refsynth._files import write_atomic
+
+__all__ = ["range_scale", "panel", "finish_figure", "save_figure", "result_figure",
+           "comparison_figure", "methods_figure"]
 
 RANGE_CMAP = "viridis"
 ERROR_CMAP = "magma"
@@ -117,6 +121,45 @@ def finish_figure(fig: Figure, title: str | None = None) -> Figure:
         fig.suptitle(title)
     fig.tight_layout()
     return fig
+
+
+def save_figure(fig: Figure, path: str | os.PathLike, *, dpi: float) -> Path:
+    """Save ``fig`` to ``path`` all or nothing, in the format its suffix names.
+
+    Every figure refsynth writes is saved here: the image is rendered into
+    a temporary file beside ``path`` and renamed over it once complete
+    (:func:`refsynth._files.write_atomic`).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : str or path-like
+        The file; its suffix (``.png``, ``.pdf``, ``.svg`` …) names the format.
+    dpi : float
+        Dots per inch.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OSError
+        Naming ``path``, if it cannot be written (the previous file is then
+        intact).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = save_figure(Figure(figsize=(1, 1)), Path(tempfile.mkdtemp()) / "a.png", dpi=10)
+    >>> path.read_bytes()[:4]
+    b'\\x89PNG'
+    """
+    path = Path(path)
+    kind = path.suffix[1:].lower() or None
+    return write_atomic(path, lambda stream: fig.savefig(stream, format=kind, dpi=dpi))
 
 
 def result_figure(

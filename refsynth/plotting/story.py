@@ -67,6 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
+from refsynth._files import write_atomic
 from refsynth.acquisition import RigPose, ScanSettings, load_scan, simulate_scan
 from refsynth.acquisition.manifest import saved_manifest
 from refsynth.evaluation.baselines import BASELINES
@@ -82,7 +83,7 @@ from refsynth.model import (
     refine_poses,
     write_ply,
 )
-from refsynth.plotting.layouts import result_figure
+from refsynth.plotting.layouts import result_figure, save_figure
 from refsynth.plotting.model_view import model_view_figure
 from refsynth.plotting.story_truth import point_errors, triangle_checks, true_range
 from refsynth.registration import register_scan
@@ -279,8 +280,7 @@ def _odometry(poses: Sequence[Pose], seed: int, error: tuple[float, float]) -> l
 
 
 def _write_json(path: Path, data) -> Path:
-    path.write_text(json.dumps(data, indent=1) + "\n")
-    return path
+    return write_atomic(path, (json.dumps(data, indent=1) + "\n").encode("utf-8"))
 
 
 def _pose_entry(pose: Pose) -> dict:
@@ -430,7 +430,7 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods: Sequence[str] = ("np", 
     fig = model_view_figure(world, colours=("intensity", "confidence"), clip_above=_CLIP_ABOVE,
                             title=f"{len(positions)} scan positions merged ({merged_method.upper()}"
                             f", ICP-refined odometry): stage 3")
-    fig.savefig(out / "model_view.png", dpi=100)
+    save_figure(fig, out / "model_view.png", dpi=100)
     files.append(out / "model_view.png")
     first = positions[0]
     for method, result in first.results.items():
@@ -438,7 +438,7 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods: Sequence[str] = ("np", 
                             first.truth, units="m",
                             title=f"simulated rig, position 1, registered panorama: "
                             f"{method.upper()}")
-        fig.savefig(out / f"pipeline_{method}.png", dpi=110)
+        save_figure(fig, out / f"pipeline_{method}.png", dpi=110)
         files.append(out / f"pipeline_{method}.png")
     work.finish()
     summary["targets"] = targets
