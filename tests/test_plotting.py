@@ -182,3 +182,15 @@ def test_panels_with_and_without_colour_bars_are_aligned(shape):
     for boxes in columns.values():
         assert max(b.width for b in boxes) - min(b.width for b in boxes) < 1e-3
         assert max(b.x0 for b in boxes) - min(b.x0 for b in boxes) < 1e-3
+
+
+def test_pixels_without_truth_are_named_beside_the_measured_ones():
+    truth, known, partial = _ramp_case()
+    result = np.where(known, truth, truth + 0.5)
+    fig = result_figure(truth, known, partial, result, truth, units="m")
+    assert [t.get_text() for t in fig.axes[5].get_legend().get_texts()] == ["measured"]
+    truth = truth.copy()
+    truth[4, 4] = np.nan  # an occlusion: no ground truth there
+    fig = result_figure(truth, known, partial, result, truth, units="m")
+    labels = [t.get_text() for t in fig.axes[5].get_legend().get_texts()]
+    assert labels == ["measured", "white: no truth"]

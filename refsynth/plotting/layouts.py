@@ -149,12 +149,20 @@ def colour_bar_extend(image: np.ndarray, vmin: float, vmax: float) -> str:
             (True, True): "both"}[(low, high)]
 
 
-def _measured_overlay(ax, measured: np.ndarray, fontsize: float) -> None:
-    """Paint ``measured`` pixels :data:`MEASURED_COLOUR` over the image; say so below it."""
+def _measured_overlay(ax, measured: np.ndarray, blank: np.ndarray, fontsize: float) -> None:
+    """Paint ``measured`` pixels :data:`MEASURED_COLOUR` over the image; say so below it.
+
+    ``blank``: the other pixels without a value (no ground truth to score them against),
+    left white and, if there are any, named in the legend too.
+    """
     rgba = np.zeros((*measured.shape, 4))
     rgba[measured] = (*MEASURED_COLOUR, 1.0)
     ax.imshow(rgba, interpolation="nearest")
-    ax.legend(handles=[Patch(facecolor=MEASURED_COLOUR, edgecolor="none", label="measured")],
+    handles = [Patch(facecolor=MEASURED_COLOUR, edgecolor="none", label="measured")]
+    if np.any(blank & ~measured):
+        handles.append(Patch(facecolor="white", edgecolor="0.3", linewidth=0.5,
+                             label="white: no truth"))
+    ax.legend(handles=handles, ncols=len(handles), columnspacing=1.0,
               loc="upper left", bbox_to_anchor=(0.0, 0.0), fontsize=fontsize - 1,
               frameon=False, borderaxespad=0.1, handlelength=1.0, handleheight=0.8,
               borderpad=0.1)
@@ -184,7 +192,8 @@ def panel(ax, image, title: str, *, fontsize: float = 9, colorbar: bool | str = 
     measured : ndarray of shape (H, W), bool, optional
         Pixels painted :data:`MEASURED_COLOUR` over the image (a grey in no
         colour map), with a legend entry "measured" below the panel: for the
-        panels that show only synthesized pixels.
+        panels that show only synthesized pixels. Other pixels left blank (NaN:
+        no ground truth to score them) stay white, and the legend says so.
     **kwargs
         Passed to ``ax.imshow`` (``cmap``, ``vmin``, ``vmax`` …).
 
@@ -211,7 +220,8 @@ def panel(ax, image, title: str, *, fontsize: float = 9, colorbar: bool | str = 
         kwargs["cmap"] = "gray"
     handle = ax.imshow(image, interpolation="nearest", **kwargs)
     if measured is not None:
-        _measured_overlay(ax, np.asarray(measured, dtype=bool), fontsize)
+        blank = ~np.isfinite(image) if image.ndim == 2 else np.zeros(image.shape[:2], bool)
+        _measured_overlay(ax, np.asarray(measured, dtype=bool), blank, fontsize)
     ax.set_title(title, fontsize=fontsize)
     ax.set_xticks([])
     ax.set_yticks([])

@@ -30,8 +30,11 @@ the paper (§1), on the simulated rig's room:
    measured points (:func:`~refsynth.model.refine_poses`; the synthesized
    ones carry stage 2's errors) and the models merged
    (:func:`~refsynth.model.merge_models`) into ``room.ply``, drawn
-   obliquely coloured by intensity and by confidence
-   (:func:`refsynth.plotting.model_view.model_view_figure`).
+   obliquely from behind the scan positions, coloured by intensity and by
+   confidence (:func:`refsynth.plotting.model_view.model_view_figure`), the
+   positions marked. What no position saw has no triangles and shows blank,
+   as the figure's caption says: in seed 0's room, the floor and the wall
+   behind the boxes, whose tops are just below the scanners' height.
 
 Along the way the targets of stage 3 are measured against the truth
 (:mod:`refsynth.plotting.story_truth`): the model's points' distance to the
