@@ -10,8 +10,10 @@ import pytest
 import refsynth
 from refsynth.cli.figures import add_figures_parser
 from refsynth.evaluation import aggregate
+from refsynth.plotting import figures as figures_module
 from refsynth.plotting.figures import (
     FIGURES,
+    PIPELINE_FIGURES,
     confidence_figure,
     fill_order_image,
     mar_curve_figure,
@@ -42,12 +44,36 @@ def test_the_committed_figures_are_exactly_the_commands_files():
     assert committed == sorted(FIGURES)
 
 
-def test_quick_run_writes_every_figure(tmp_path, capsys):
+def test_quick_run_writes_every_figure_but_the_main_demos(tmp_path, capsys):
     assert _figures(["--out", str(tmp_path), "--quick"]) == 0
     out = capsys.readouterr().out
     for name in FIGURES:
+        if name in PIPELINE_FIGURES:  # the main demo's scans take a minute: not in --quick
+            assert not (tmp_path / name).exists()
+            continue
         assert (tmp_path / name).stat().st_size > 5_000, name
         assert f"wrote {tmp_path / name}" in out
+
+
+def test_the_main_demos_figures_are_copied_from_its_run(tmp_path, monkeypatch):
+    """figures/ takes model_view.png and the panorama's figures from `demo`'s own run."""
+    calls = []
+
+    def story(out, seed=0, progress=None):
+        calls.append(seed)
+        progress("position 1: scan", 0.0)
+        progress("position 1: scan", 0.1)
+        for name in (*PIPELINE_FIGURES, "room.ply", "story.json"):
+            (out / name).write_bytes(name.encode())
+        return {}
+
+    monkeypatch.setattr(figures_module, "run_pipeline_demo", story)
+    said = []
+    written = figures_module._pipeline_figures(tmp_path, said.append)
+    assert calls == [0] and said == ["  demo: position 1: scan"]
+    assert [p.name for p in written] == list(PIPELINE_FIGURES)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(PIPELINE_FIGURES)
+    assert (tmp_path / "model_view.png").read_bytes() == b"model_view.png"
 
 
 def test_figures_rejects_a_file_as_the_output_folder(tmp_path):
@@ -103,3 +129,34 @@ def test_mar_curve_accepts_aggregated_rows():
     line = fig.axes[0].lines[0]
     np.testing.assert_allclose(np.asarray(line.get_ydata(), dtype=float), [1.0, 1.28])
 
+
+
+def _bars(fig):
+    return [im.colorbar.ax.get_ylabel() for ax in fig.axes for im in ax.images
+            if im.colorbar is not None]
+
+
+def test_the_figures_colour_bars_carry_units_and_measured_pixels_are_grey():
+    image, truth, partial = _tiny()
+    known = np.isfinite(partial)
+    np_result = refsynth.synthesize(image, partial, seed=0)
+    bp_result = refsynth.synthesize(image, partial, method="bp", iterations=3)
+    fig = ordering_figure(truth, [("x", partial, {"priority": np_result})], units="m")
+    assert _bars(fig) == ["fill order (0 first, 1 last)", "range (m)", "|residual| (m)"]
+    for ax in (fig.axes[0], fig.axes[2]):  # fill order and residual: measured pixels grey
+        overlay = ax.images[1].get_array()
+        assert np.array_equal(overlay[..., 3] > 0, known)
+        assert [t.get_text() for t in ax.get_legend().get_texts()] == ["measured"]
+    fig = scenes_figure([("a", truth, partial, {"NP": np_result.range}),
+                         ("b", truth, partial, {"NP": np_result.range})],
+                        units="disparity (px)")
+    assert _bars(fig) == ["disparity (px)"] * 2  # one per row
+    fig = confidence_figure([("room", truth, partial, bp_result),
+                             ("moto", truth, partial, bp_result)], bins=4,
+                            units=["m", "disparity (px)"])
+    assert _bars(fig) == ["range (m)", "|error| (m)", "confidence (0 to 1)",
+                          "disparity (px)", "|error| (disparity px)",
+                          "confidence (0 to 1)"]
+    assert fig.axes[3].get_ylabel() == "MAR of the decile (m)"
+    with pytest.raises(ValueError, match="`units`"):
+        confidence_figure([("room", truth, partial, bp_result)], units=["m", "px"])

@@ -68,3 +68,18 @@ def test_draw_model_checks_its_inputs(model):
         draw_model(ax, model, clip_above=-100.0)
     with pytest.raises(ValueError, match="`colours`"):
         model_view_figure(model, colours=())
+
+
+def test_the_view_marks_the_scan_positions_and_says_what_a_blank_is(model):
+    eye, target = oblique_eye(model.vertices)
+    fig = model_view_figure(model, colours=("intensity", "confidence"), eye=eye, target=target,
+                            markers={"scan 1": (0.0, 0.0, 0.0), "behind": tuple(2 * eye - target)},
+                            note="Blank: not seen")
+    for ax in fig.axes[:2]:
+        assert [t.get_text() for t in ax.texts] == ["scan 1"]  # a point behind the eye is left out
+        (line,) = ax.lines
+        u, v, _ = view_coordinates(np.zeros((1, 3)), eye, target)
+        assert (line.get_xdata()[0], line.get_ydata()[0]) == pytest.approx((u[0], v[0]))
+    assert fig.get_supxlabel() == "Blank: not seen"
+    bar_labels = [ax.get_ylabel() for ax in fig.axes[2:]]
+    assert bar_labels == ["confidence (0 to 1; 1 = measured)"]

@@ -3,7 +3,7 @@
 :func:`add_figures_parser` adds the subcommand to the main parser of
 :mod:`refsynth.cli.main`; the figures themselves are
 :func:`refsynth.plotting.figures.make_figures`'s (the analogues of the
-paper's Figs. 7, 11, 13, 16 and 17, and the demo's). Several need the
+paper's Figs. 7, 11, 13, 16 and 17, and the demos'). Several need the
 Middlebury Motorcycle, hence scikit-image (the ``data`` extra): it is checked
 before any work, as is the output folder. Progress goes to stderr. User
 errors are raised as ValueError / OSError / ImportError with a one-line
@@ -53,7 +53,8 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     parser = add_subcommand(
         subparsers, "figures",
         help="regenerate figures/ (the paper's figure analogues and the demo's)",
-        description="Write every figure of figures/: the demo's three, the analogues of the "
+        description="Write every figure of figures/: the main demo's three (the model view "
+        "and the panorama's NP and BP), the quick demo's three, the analogues of the "
         "paper's Figs. 7, 11, 13, 16 and 17, MAR against the unknown fraction, and BP's "
         "confidence against its error. Deterministic: the same PNG bytes on every run. "
         'Needs scikit-image for the Motorcycle (pip install "refsynth[data]").',
@@ -61,8 +62,8 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     )
     parser.add_argument("--out", default="figures", help="output folder (default figures)")
     parser.add_argument("--quick", action="store_true",
-                        help="small scenes, for a smoke test (not the committed figures; "
-                        "default off)")
+                        help="small scenes and no main demo, for a smoke test (not the "
+                        "committed figures; default off)")
     parser.add_argument("--jobs", type=integer, default=1,
                         help="local processes for the MAR-against-fraction grid (default 1)")
     return parser

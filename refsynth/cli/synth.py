@@ -329,7 +329,7 @@ def _cmd_synth(args) -> int:
             write_array(confidence_path, result.confidence)
             print(f"wrote {confidence_path}: confidence in [0, 1]")
     if figure_path is not None:
-        fig = result_figure(intensity, result.edges, partial, result.range,
+        fig = result_figure(intensity, result.edges, partial, result.range, units=unit,
                             title=f"{Path(args.image).name}: {args.method.upper()}")
         save_figure(fig, make_parent(figure_path), dpi=110)
         print(f"wrote {figure_path}")

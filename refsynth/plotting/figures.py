@@ -8,8 +8,11 @@ The analogues of the paper's figures on refsynth's scenes, and the demo's;
 file                                      what
 ========================================  ===============================================
 ``demo_result.png``,                      :func:`refsynth.plotting.demo.run_demo` (exactly
-``demo_np_bp.png``,                       what ``python -m refsynth demo --out figures``
-``demo_comparison.png``                   writes)
+``demo_np_bp.png``,                       what ``python -m refsynth demo --quick --out
+``demo_comparison.png``                   figures`` writes)
+``model_view.png``,                       :func:`refsynth.plotting.story.run_pipeline_demo`:
+``pipeline_np.png``,                      the main demo's figures, exactly what ``python -m
+``pipeline_bp.png``                       refsynth demo`` writes (run in a temporary folder)
 ``fig07_ordering.png``                    Fig. 7: priority (Eqs. 10–12) against onion-peel
                                           order: fill order, result, residual
 ``fig11_samplings_room.png``              Figs. 11/Table 1: the grid samplings × NP × BP
@@ -26,7 +29,15 @@ Scenes: the synthetic room 128×128 (metres) and the Middlebury 2014
 Motorcycle at 225×188 (disparity in pixels of that size) for the heavier
 panels (Figs. 16, 17 and the confidence map). ``quick=True`` (``--quick``)
 shrinks everything (rooms 32×32, Motorcycle 64×40, two fractions and one
-seed) for tests.
+seed) and leaves out the main demo's three figures (its scans alone take
+most of a minute), for tests.
+
+Every colour bar names its unit (:func:`refsynth.plotting.layouts.unit_label`);
+range and error scales stop at percentiles of the values shown, with an
+arrow where values lie beyond; panels that show only synthesized pixels
+(residuals, confidence, fill order) paint the measured ones
+:data:`~refsynth.plotting.layouts.MEASURED_COLOUR`, a grey in no colour map,
+labelled "measured".
 Every random choice flows from fixed seeds and no figure shows a time, so the
 command writes byte-identical PNGs on every run (with the same matplotlib).
 
@@ -38,6 +49,7 @@ Tables 1–4), doi:10.1007/s11263-007-0108-2.
 
 from __future__ import annotations
 
+import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,16 +57,29 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from refsynth._files import write_atomic
 from refsynth.evaluation.aggregation import aggregate
 from refsynth.evaluation.cases import grid_cases, known_mask
 from refsynth.evaluation.runner import run_cases
 from refsynth.plotting.demo import DEMO_FIGURES, ProgressFactory, run_demo
-from refsynth.plotting.layouts import finish_figure, panel, range_scale, save_figure
+from refsynth.plotting.layouts import (
+    ERROR_CMAP,
+    colour_bar_extend,
+    error_top,
+    finish_figure,
+    panel,
+    panel_grid,
+    range_scale,
+    save_figure,
+    unit_label,
+)
+from refsynth.plotting.story import run_pipeline_demo
 from refsynth.scenes import motorcycle, synthetic_room
 from refsynth.synthesis.api import synthesize
 
 __all__ = [
     "FIGURES",
+    "PIPELINE_FIGURES",
     "fill_order_image",
     "ordering_figure",
     "scenes_figure",
@@ -63,9 +88,14 @@ __all__ = [
     "make_figures",
 ]
 
+#: The figures of the main demo (``python -m refsynth demo``,
+#: :func:`refsynth.plotting.story.run_pipeline_demo`) that :func:`make_figures` copies.
+PIPELINE_FIGURES = ("model_view.png", "pipeline_np.png", "pipeline_bp.png")
+
 #: Every file :func:`make_figures` writes, in order.
 FIGURES = (
     *DEMO_FIGURES,
+    *PIPELINE_FIGURES,
     "fig07_ordering.png",
     "fig11_samplings_room.png",
     "fig13_edges.png",
@@ -86,11 +116,13 @@ class _Settings:
     fractions: tuple[int, ...]  # x-stripe unknown percentages of mar_vs_unknown
     curve_size: str  # size spec of mar_vs_unknown's scenes
     seeds: int  # NP seeds of mar_vs_unknown
+    story: bool  # run the main demo (about a minute, most of it the rig's scans)
 
 
 FULL = _Settings(room=128, moto=(225, 188), demo=128, fractions=(40, 50, 63, 70, 78, 85),
-                 curve_size="128", seeds=3)
-QUICK = _Settings(room=32, moto=(64, 40), demo=32, fractions=(50, 78), curve_size="32", seeds=1)
+                 curve_size="128", seeds=3, story=True)
+QUICK = _Settings(room=32, moto=(64, 40), demo=32, fractions=(50, 78), curve_size="32", seeds=1,
+                  story=False)
 
 
 # ----------------------------------------------------------------------------- figures
@@ -168,22 +200,24 @@ def ordering_figure(
     ['x25, onion: fill order', 'synthesized range', '|residual|, MAR 0']
     """
     rows = sum(len(results) for _, _, results in cases)
-    fig = Figure(figsize=(3.0 * 3 + 0.6, 2.6 * rows))
-    axes = np.atleast_2d(fig.subplots(rows, 3))
+    fig, axes = panel_grid(rows, 3, (3.3 * 3 + 0.6, 2.7 * rows))
     scale = range_scale(truth)
     row = 0
     for sampling, partial, results in cases:
         known = np.isfinite(partial)
         errors = {name: np.where(~known & np.isfinite(truth), np.abs(r.range - truth), np.nan)
                   for name, r in results.items()}
-        top = max(float(np.nanpercentile(e, 99)) for e in errors.values()) or 1.0
+        top = error_top(*errors.values())
         for name, result in results.items():
             _show(axes[row, 0], fill_order_image(truth.shape, result.order),
-                  f"{sampling}, {name}: fill order", cmap="turbo", vmin=0, vmax=1)
-            _show(axes[row, 1], result.range, "synthesized range", colorbar=True, **scale)
+                  f"{sampling}, {name}: fill order", cmap="turbo", vmin=0, vmax=1,
+                  measured=known, colorbar="fill order (0 first, 1 last)")
+            _show(axes[row, 1], result.range, "synthesized range",
+                  colorbar=unit_label("range", units), **scale)
             mar = _mar(result.range, truth, known)
             _show(axes[row, 2], errors[name], f"|residual|, MAR {mar:.3g} {units}".strip(),
-                  cmap="magma", vmin=0, vmax=top, colorbar=True)
+                  cmap=ERROR_CMAP, vmin=0, vmax=top, measured=known,
+                  colorbar=unit_label("|residual|", units))
             row += 1
     return finish_figure(fig, title)
 
@@ -208,7 +242,9 @@ def scenes_figure(
     Returns
     -------
     matplotlib.figure.Figure
-        Each row has its own colour scale (the scenes differ), and no colour bar.
+        Each row has its own colour scale (the scenes differ) and its colour bar, in
+        ``units``; the scale spans the percentiles of
+        :data:`~refsynth.plotting.layouts.RANGE_PERCENTILES` (arrows where clipped).
 
     Examples
     --------
@@ -220,8 +256,7 @@ def scenes_figure(
     """
     methods = list(dict.fromkeys(m for *_, results in rows for m in results))
     cols = len(methods) + 2
-    fig = Figure(figsize=(2.6 * cols, 2.5 * len(rows)))
-    axes = np.atleast_2d(fig.subplots(len(rows), cols))
+    fig, axes = panel_grid(len(rows), cols, (2.6 * cols + 0.8, 2.5 * len(rows)))
     for i, (name, truth, partial, results) in enumerate(rows):
         known = np.isfinite(partial)
         scale = range_scale(truth)
@@ -233,7 +268,13 @@ def scenes_figure(
             mar = _mar(results[method], truth, known)
             _show(axes[i, j], results[method], f"{method}: MAR {mar:.3g} {units}".strip(),
                   **scale)
-        _show(axes[i, -1], truth, "ground truth", **scale)
+        handle = _show(axes[i, -1], truth, "ground truth", **scale)
+        shown = np.concatenate([np.ravel(truth), np.ravel(partial),
+                                *(np.ravel(r) for r in results.values())])
+        bar = fig.colorbar(handle, ax=axes[i, :], fraction=0.03, pad=0.01,
+                           extend=colour_bar_extend(shown[None], scale["vmin"], scale["vmax"]))
+        bar.set_label(unit_label("range", units), fontsize=8)
+        bar.ax.tick_params(labelsize=7)
     return finish_figure(fig, title)
 
 
@@ -293,6 +334,7 @@ def confidence_figure(
     cases: Sequence[tuple[str, np.ndarray, np.ndarray, object]],
     *,
     bins: int = 10,
+    units: str | Sequence[str] = "",
     title: str | None = None,
 ) -> Figure:
     """BP's confidence against its absolute error: maps, and MAR per confidence decile.
@@ -304,15 +346,19 @@ def confidence_figure(
         ``synthesize(..., method="bp")``.
     bins : int, default 10
         Quantile bins of the synthesized pixels' confidence.
+    units : str or sequence of str, optional
+        The range unit of every case, or one per case: the colour bars' and the
+        decile plot's unit.
     title : str, optional
         The figure's title.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Per case: the BP result, its absolute error, its confidence, and the
-        MAR of the synthesized pixels in each confidence bin (a confidence
-        that means something falls from left to right).
+        Per case: the BP result, its absolute error (up to its 99th percentile,
+        an arrow above), its confidence (measured pixels grey), and the MAR of
+        the synthesized pixels in each confidence bin (a confidence that means
+        something falls from left to right).
 
     Examples
     --------
@@ -323,17 +369,21 @@ def confidence_figure(
     >>> [ax.get_title() for ax in figure.axes[:3]]
     ['ramp: BP', '|error|', 'confidence (belief)']
     """
-    fig = Figure(figsize=(3.0 * 4 + 0.8, 2.8 * len(cases)))
-    axes = np.atleast_2d(fig.subplots(len(cases), 4))
-    for i, (name, truth, partial, result) in enumerate(cases):
+    fig, axes = panel_grid(len(cases), 4, (3.3 * 4 + 0.8, 2.9 * len(cases)))
+    per_case = [units] * len(cases) if isinstance(units, str) else list(units)
+    if len(per_case) != len(cases):
+        raise ValueError(f"The parameter `units` must be one string or one per case "
+                         f"({len(cases)}), got {len(per_case)}")
+    for i, ((name, truth, partial, result), unit) in enumerate(zip(cases, per_case)):
         known = np.isfinite(partial)
         scored = ~known & np.isfinite(truth)
         error = np.where(scored, np.abs(result.range - truth), np.nan)
-        _show(axes[i, 0], result.range, f"{name}: BP", colorbar=True, **range_scale(truth))
-        _show(axes[i, 1], error, "|error|", cmap="magma", vmin=0,
-              vmax=float(np.nanpercentile(error, 99)) or 1.0, colorbar=True)
+        _show(axes[i, 0], result.range, f"{name}: BP", colorbar=unit_label("range", unit),
+              **range_scale(truth))
+        _show(axes[i, 1], error, "|error|", cmap=ERROR_CMAP, vmin=0, vmax=error_top(error),
+              measured=known, colorbar=unit_label("|error|", unit))
         _show(axes[i, 2], np.where(known, np.nan, result.confidence), "confidence (belief)",
-              cmap="viridis", vmin=0, vmax=1, colorbar=True)
+              cmap="viridis", vmin=0, vmax=1, measured=known, colorbar="confidence (0 to 1)")
         conf, err = result.confidence[scored], error[scored]
         order = np.argsort(conf, kind="stable")
         chunks = np.array_split(order, bins)
@@ -343,7 +393,7 @@ def confidence_figure(
         ax.plot(centres, mars, marker="o")
         ax.axhline(float(np.mean(err)), color="grey", linestyle=":", label="all")
         ax.set_xlabel("confidence (mean of the decile)", fontsize=8)
-        ax.set_ylabel("MAR of the decile", fontsize=8)
+        ax.set_ylabel(unit_label("MAR of the decile", unit), fontsize=8)
         ax.set_title("error against confidence", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.legend(fontsize=7)
@@ -383,6 +433,21 @@ def _np_and_bp(scene, samplings: Sequence[str], kept: str):
     return rows, case
 
 
+def _pipeline_figures(out: Path, say: Callable[[str], None]) -> list[Path]:
+    """The main demo in a temporary folder; its :data:`PIPELINE_FIGURES` copied into ``out``."""
+    stages: list[str] = []
+
+    def story_stage(stage: str, fraction: float) -> None:
+        if not stages or stages[-1] != stage:
+            stages.append(stage)
+            say(f"  demo: {stage}")
+
+    with tempfile.TemporaryDirectory(prefix="refsynth-figures-") as folder:
+        run_pipeline_demo(Path(folder), seed=0, progress=story_stage)
+        return [write_atomic(out / name, (Path(folder) / name).read_bytes())
+                for name in PIPELINE_FIGURES]
+
+
 def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
                  log: Callable[[str], None] | None = None,
                  progress: ProgressFactory | None = None) -> list[Path]:
@@ -393,7 +458,7 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     out : Path
         The folder (created if missing).
     quick : bool, default False
-        Small scenes, for tests (see the module docstring).
+        Small scenes and no main demo, for tests (see the module docstring).
     jobs : int, default 1
         Local processes for the MAR-against-unknown-fraction grid
         (:func:`refsynth.evaluation.runner.run_cases`); the figures do not depend on it.
@@ -413,7 +478,8 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
 
     >>> import tempfile
     >>> written = make_figures(Path(tempfile.mkdtemp()), quick=True)  # doctest: +SKIP
-    >>> [path.name for path in written] == list(FIGURES)  # doctest: +SKIP
+    >>> names = [path.name for path in written]  # doctest: +SKIP
+    >>> names == [name for name in FIGURES if name not in PIPELINE_FIGURES]  # doctest: +SKIP
     True
     """
     say = log or (lambda text: None)
@@ -425,6 +491,11 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
     say("demo figures (refsynth.plotting.demo.run_demo)")
     run_demo(out, size=settings.demo, progress=progress)
     written += [out / name for name in DEMO_FIGURES]
+
+    if settings.story:
+        say("the main demo's figures (refsynth.plotting.story.run_pipeline_demo, exactly "
+            "what `python -m refsynth demo` writes)")
+        written += _pipeline_figures(out, say)
 
     room = synthetic_room((settings.room, settings.room), seed=0)
     moto = motorcycle(settings.moto)
@@ -494,9 +565,10 @@ def make_figures(out: Path, *, quick: bool = False, jobs: int = 1,
           out, "mar_vs_unknown.png", written)
 
     say("BP confidence against error")
-    _save(confidence_figure([bp_room, bp_moto],
+    _save(confidence_figure([bp_room, bp_moto], units=[room.units, moto.units],
                             title="BP: confidence (Eq. 8 belief) against absolute error"),
           out, "bp_confidence.png", written)
-    assert [p.name for p in written] == list(FIGURES)
+    assert [p.name for p in written] == [name for name in FIGURES
+                                         if settings.story or name not in PIPELINE_FIGURES]
     return written
 

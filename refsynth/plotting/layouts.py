@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
 from refsynth._files import write_atomic
 
@@ -25,10 +26,54 @@ __all__ = ["range_scale", "panel", "finish_figure", "save_figure", "result_figur
 
 RANGE_CMAP = "viridis"
 ERROR_CMAP = "magma"
+#: The neutral grey of measured pixels in the panels that show only synthesized ones
+#: (residuals, confidence, fill order): no colour map of refsynth's contains it, so a
+#: measured pixel never reads as a value on the colour bar.
+MEASURED_COLOUR = (0.6, 0.6, 0.6)
+#: Range panels' colour limits: these percentiles of the shown values (an outlier does not
+#: stretch the scale; the colour bar's arrows say that values lie beyond).
+RANGE_PERCENTILES = (0.5, 99.5)
+#: Error panels' colour limit: this percentile of the shown errors.
+ERROR_PERCENTILE = 99.0
+
+__all__ += ["MEASURED_COLOUR", "unit_label", "error_top", "colour_bar_extend",
+            "panel_grid"]
+
+
+def unit_label(quantity: str, units: str = "") -> str:
+    """A colour bar's label: the quantity and its unit, ``"range units"`` when unknown.
+
+    Parameters
+    ----------
+    quantity : str
+        What the bar measures, e.g. ``"range"`` (a disparity map's: its ``units``) or
+        ``"|residual|"``.
+    units : str
+        The scene's range unit (``"m"``, ``"disparity (px)"`` …); empty when unknown.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> unit_label("range", "m"), unit_label("|residual|", "disparity (px)")
+    ('range (m)', '|residual| (disparity px)')
+    >>> unit_label("range", "disparity (px)"), unit_label("range")
+    ('disparity (px)', 'range (range units)')
+    """
+    if quantity == "range" and units.startswith("disparity"):
+        return units  # a disparity map's "range" is a disparity
+    unit = (units or "range units").replace("(", "").replace(")", "").strip()
+    return f"{quantity} ({unit})"
 
 
 def range_scale(*images: np.ndarray | None) -> dict:
     """``imshow`` keywords for range: the range colour map over the images' finite values.
+
+    The limits are the :data:`RANGE_PERCENTILES` of the values (nearest rank, so
+    each limit is a value shown): one outlier does not stretch the scale; the
+    colour bar of :func:`panel` then ends in an arrow on the clipped side.
 
     Parameters
     ----------
@@ -44,12 +89,87 @@ def range_scale(*images: np.ndarray | None) -> dict:
     --------
     >>> range_scale(np.array([[1.0, np.nan], [np.inf, 2.5]]), None)
     {'cmap': 'viridis', 'vmin': 1.0, 'vmax': 2.5}
+    >>> ramp = np.append(np.linspace(1.0, 2.0, 999), 50.0)  # one outlier in a thousand
+    >>> range_scale(ramp)["vmax"] < 2.0
+    True
     """
     values = np.concatenate([im[np.isfinite(im)].ravel() for im in images if im is not None])
-    return dict(cmap=RANGE_CMAP, vmin=float(values.min()), vmax=float(values.max()))
+    low, high = np.percentile(values, RANGE_PERCENTILES, method="nearest")
+    return dict(cmap=RANGE_CMAP, vmin=float(low), vmax=float(high))
 
 
-def panel(ax, image, title: str, *, fontsize: float = 9, colorbar: bool | str = False, **kwargs):
+def error_top(*errors: np.ndarray) -> float:
+    """The top of an error panel's colour scale: the :data:`ERROR_PERCENTILE` of the errors.
+
+    Parameters
+    ----------
+    *errors : ndarray
+        Absolute errors, NaN where not shown (measured or not scored).
+
+    Returns
+    -------
+    float
+        Above 0 (1.0 when every error is 0 or none is shown).
+
+    Examples
+    --------
+    >>> error_top(np.append(np.full(999, 0.1), 40.0), np.array([np.nan]))
+    0.1
+    """
+    values = np.concatenate([np.asarray(e, dtype=np.float64).ravel() for e in errors])
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        return 1.0
+    return float(np.percentile(values, ERROR_PERCENTILE, method="nearest")) or 1.0
+
+
+def colour_bar_extend(image: np.ndarray, vmin: float, vmax: float) -> str:
+    """Which ends of a colour bar need an arrow: where shown values lie beyond its limits.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W)
+        The values shown (NaN and inf are ignored).
+    vmin, vmax : float
+        The colour limits.
+
+    Returns
+    -------
+    {"neither", "min", "max", "both"}
+        The ``extend`` of :meth:`matplotlib.figure.Figure.colorbar`.
+
+    Examples
+    --------
+    >>> colour_bar_extend(np.array([[0.0, 5.0, np.nan]]), 0.0, 2.0)
+    'max'
+    """
+    values = image[np.isfinite(image)] if image.ndim == 2 else np.empty(0)
+    low, high = bool(np.any(values < vmin)), bool(np.any(values > vmax))
+    return {(False, False): "neither", (True, False): "min", (False, True): "max",
+            (True, True): "both"}[(low, high)]
+
+
+def _measured_overlay(ax, measured: np.ndarray, blank: np.ndarray, fontsize: float) -> None:
+    """Paint ``measured`` pixels :data:`MEASURED_COLOUR` over the image; say so below it.
+
+    ``blank``: the other pixels without a value (no ground truth to score them against),
+    left white and, if there are any, named in the legend too.
+    """
+    rgba = np.zeros((*measured.shape, 4))
+    rgba[measured] = (*MEASURED_COLOUR, 1.0)
+    ax.imshow(rgba, interpolation="nearest")
+    handles = [Patch(facecolor=MEASURED_COLOUR, edgecolor="none", label="measured")]
+    if np.any(blank & ~measured):
+        handles.append(Patch(facecolor="white", edgecolor="0.3", linewidth=0.5,
+                             label="white: no truth"))
+    ax.legend(handles=handles, ncols=len(handles), columnspacing=1.0,
+              loc="upper left", bbox_to_anchor=(0.0, 0.0), fontsize=fontsize - 1,
+              frameon=False, borderaxespad=0.1, handlelength=1.0, handleheight=0.8,
+              borderpad=0.1)
+
+
+def panel(ax, image, title: str, *, fontsize: float = 9, colorbar: bool | str = False,
+          measured: np.ndarray | None = None, **kwargs):
     """One panel of a figure: ``image`` on ``ax``, without interpolation or ticks, titled.
 
     A 2-D image (or one channel, (H, W, 1)) is drawn in grey unless ``cmap``
@@ -66,7 +186,14 @@ def panel(ax, image, title: str, *, fontsize: float = 9, colorbar: bool | str = 
     fontsize : float, default 9
         Of the title.
     colorbar : bool or str, default False
-        Put a colour bar beside the panel; a string is the bar's label.
+        Put a colour bar beside the panel; a string is the bar's label (give the
+        unit: :func:`unit_label`). The bar ends in an arrow on each side where
+        shown values lie beyond the colour limits (``vmin``, ``vmax``).
+    measured : ndarray of shape (H, W), bool, optional
+        Pixels painted :data:`MEASURED_COLOUR` over the image (a grey in no
+        colour map), with a legend entry "measured" below the panel: for the
+        panels that show only synthesized pixels. Other pixels left blank (NaN:
+        no ground truth to score them) stay white, and the legend says so.
     **kwargs
         Passed to ``ax.imshow`` (``cmap``, ``vmin``, ``vmax`` …).
 
@@ -78,9 +205,13 @@ def panel(ax, image, title: str, *, fontsize: float = 9, colorbar: bool | str = 
     Examples
     --------
     >>> figure = Figure()
-    >>> handle = panel(figure.add_subplot(), np.eye(3), "identity", cmap="viridis", colorbar=True)
+    >>> handle = panel(figure.add_subplot(), np.eye(3), "identity", cmap="viridis",
+    ...                colorbar="range (m)", vmax=0.5)
     >>> type(handle).__name__, handle.axes.get_title(), len(figure.axes)
     ('AxesImage', 'identity', 2)
+    >>> colour_bar = handle.colorbar
+    >>> colour_bar.ax.get_ylabel(), colour_bar.extend
+    ('range (m)', 'max')
     """
     image = np.asarray(image)
     if image.ndim == 3 and image.shape[2] == 1:
@@ -88,17 +219,55 @@ def panel(ax, image, title: str, *, fontsize: float = 9, colorbar: bool | str = 
     if image.ndim == 2 and "cmap" not in kwargs:
         kwargs["cmap"] = "gray"
     handle = ax.imshow(image, interpolation="nearest", **kwargs)
+    if measured is not None:
+        blank = ~np.isfinite(image) if image.ndim == 2 else np.zeros(image.shape[:2], bool)
+        _measured_overlay(ax, np.asarray(measured, dtype=bool), blank, fontsize)
     ax.set_title(title, fontsize=fontsize)
     ax.set_xticks([])
     ax.set_yticks([])
     if colorbar is not False:
         label = colorbar if isinstance(colorbar, str) else None
-        ax.figure.colorbar(handle, ax=ax, fraction=0.046, pad=0.04, label=label)
+        shown = image if measured is None else np.where(measured, np.nan, image)
+        extend = colour_bar_extend(np.asarray(shown, dtype=np.float64), handle.norm.vmin,
+                                   handle.norm.vmax)
+        bar = ax.figure.colorbar(handle, ax=ax, fraction=0.046, pad=0.02, extend=extend)
+        if label:
+            bar.set_label(label, fontsize=fontsize - 1)
+        bar.ax.tick_params(labelsize=fontsize - 1)
     return handle
 
 
+def panel_grid(rows: int, cols: int, figsize: tuple[float, float]) -> tuple[Figure, np.ndarray]:
+    """A figure of ``rows`` × ``cols`` panels whose columns stay aligned (constrained layout).
+
+    The constrained layout gives every panel of a column the same width, so a
+    panel with a colour bar is as wide as those above and below it (the bar
+    takes its room from the whole column).
+
+    Parameters
+    ----------
+    rows, cols : int
+    figsize : pair of float
+        Inches.
+
+    Returns
+    -------
+    (matplotlib.figure.Figure, ndarray of Axes of shape (rows, cols))
+
+    Examples
+    --------
+    >>> figure, axes = panel_grid(2, 3, (6.0, 4.0))
+    >>> axes.shape, figure.get_layout_engine().__class__.__name__
+    ((2, 3), 'ConstrainedLayoutEngine')
+    """
+    fig = Figure(figsize=figsize, layout="constrained")
+    fig.get_layout_engine().set(w_pad=0.03, h_pad=0.03, wspace=0.02, hspace=0.02)
+    axes = fig.subplots(rows, cols, squeeze=False)
+    return fig, axes
+
+
 def finish_figure(fig: Figure, title: str | None = None) -> Figure:
-    """The last step of every layout: the figure's title, if any, and a tight layout.
+    """The last step of every layout: the figure's title, if any, and its layout.
 
     Parameters
     ----------
@@ -119,7 +288,8 @@ def finish_figure(fig: Figure, title: str | None = None) -> Figure:
     """
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
+    if fig.get_layout_engine() is None:  # a figure of panel_grid keeps its constrained layout
+        fig.tight_layout()
     return fig
 
 
@@ -208,25 +378,26 @@ def result_figure(
     panels = 6 if truth is not None else 4
     aspect = partial_range.shape[1] / partial_range.shape[0]
     if aspect > 2:  # a panorama: one panel per row
-        fig = Figure(figsize=(9.0, panels * (9.0 / aspect + 0.6)))
-        axes = fig.subplots(panels, 1).ravel()
+        fig, axes = panel_grid(panels, 1, (9.0, panels * (9.0 / aspect + 0.75)))
+        axes = axes.ravel()
     else:
         cols = 3 if panels == 6 else 2
-        fig = Figure(figsize=(3.2 * cols, 3.0 * 2))
-        axes = fig.subplots(2, cols).ravel()
+        fig, axes = panel_grid(2, cols, (3.4 * cols, 3.2 * 2))
+        axes = axes.ravel()
     scale = range_scale(partial_range, result, truth)
     panel(axes[0], np.clip(intensity, 0, 1) if np.ndim(intensity) == 3 else intensity, "intensity")
     panel(axes[1], edges, "Canny edges (σ = 0.8)")
     known = np.isfinite(partial_range)
     panel(axes[2], partial_range, f"partial range ({100 * (1 - known.mean()):.0f} % unknown)",
           **scale)
-    panel(axes[3], result, "synthesized range", colorbar=units or True, **scale)
+    panel(axes[3], result, "synthesized range", colorbar=unit_label("range", units), **scale)
     if truth is not None:
         panel(axes[4], truth, "ground truth", **scale)
         residual = np.where(known | ~np.isfinite(truth), np.nan, np.abs(result - truth))
         mar = np.nanmean(residual)
         panel(axes[5], residual, f"|residual|, MAR {mar:.3g} {units}".strip(), cmap=ERROR_CMAP,
-              colorbar=True)
+              vmin=0, vmax=error_top(residual), measured=known,
+              colorbar=unit_label("|residual|", units))
     return finish_figure(fig, title)
 
 
@@ -271,8 +442,7 @@ def comparison_figure(
     """
     methods = list(dict.fromkeys(m for _, m in results))
     rows, cols = len(partials), len(methods) + 2
-    fig = Figure(figsize=(2.6 * cols, 2.6 * rows))
-    axes = np.atleast_2d(fig.subplots(rows, cols))
+    fig, axes = panel_grid(rows, cols, (2.6 * cols + 0.6, 2.6 * rows))
     scale = range_scale(truth, *partials.values())
     for row, (name, partial) in enumerate(partials.items()):
         known = np.isfinite(partial)
@@ -285,7 +455,11 @@ def comparison_figure(
                 continue
             mar = float(np.mean(np.abs(est - truth)[evaluated]))
             panel(axes[row, col], est, f"{method}: MAR {mar:.3g} {units}".strip(), **scale)
-        panel(axes[row, -1], truth, "ground truth", **scale)
+        handle = panel(axes[row, -1], truth, "ground truth", **scale)
+    shown = np.concatenate([np.ravel(truth), *(np.ravel(p) for p in partials.values())])
+    bar = fig.colorbar(handle, ax=axes, shrink=0.8, fraction=0.03, pad=0.01,
+                       extend=colour_bar_extend(shown[None], scale["vmin"], scale["vmax"]))
+    bar.set_label(unit_label("range", units))
     return finish_figure(fig, title)
 
 
@@ -330,17 +504,19 @@ def methods_figure(
     6
     """
     rows = len(results)
-    fig = Figure(figsize=(3.3 * 3, 3.0 * rows))
-    axes = np.atleast_2d(fig.subplots(rows, 3))
+    fig, axes = panel_grid(rows, 3, (3.5 * 3, 3.1 * rows))
     scale = range_scale(truth, partial_range)
-    unknown = ~np.isfinite(partial_range) & np.isfinite(truth)
+    known = np.isfinite(partial_range)
+    unknown = ~known & np.isfinite(truth)
     residuals = {m: np.where(unknown, np.abs(r - truth), np.nan) for m, (r, _) in results.items()}
-    top = max(float(np.nanpercentile(e, 99)) for e in residuals.values()) or 1.0
+    top = error_top(*residuals.values())
     for row, (method, (estimate, confidence)) in enumerate(results.items()):
-        panel(axes[row, 0], estimate, f"{method}: synthesized range", colorbar=True, **scale)
+        panel(axes[row, 0], estimate, f"{method}: synthesized range",
+              colorbar=unit_label("range", units), **scale)
         mar = float(np.nanmean(residuals[method]))
         panel(axes[row, 1], residuals[method], f"|residual|, MAR {mar:.3g} {units}".strip(),
-              cmap=ERROR_CMAP, vmin=0, vmax=top, colorbar=True)
-        panel(axes[row, 2], confidence, "confidence", cmap="viridis", vmin=0, vmax=1,
-              colorbar=True)
+              cmap=ERROR_CMAP, vmin=0, vmax=top, measured=known,
+              colorbar=unit_label("|residual|", units))
+        panel(axes[row, 2], np.where(known, np.nan, confidence), "confidence", cmap="viridis",
+              vmin=0, vmax=1, measured=known, colorbar="confidence (0 to 1)")
     return finish_figure(fig, title)

@@ -18,6 +18,12 @@ forward: the scanner's own images are not mirrored). A room seen from above
 hides behind its ceiling: ``clip_above`` cuts the model at a height, as a
 doll's house.
 
+A model holds only what a scan position saw. Seen from above, the surfaces
+that stood in an object's shadow from every position (the floor and the
+wall behind a box whose top is near the scanner's height) have no
+triangles, and show as blank holes; ``markers`` draws the scan positions and
+``note`` says so under the panels (the demo does both).
+
 References
 ----------
 L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
@@ -27,6 +33,7 @@ Modeling", IJCV 79:137–158 (2008), §1 (stage 3), doi:10.1007/s11263-007-0108-
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib import colormaps
@@ -37,7 +44,8 @@ from matplotlib.figure import Figure
 
 from refsynth.model import Model
 
-__all__ = ["oblique_eye", "view_coordinates", "draw_model", "model_view_figure", "COLOURINGS"]
+__all__ = ["oblique_eye", "view_coordinates", "draw_model", "draw_markers", "model_view_figure",
+           "COLOURINGS"]
 
 #: What :func:`draw_model` can colour the model by.
 COLOURINGS = ("intensity", "confidence", "synthesized")
@@ -148,9 +156,36 @@ def draw_model(ax, model: Model, *, colour: str = "intensity", eye=None, target=
     return collection
 
 
+def draw_markers(ax, markers: Mapping[str, Sequence[float]], eye, target, *,
+                 fontsize: float = 8) -> None:
+    """Mark labelled points (e.g. the scan positions) on a view of :func:`draw_model`.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        A view drawn by :func:`draw_model` from ``eye`` towards ``target``.
+    markers : mapping of label to a point (x, y, z)
+        In the model's frame; a point behind the eye is left out.
+    eye, target : array_like of shape (3,)
+        The view's.
+    fontsize : float, default 8
+    """
+    for label, point in markers.items():
+        u, v, depth = view_coordinates(np.asarray(point, dtype=np.float64)[None], eye, target)
+        if depth[0] <= 0:
+            continue
+        ax.plot(u, v, marker="v", markersize=7, color="crimson", markeredgecolor="white",
+                markeredgewidth=0.8, linestyle="none", zorder=5)
+        ax.annotate(label, (float(u[0]), float(v[0])), xytext=(0, 6),
+                    textcoords="offset points", ha="center", va="bottom", fontsize=fontsize,
+                    color="crimson", zorder=5)
+
+
 def model_view_figure(model: Model, *, colours=("intensity", "confidence"), eye=None,
                       target=None, clip_above: float | None = None, title: str | None = None,
-                      size: tuple[float, float] | None = None) -> Figure:
+                      size: tuple[float, float] | None = None,
+                      markers: Mapping[str, Sequence[float]] | None = None,
+                      note: str | None = None) -> Figure:
     """The model from one oblique viewpoint, once per colouring, side by side.
 
     Parameters
@@ -162,6 +197,10 @@ def model_view_figure(model: Model, *, colours=("intensity", "confidence"), eye=
     title : str, optional
     size : pair of float, optional
         Figure size in inches; default 5 per panel by 4.
+    markers : mapping of label to a point (x, y, z), optional
+        Drawn on every panel (:func:`draw_markers`), e.g. the scan positions.
+    note : str, optional
+        A caption under the panels, e.g. what a blank region is.
 
     Returns
     -------
@@ -183,9 +222,13 @@ def model_view_figure(model: Model, *, colours=("intensity", "confidence"), eye=
     for ax, colour in zip(axes, colours):
         draw_model(ax, model, colour=colour, eye=eye, target=target, clip_above=clip_above,
                    title=names[colour])
+        if markers:
+            draw_markers(ax, markers, eye, target)
         if colour == "confidence":
             fig.colorbar(ScalarMappable(Normalize(0, 1), colormaps["viridis"]), ax=ax,
-                         shrink=0.7, label="confidence")
+                         shrink=0.7, label="confidence (0 to 1; 1 = measured)")
     if title:
         fig.suptitle(title, fontsize=10)
+    if note:
+        fig.supxlabel(note, fontsize=8, wrap=True)
     return fig

@@ -30,8 +30,11 @@ the paper (§1), on the simulated rig's room:
    measured points (:func:`~refsynth.model.refine_poses`; the synthesized
    ones carry stage 2's errors) and the models merged
    (:func:`~refsynth.model.merge_models`) into ``room.ply``, drawn
-   obliquely coloured by intensity and by confidence
-   (:func:`refsynth.plotting.model_view.model_view_figure`).
+   obliquely from behind the scan positions, coloured by intensity and by
+   confidence (:func:`refsynth.plotting.model_view.model_view_figure`), the
+   positions marked. What no position saw has no triangles and shows blank,
+   as the figure's caption says: in seed 0's room, the floor and the wall
+   behind the boxes, whose tops are just below the scanners' height.
 
 Along the way the targets of stage 3 are measured against the truth
 (:mod:`refsynth.plotting.story_truth`): the model's points' distance to the
@@ -84,7 +87,7 @@ from refsynth.model import (
     write_ply,
 )
 from refsynth.plotting.layouts import result_figure, save_figure
-from refsynth.plotting.model_view import model_view_figure
+from refsynth.plotting.model_view import model_view_figure, oblique_eye
 from refsynth.plotting.story_truth import point_errors, triangle_checks, true_range
 from refsynth.registration import register_scan
 from refsynth.scenes import room_geometry
@@ -108,6 +111,14 @@ STORY_FILES = ("position-1.ply", "position-2.ply", "odometry.json", "poses.json"
 _FOCAL = 300.0
 #: The model's view: cut above this height over the scanner (the ceiling hides the room).
 _CLIP_ABOVE = 0.3
+#: The model's view: from behind the scan positions (azimuth 0), 30° up, at the model's
+#: diagonal (:func:`~refsynth.plotting.model_view.oblique_eye`): the scan positions in
+#: front, the boxes and the far wall behind them.
+_VIEW = (0.0, math.radians(30.0), 1.0)
+#: What a blank region inside the model view is (the figure's caption).
+_VIEW_NOTE = ("Blank inside the room: surfaces that neither scan position (▼) saw, such as "
+              f"the floor and wall behind the boxes. The model is cut {_CLIP_ABOVE:g} m above "
+              "the scanners to show the inside.")
 
 #: ``progress(stage, fraction)``: called as each stage starts and during each fill, with
 #: the stage's label and the fraction (0 … 1) of the demo's expected work done.
@@ -196,7 +207,8 @@ def _register(position: _Position, shrink: int) -> None:
     images = [read_array(picture.path) for picture in scan.images]
     angles = [picture.pan_angle for picture in scan.images]
     intensity, partial, info = register_scan(images, angles, _FOCAL,
-                                             (scan.r, scan.theta, scan.phi))
+                                             (scan.r, scan.theta, scan.phi),
+                                             slice_step=scan.slice_step)
     camera = CylindricalCamera.from_warp(info.warp, _FOCAL, origin=(info.crop[0], info.crop[2]))
     position.registration = info
     position.intensity = intensity[::shrink, ::shrink]
@@ -427,7 +439,13 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods: Sequence[str] = ("np", 
                          "fused_away": sum(m[merged_method].n_vertices for m in models)
                          - world.n_vertices}
     work.start("figures", _COST["figures"])
+    kept = world.faces[(world.vertices[world.faces, 1] <= _CLIP_ABOVE).all(axis=1)]
+    azimuth, elevation, distance = _VIEW
+    eye, target = oblique_eye(world.vertices[np.unique(kept)], azimuth=azimuth,
+                              elevation=elevation, distance=distance)
+    scanners = {f"scan {p.number}": p.model_pose.apply(np.zeros(3)) for p in positions}
     fig = model_view_figure(world, colours=("intensity", "confidence"), clip_above=_CLIP_ABOVE,
+                            eye=eye, target=target, markers=scanners, note=_VIEW_NOTE,
                             title=f"{len(positions)} scan positions merged ({merged_method.upper()}"
                             f", ICP-refined odometry): stage 3")
     save_figure(fig, out / "model_view.png", dpi=100)
