@@ -278,6 +278,7 @@ def test_eq2_refuses_an_unknown_reading_naming_it(name, value):
     (dict(intensity_a=np.full((3, 3), np.nan)), "`intensity_a`"),
     (dict(range_b=np.full((3, 3), -0.5)), "`range_b`"),
     (dict(range_a=np.full((5, 5), np.nan)), "matching shapes"),
+    (dict(window=np.ones((5, 5)) / 25), "matching shapes"),
 ])
 def test_neighbourhood_distance_refuses_bad_neighbourhoods(bad, match):
     args = dict(intensity_a=np.zeros((3, 3)), range_a=np.full((3, 3), np.nan),

@@ -1,10 +1,7 @@
 r"""Eq. 2: the distance between two partial neighbourhoods (§3.2.2), literally.
 
-.. math::
-
-    \|N_a - N_b\| = \sum_{v} G(\sigma, v - v_0)
-        \left[ \sum_{c=1}^{C} (I^a_{v,c} - I^b_{v,c})^2
-               + \lambda \, (R^a_v - R^b_v)^2 \right]
+.. math:: \|N_a - N_b\| = \sum_{v} G(\sigma, v - v_0) \left[ \sum_{c=1}^{C}
+          (I^a_{v,c} - I^b_{v,c})^2 + \lambda \, (R^a_v - R^b_v)^2 \right]
 
 The sum runs over the offsets ``v`` of the n×n window. The range term counts only where
 *both* neighbourhoods have range (never at the centre of the neighbourhood being filled).
@@ -72,7 +69,6 @@ CHANNELS = ("sum", "mean")
 def intensity_scale(image: np.ndarray) -> float:
     """The span of an intensity image (max − min), or 1 for a constant image.
 
-    >>> import numpy as np
     >>> intensity_scale(np.array([0.25, 0.75])), intensity_scale(np.full(3, 5.0))
     (0.5, 1.0)
     """
@@ -83,7 +79,6 @@ def intensity_scale(image: np.ndarray) -> float:
 def range_scale(range_image: np.ndarray) -> tuple[float, float]:
     """``(min, max − min)`` of the known (finite) range, the span 1 if constant.
 
-    >>> import numpy as np
     >>> range_scale(np.array([2.0, np.nan, 6.0]))
     (2.0, 4.0)
     """
@@ -187,22 +182,25 @@ def neighbourhood_distance(intensity_a: np.ndarray, range_a: np.ndarray,
     Examples
     --------
     >>> a = np.zeros((3, 3)); r = np.full((3, 3), np.nan)
-    >>> neighbourhood_distance(a, r, a, r), neighbourhood_distance(a, r, a + 0.5, r)
-    (0.0, 0.25000381469726562)
+    >>> neighbourhood_distance(a, r, a, r)
+    0.0
+    >>> d = neighbourhood_distance(a, r, a + 0.5, r)   # ΔI² = 1/4 everywhere: G's sum / 4
+    >>> d == int(window_weights(3).sum()) * 2.0**-20, round(d, 4)
+    (True, 0.25)
     """
     ia, ib = (np.asarray(x, dtype=np.float64) for x in (intensity_a, intensity_b))
     if ia.ndim == 2:
         ia, ib = ia[:, :, None], ib[:, :, None]
     ra, rb = (np.asarray(x, dtype=np.float64) for x in (range_a, range_b))
-    if ia.shape != ib.shape or ra.shape != rb.shape or ra.shape != ia.shape[:2]:
-        raise ValueError("The neighbourhoods must have matching shapes, got "
-                         f"{ia.shape}, {ib.shape}, {ra.shape}, {rb.shape}")
+    g = window_weights(len(ra) if ra.ndim else 1) if window is None else np.rint(
+        np.asarray(window, dtype=np.float64) * 2.0**WINDOW_BITS).astype(np.int64)
+    if ia.shape != ib.shape or ra.shape != rb.shape or not ra.shape == g.shape == ia.shape[:2]:
+        raise ValueError("The neighbourhoods and the window must have matching shapes, got "
+                         f"{ia.shape}, {ib.shape}, {ra.shape}, {rb.shape}, {g.shape}")
     if not (np.isfinite(ia).all() and np.isfinite(ib).all()):
         raise ValueError("The parameters `intensity_a` and `intensity_b` must be finite")
     if np.any(ra < 0) or np.any(rb < 0):
         raise ValueError("The parameters `range_a` and `range_b` must be >= 0 (normalised)")
-    g = window_weights(ra.shape[0]) if window is None else np.rint(
-        np.asarray(window, dtype=np.float64) * 2.0**WINDOW_BITS).astype(np.int64)
 
     def grid(values: np.ndarray, bits: int) -> np.ndarray:
         return np.rint(np.where(np.isfinite(values), values, 0.0) * 2.0**bits).astype(np.int64)
