@@ -26,7 +26,7 @@ from refsynth.synthesis.bp import bp_fill, bp_memory_estimate, grid_edges
 from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, check_bp_memory, psi_bytes
 from refsynth.synthesis.bp_search import candidates, search_candidates, stable_smallest
 from refsynth.synthesis.messages import belief_propagation
-from refsynth.synthesis.similarity import PatchTable
+from refsynth.synthesis.patch_table import PatchTable
 
 
 def _bits(a):

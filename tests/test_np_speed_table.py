@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from refsynth.numeric import EQ2_UNIT
 from refsynth.synthesis.filltable import FillTable
-from refsynth.synthesis.similarity import PatchTable
+from refsynth.synthesis.patch_table import PatchTable
 
 
 @given(

@@ -187,7 +187,9 @@ def test_an_integer_image_and_the_same_image_as_floats_give_the_same_quantisatio
 @FEW
 @given(st.integers(0, 10**6), st.sampled_from([3, 5]), st.sampled_from([1, 3]))
 def test_eq2_reference_is_eq2_on_the_quantised_data(seed, n, channels):
-    """The contract's Eq. 2 equals similarity.neighbourhood_distance on the same data."""
+    """The contract's Eq. 2 equals similarity.neighbourhood_distance on the same data: the
+    floats on the grid, the window G = window_weights · 2**-18, bit for bit; and within
+    G's rounding (2**-18) of the float window G / Σ G."""
     g = np.random.default_rng(seed)
     qi = g.integers(0, 2**16 + 1, (2, n, n, channels))
     qr = np.where(g.random((2, n, n)) < 0.6, g.integers(0, 2**16 + 1, (2, n, n)), ref.NO_RANGE)
@@ -196,9 +198,13 @@ def test_eq2_reference_is_eq2_on_the_quantised_data(seed, n, channels):
         exact = ref.eq2_distance(qi[0], qr[0], qi[1], qr[1], window, 4.0, rule)
         scale = 2.0**-16
         ra, rb = (np.where(q == ref.NO_RANGE, np.nan, q * scale) for q in qr)
-        literal = neighbourhood_distance(qi[0] * scale, ra, qi[1] * scale, rb, range_weight=4.0,
-                                         window=window / window.sum(), missing_range=rule)
-        assert exact == pytest.approx(literal, rel=1e-4, abs=1e-12)   # G's rounding, 2**-18
+        floats = dict(range_weight=4.0, missing_range=rule)
+        assert exact == neighbourhood_distance(qi[0] * scale, ra, qi[1] * scale, rb,
+                                               window=window * 2.0**-18, **floats)
+        assert exact == neighbourhood_distance(qi[0] * scale, ra, qi[1] * scale, rb, **floats)
+        near = neighbourhood_distance(qi[0] * scale, ra, qi[1] * scale, rb,
+                                      window=window / window.sum(), **floats)
+        assert exact == pytest.approx(near, rel=1e-4, abs=1e-12)
 
 
 def test_eq2_integer_sums_stay_below_2_to_the_53():

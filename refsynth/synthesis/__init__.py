@@ -14,8 +14,10 @@ Read beside §3.2 of the paper, top to bottom:
 - :mod:`refsynth.synthesis.neighbourhood` (§3.2.1, the MRF model): augmented
   voxels, the n×n neighbourhood ``N_p`` and the Gaussian window ``G`` of Eq. 2.
 - :mod:`refsynth.synthesis.similarity` (§3.2.2, Eq. 2): the distance between
-  two partial neighbourhoods, literal (:func:`neighbourhood_distance`) and
-  expanded for a whole candidate set (:class:`PatchTable`).
+  two partial neighbourhoods, literally (:func:`eq2_distance`, and
+  :func:`neighbourhood_distance` on normalised floats);
+  :mod:`refsynth.synthesis.patch_table`: the same, bit for bit, expanded for a
+  whole candidate set (:class:`PatchTable`).
 - :mod:`refsynth.synthesis.nonparametric` (§3.2.2, Eqs. 3–5 in the order of
   Eqs. 10–12): NP sampling — its literal reference
   (:mod:`~refsynth.synthesis.nonparametric.reference`, the paper's readings as
@@ -68,6 +70,7 @@ from refsynth.synthesis.neighbourhood import (
     window_offsets,
 )
 from refsynth.synthesis.nonparametric import eq5_set, np_fill
+from refsynth.synthesis.patch_table import PatchTable
 from refsynth.synthesis.priority import (
     FillFront,
     box_sum,
@@ -82,7 +85,6 @@ from refsynth.synthesis.priority import (
 )
 from refsynth.synthesis.readings import PRESETS, Readings
 from refsynth.synthesis.similarity import (
-    PatchTable,
     eq2_distance,
     intensity_scale,
     neighbourhood_distance,

@@ -78,7 +78,7 @@ measured range's — so Ψ sees synthesized range
 it, Fig. 6 as printed, bit for bit.
 
 The numeric contract (:mod:`refsynth.numeric`): the candidates are ranked by
-the exact Eq. 2 of :class:`~refsynth.synthesis.similarity.PatchTable` (its
+the exact Eq. 2 of :class:`~refsynth.synthesis.patch_table.PatchTable` (its
 integer sums, evaluated tile by tile; stable sort: ties by the raster order of
 the disc offsets), Eq. 6's mean squares are
 exact integer sums over the quantised range, and BP runs in float64 in the log

@@ -6,7 +6,7 @@ the mean-filled range term of :mod:`refsynth.synthesis.similarity`), plus the
 proximity prior ``μ (|p − q| / r)²`` when μ > 0 (the default μ = 0 ranks by
 Eq. 2 alone, as Fig. 6 does). :func:`refsynth.synthesis.bp.candidates`
 does it one node at a time over every offset of the disc, measured or not,
-from the rows of a :class:`~refsynth.synthesis.similarity.PatchTable` — a
+from the rows of a :class:`~refsynth.synthesis.patch_table.PatchTable` — a
 table of 150 float64 per pixel (850 MB at 900×750). Most disc offsets are
 unmeasured (78 % on the x-stripes benchmark), and neighbouring nodes share
 most of their training patches, so :func:`search_candidates` instead
@@ -60,7 +60,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from refsynth.numeric import NO_RANGE, combine_eq2, window_weights
 from refsynth.synthesis.bp_ranking import smallest_measured, stable_smallest
 from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
-from refsynth.synthesis.similarity import PatchTable
+from refsynth.synthesis.patch_table import PatchTable
 
 __all__ = ["search_candidates", "search_at_radii", "search_features", "candidates",
            "stable_smallest"]
@@ -76,7 +76,7 @@ _ONE_THREAD = 4 * 65536  # m·n·k of the largest matrix product run on one thre
 class _Features:
     """Patch rows of any pixels, built on demand from the quantised image (no table).
 
-    The rows are those of :class:`~refsynth.synthesis.similarity.PatchTable`: the
+    The rows are those of :class:`~refsynth.synthesis.patch_table.PatchTable`: the
     intensity window (mirror-extended) and the range window's has-range ``V``, range
     ``R`` (0 where unknown) and ``R²``, all integers held in float64. They are read
     through sliding-window views of the padded planes, one gather per pixel set.
@@ -184,7 +184,7 @@ def search_candidates(
     """The ``k`` closest training patches of each node by Eq. 2 (Fig. 6, step 2).
 
     The result of :func:`refsynth.synthesis.bp.candidates` on the
-    :class:`~refsynth.synthesis.similarity.PatchTable` of the same image, bit for
+    :class:`~refsynth.synthesis.patch_table.PatchTable` of the same image, bit for
     bit, computed tile by tile from measured offsets only (see above).
 
     Parameters
@@ -555,7 +555,7 @@ def candidates(
 
     Examples
     --------
-    >>> from refsynth.synthesis.similarity import PatchTable
+    >>> from refsynth.synthesis.patch_table import PatchTable
     >>> image = (np.arange(16.0).reshape(4, 4, 1)) / 16
     >>> partial = np.where(np.arange(4) < 2, 0.5, np.nan) + np.zeros((4, 1))
     >>> table = PatchTable(image, partial, 3, 2, 1.0)

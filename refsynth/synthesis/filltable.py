@@ -22,7 +22,7 @@ window and radius), and float32 above, at half the memory
 float64 for the product took about 9 % of the fill's instructions. Both hold the same
 integers, so the distances are the same bits either way. A float32 row is 520 bytes
 (316 + 204) for a colour 5×5 window, against 1200 for
-:class:`refsynth.synthesis.similarity.PatchTable`'s float64 ``[I | V | R | R²]`` (BP's
+:class:`refsynth.synthesis.patch_table.PatchTable`'s float64 ``[I | V | R | R²]`` (BP's
 table): the table of a 900×750 image takes about 370 MB instead of 850. (Holding ``R²`` in
 the range rows too, as two float32 parts, would cost 200 bytes more a pixel, 820 MiB more at
 2048×2048, for a few per cent less time.)
@@ -161,7 +161,7 @@ _TO_WINDOW = 2.0**WINDOW_BITS
 class FillTable:
     """Every voxel's neighbourhood as one row ``[I | s | R | V]``, for NP (Eq. 2).
 
-    The same distances as :class:`refsynth.synthesis.similarity.PatchTable`
+    The same distances as :class:`refsynth.synthesis.patch_table.PatchTable`
     (bit for bit) in less memory; see the module docstring.
 
     Parameters
@@ -177,9 +177,9 @@ class FillTable:
     range_weight : float
         λ of Eq. 2.
     missing_range : {"mean", "ignore"}
-        As in :class:`refsynth.synthesis.similarity.PatchTable`.
+        As in :class:`refsynth.synthesis.patch_table.PatchTable`.
     channels : {"sum", "mean"}, default "sum"
-        As in :class:`refsynth.synthesis.similarity.PatchTable`.
+        As in :class:`refsynth.synthesis.patch_table.PatchTable`.
     dtype : {None, numpy.float32, numpy.float64}, default None
         The intensity rows' dtype; None: :func:`intensity_dtype` of the frame. Either gives
         the same distances, bit for bit.
@@ -388,7 +388,7 @@ class FillTable:
         Examples
         --------
         >>> import numpy as np
-        >>> from refsynth.synthesis.similarity import PatchTable
+        >>> from refsynth.synthesis.patch_table import PatchTable
         >>> rng = np.random.default_rng(0)
         >>> image = rng.integers(0, 2**16, (6, 6, 3)) / 2**16
         >>> levels = rng.integers(0, 2**16, (6, 6)) / 2**16

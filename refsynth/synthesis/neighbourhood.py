@@ -73,14 +73,12 @@ def window_offsets(n: int) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     n : int
-        Odd side of the neighbourhood (5 by default in the paper, 3 for very
-        sparse data).
+        Odd side of the neighbourhood (the paper's 5, or 3 for very sparse data).
 
     Returns
     -------
     dr, dc : ndarray of shape (n²,), int
-        Row and column offsets, from ``(-n // 2, -n // 2)`` to
-        ``(n // 2, n // 2)``, the centre ``(0, 0)`` in the middle.
+        From ``(-n // 2, -n // 2)`` to ``(n // 2, n // 2)``, ``(0, 0)`` in the middle.
 
     Examples
     --------
@@ -96,8 +94,8 @@ def window_offsets(n: int) -> tuple[np.ndarray, np.ndarray]:
 def disc_offsets(radius: float) -> tuple[np.ndarray, np.ndarray]:
     """Row and column offsets ``v`` with ``‖v‖ ≤ radius`` (Eq. 3), centre excluded.
 
-    The pixels ``q`` of the local training set ``A_p`` lie at these offsets
-    from ``p`` (Eq. 3: ``distance(p, q) ≤ r``, the paper's ``r = 10``).
+    The pixels ``q`` of the local training set ``A_p`` lie at these offsets from ``p``
+    (Eq. 3: ``distance(p, q) ≤ r``, the paper's ``r = 10``).
 
     Parameters
     ----------
@@ -130,9 +128,9 @@ def intensity_patches(image: np.ndarray, n: int) -> np.ndarray:
     Parameters
     ----------
     image : ndarray of shape (H, W, C), float
-        The intensity image, ``C = 1`` for grey, 3 for colour.
+        The intensity, ``C = 1`` for grey, 3 for colour.
     n : int
-        The odd side of the patch (``N_p``), in pixels.
+        The odd side of the patch ``N_p``.
 
     Returns
     -------
@@ -158,18 +156,15 @@ def range_patches(range_image: np.ndarray, n: int) -> np.ndarray:
     Parameters
     ----------
     range_image : ndarray of shape (H, W), float
-        The partial range, NaN where it is unknown (neither measured nor yet
-        synthesized).
+        The partial range, NaN where unknown (neither measured nor yet synthesized).
     n : int
-        The odd side of the range patch, in pixels. Unlike
-        :func:`intensity_patches`, the image is not mirrored: the offsets off
-        the image are NaN, unknown like any missing range.
+        The odd side of the range patch. Unlike :func:`intensity_patches`, the image
+        is not mirrored: the offsets off the image are NaN, unknown like any missing range.
 
     Returns
     -------
     ndarray of shape (H, W, n, n)
-        A read-only view; ``out[r, c]`` is the (partial) range neighbourhood
-        centred on ``(r, c)``.
+        A read-only view; ``out[r, c]`` is the partial range neighbourhood of ``(r, c)``.
 
     Examples
     --------

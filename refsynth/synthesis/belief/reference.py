@@ -14,8 +14,9 @@ The float sequences a port must reproduce (the numeric contract, :mod:`refsynth.
 
 - Intensity and range on the ``2**-16`` grids of their spans (:func:`quantise_intensity`
   over all channels, :func:`quantise_range` over the measured range); Eq. 2's window is the
-  integer table :func:`window_weights`. Eq. 2 is then ``(Σ_v G_v Σ_c ΔI² + λ Σ_{v∈S} G_v
-  ΔR²) · 2**-50``: exact integer sums, so any summation order gives the same bits.
+  integer table :func:`window_weights`. Eq. 2 is then ``(si · 2**-50) + λ (sr · 2**-50)``
+  with ``si = Σ_v G_v Σ_c ΔI²``, ``sr = Σ_{v∈S} G_v ΔR²``: exact integer sums, so any
+  summation order gives the same bits.
 - ``log Φ = (−d) / ((2 σ_i) σ_i)``, ``log Ψ = (−ms) / ((2 σ_s) σ_s)``, with ``ms`` Eq. 6's
   mean square ``(Σ (a − b)² · 2**-32) / count`` (an exact integer sum, then one scaling and
   one division; ``0.0`` when the patches share no measured pixel, so ``log Ψ = −0.0``).
@@ -46,9 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from refsynth._checks import check_choice
 from refsynth.numeric import (
-    EQ2_UNIT,
     INTENSITY_BITS,
     NO_RANGE,
     RANGE_BITS,
@@ -62,7 +61,7 @@ from refsynth.numeric import (
 )
 from refsynth.synthesis.canny import canny
 from refsynth.synthesis.neighbourhood import disc_offsets
-from refsynth.synthesis.similarity import neighbourhood_distance
+from refsynth.synthesis.similarity import eq2_distance
 
 __all__ = ["BeliefReference", "Patches", "bp_reference", "patches", "eq2",
            "training_candidates", "log_phi", "overlap_mean_square", "log_psi", "send",
@@ -143,15 +142,11 @@ def eq2(frame: Patches, p, q, range_weight: float = 1.0) -> float:
               + \lambda (R^p_v - R^q_v)^2 \right]
 
     the range term only where both have range, on the integer grids: the shared
-    :func:`~refsynth.synthesis.similarity.neighbourhood_distance` of the integers, times
-    ``2**-50`` (an exact integer sum, then one exact scaling).
+    :func:`~refsynth.synthesis.similarity.eq2_distance` (exact integer sums, then
+    ``(si · 2**-50) + λ (sr · 2**-50)``).
     """
-    def rng(r, c):
-        q_range = frame.range(r, c)
-        return np.where(q_range == NO_RANGE, np.nan, q_range.astype(np.float64))
-    return neighbourhood_distance(frame.intensity(*p), rng(*p), frame.intensity(*q), rng(*q),
-                                  range_weight=range_weight, window=frame.window,
-                                  missing_range="ignore") * EQ2_UNIT
+    return eq2_distance(frame.intensity(*p), frame.range(*p), frame.intensity(*q),
+                        frame.range(*q), frame.window, range_weight, "ignore", "sum")
 
 
 def training_candidates(frame: Patches, known, p, k: int, radius: float,
@@ -311,8 +306,8 @@ def bp_reference(intensity, partial_range, *, neighbourhood: int = 5, radius: fl
         to [0, 1], as :func:`refsynth.synthesize`); ``use_edges=False`` ignores them.
     edge_rule : {"silent", "paper"}, default "silent"
         ``"silent"`` (§3.2.3's rule word for word): a node on an edge sends nothing but
-        still receives. ``"paper"``: a node on an edge neither sends nor receives. Measured neighbours' terms join the unary term in the order right, left,
-        below, above.
+        still receives. ``"paper"``: a node on an edge neither sends nor receives. Measured
+        neighbours' terms join the unary term in the order right, left, below, above.
 
     Returns
     -------
@@ -326,8 +321,10 @@ def bp_reference(intensity, partial_range, *, neighbourhood: int = 5, radius: fl
     >>> bool(np.all(out.range == 2.0)), out.labels.shape
     (True, (30,))
     """
-    check_choice("product", product, PRODUCTS)
-    check_choice("edge_rule", edge_rule, EDGE_RULES)
+    for name, value, allowed in (("product", product, PRODUCTS),
+                                 ("edge_rule", edge_rule, EDGE_RULES)):
+        if value not in allowed:
+            raise ValueError(f"The parameter `{name}` must be one of {allowed}, got {value!r}")
     image = np.atleast_3d(np.asarray(intensity, dtype=np.float64))  # (H, W, C)
     range_values = np.asarray(partial_range, dtype=np.float64)
     if image.shape[:2] != range_values.shape or range_values.ndim != 2:
