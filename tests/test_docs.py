@@ -257,3 +257,9 @@ def test_every_function_the_paper_map_names_exists():
                                  f"{error}") from None
     for path in set(re.findall(r"`(tests/[\w.*]+\.py)`", table)):
         assert list(ROOT.glob(path)), path
+
+
+def test_the_readme_shows_the_paper_preset_from_python_and_the_command_line():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert 'readings="paper"' in text and "--readings paper" in text
+    assert "--png-scale 1000" in text and "--partial" in text
