@@ -263,3 +263,22 @@ def test_the_readme_shows_the_paper_preset_from_python_and_the_command_line():
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     assert 'readings="paper"' in text and "--readings paper" in text
     assert "--png-scale 1000" in text and "--partial" in text
+
+
+def test_the_oracle_page_gives_the_versions_and_the_case_count_as_they_are():
+    from refsynth.oracle.cases import CASE_SET_VERSION, build_cases
+    from refsynth.oracle.export import CONTRACT_VERSION
+    from refsynth.oracle.files import FORMAT_VERSION
+
+    text = (ROOT / "docs" / "oracle.md").read_text(encoding="utf-8")
+    manifest = (f'"version": {FORMAT_VERSION}, "contract": {CONTRACT_VERSION}, '
+                f'"case_set": {CASE_SET_VERSION}')
+    assert manifest in text
+    counts = {int(n) for n in re.findall(r"\b(\d+) cases, about", text)}
+    assert counts == {len(build_cases())}, counts
+    # the cases the page names after the contract (the contract's own are its helper's)
+    rest = text[text.index("## The golden cases"):]
+    named = re.findall(r"`((?:np|bp|eq\d+(?:_\d+)?)-[\w.-]+)`", rest)
+    assert len(named) >= 8, named
+    for name in named:
+        assert name in {case.name for case in build_cases()}, name
