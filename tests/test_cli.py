@@ -10,6 +10,7 @@ from refsynth.cli.main import main
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.io import write_pfm
 from refsynth.plotting.demo import DEMO_METHODS, run_pipeline_demo
+from refsynth.synthesis.readings import Readings
 
 
 def test_demo_prints_the_table_and_writes_figures(tmp_path, capsys):
@@ -131,7 +132,7 @@ def test_unknown_command_exits_2():
     assert proc.returncode == 2
 
 
-# ----------------------------------------------------------------------------- #14: the front door
+# ----------------------------------------------------------------------------- the front door
 
 
 def _run(argv, capsys):
@@ -264,7 +265,7 @@ def test_synth_exposes_bp_and_its_options(files, capsys, monkeypatch):
     real = __import__("refsynth.cli.synth", fromlist=["synthesize"]).synthesize
 
     def spy(*args, **kwargs):
-        seen.update(kwargs, **dict(kwargs.get("readings", {})))   # the readings, flat
+        seen.update(kwargs, **kwargs["readings"].as_dict())   # the readings, flat
         return real(*args, **kwargs)
 
     monkeypatch.setattr("refsynth.cli.synth.synthesize", spy)
@@ -284,17 +285,17 @@ def test_synth_passes_eq2s_readings_on_only_when_given(files, capsys, monkeypatc
     real = __import__("refsynth.cli.synth", fromlist=["synthesize"]).synthesize
 
     def spy(*args, **kwargs):
-        seen.append({**kwargs, **dict(kwargs.get("readings", {}))})   # the readings, flat
+        seen.append(kwargs["readings"])
         return real(*args, **kwargs)
 
     monkeypatch.setattr("refsynth.cli.synth.synthesize", spy)
     base = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--method", method]
     assert _run([*base, "--out", str(files / "a.npy")], capsys)[0] == 0
-    assert not {"channels", "range_weight", "missing_range", "colour"} & set(seen[0])
+    assert seen[0] == Readings.refsynth()     # no flag: the default preset, unchanged
     assert _run([*base, "--out", str(files / "b.npy"), "--channels", "mean", "--range-weight",
                  "0.5", "--missing-range", "ignore", "--grey"], capsys)[0] == 0
-    assert (seen[1]["channels"], seen[1]["range_weight"], seen[1]["missing_range"],
-            seen[1]["colour"]) == ("mean", 0.5, "ignore", False)
+    assert seen[1] == Readings.refsynth().replace(channels="mean", range_weight=0.5,
+                                                  missing_range="ignore", colour=False)
     # the same call through the library gives the same bits
     image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
     direct = real(image, partial, method=method, seed=0,
@@ -355,6 +356,44 @@ def test_synth_refuses_a_bad_reading_in_one_line(files, capsys, no_work):
     _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
                  "--out", str(files / "o.npy"), "--channels", "max"], capsys,
                 "argument --channels: invalid choice: 'max'")
+
+
+@pytest.mark.parametrize("method", ["np", "bp"])
+def test_synth_readings_paper_is_the_librarys_paper_preset(files, capsys, method):
+    image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
+    library = __import__("refsynth").synthesize
+    argv = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--method", method,
+            "--readings", "paper", "--out", str(files / "paper.npy")]
+    assert _run(argv, capsys)[0] == 0
+    paper = library(image, partial, method=method, seed=0, readings="paper").range
+    np.testing.assert_array_equal(np.load(files / "paper.npy"), paper)
+    # the preset reaches the fill: the default preset gives another range here
+    assert not np.array_equal(paper, library(image, partial, method=method, seed=0).range)
+
+
+def test_synth_a_flag_overrides_one_reading_of_the_preset(files, capsys):
+    image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
+    argv = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--readings",
+            "paper", "--range-copy", "offset", "--out", str(files / "o.npy")]
+    assert _run(argv, capsys)[0] == 0
+    readings = Readings.paper().replace(range_copy="offset")
+    direct = __import__("refsynth").synthesize(image, partial, readings=readings).range
+    np.testing.assert_array_equal(np.load(files / "o.npy"), direct)
+
+
+def test_synth_refuses_an_unknown_preset_in_one_line(files, capsys, no_work):
+    _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
+                 "--out", str(files / "o.npy"), "--readings", "printed"], capsys,
+                "argument --readings: invalid choice: 'printed'")
+
+
+def test_synth_help_names_no_version_and_points_to_the_departures():
+    import re
+
+    text = _subcommands()["synth"].format_help()
+    assert "departures page" in text and "--readings" in text
+    history = r"refsynth \d|\b0\.\d+-0\.\d+|\b0\.\d+(\.\d+)?'s\b|\bsince 0\.|README"
+    assert not re.search(history, text), re.search(history, text)
 
 
 @pytest.mark.parametrize(("extra", "needle"), [
@@ -455,7 +494,7 @@ def _help_entries(parser) -> dict[str, str]:
 @pytest.mark.parametrize("command", ["demo", "synth", "evaluate", "figures", "scan",
                                      "register", "model", "notebooks"])
 def test_every_option_says_what_it_means_and_its_default(command):
-    """#14 item 12: --help shows each option's meaning and default."""
+    """--help shows each option's meaning and default."""
     parser = _subcommands()[command]
     entries = _help_entries(parser)
     for action in parser._actions:

@@ -157,3 +157,128 @@ def test_no_version_history_outside_the_changelog(pattern):
              for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
              if HISTORY.search(line)]
     assert not found, "\n".join(found)
+
+
+def _table_rows(text: str, header: str) -> dict[str, list[str]]:
+    """The rows of the Markdown table whose header line starts with ``header``, by first cell."""
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(header))
+    rows = {}
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
+        rows[cells[0].strip("`")] = cells[1:]
+    return rows
+
+
+def _literal(cell: str):
+    import ast
+
+    return ast.literal_eval(cell.strip("`"))
+
+
+def test_own_data_lists_every_option_of_synthesize():
+    import inspect
+
+    from refsynth import synthesize
+
+    text = (ROOT / "docs" / "own_data.md").read_text(encoding="utf-8")
+    rows = _table_rows(text, "| option | default |")
+    keywords = [name for name, parameter in inspect.signature(synthesize).parameters.items()
+                if parameter.kind is inspect.Parameter.KEYWORD_ONLY]
+    assert len(keywords) == 14, keywords
+    assert list(rows) == keywords
+
+
+def test_own_data_shows_every_reading_with_both_presets_as_they_are():
+    from refsynth import Readings
+    from refsynth.synthesis.readings import BP_READINGS, NP_READINGS
+
+    text = (ROOT / "docs" / "own_data.md").read_text(encoding="utf-8")
+    rows = _table_rows(text, "| reading | method |")
+    assert list(rows) == list(Readings.names())
+    paper, default = Readings.paper(), Readings.refsynth()
+    for name, (method, in_paper, in_refsynth, *_) in rows.items():
+        assert _literal(in_paper) == getattr(paper, name), name
+        assert _literal(in_refsynth) == getattr(default, name), name
+        used = {m for m, names in (("NP", NP_READINGS), ("BP", BP_READINGS)) if name in names}
+        assert set(method.split(", ")) == used, name
+
+
+def test_departures_name_every_departure_by_its_reading():
+    from refsynth import Readings
+
+    text = (ROOT / "docs" / "departures.md").read_text(encoding="utf-8")
+    lines = text.splitlines()
+    start = lines.index(next(line for line in lines if line.startswith("| reading |")))
+    paper, default = Readings.paper(), Readings.refsynth()
+    named = set()
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        first, in_paper, in_refsynth = line.strip("|").split("|")[:3]
+        names = re.findall(r"`(\w+)`", first)        # "`sigma_i`, `sigma_s`", "`channels` (NP)"
+        assert names, line
+        for name, a, b in zip(names, re.findall(r"`([^`]+)`", in_paper),
+                              re.findall(r"`([^`]+)`", in_refsynth), strict=True):
+            assert _literal(a) == getattr(paper, name), name
+            assert _literal(b) == getattr(default, name), name
+            named.add(name)
+    assert named == set(Readings.names()), set(Readings.names()) ^ named
+
+
+def _dotted(name: str):
+    """The object a dotted name (``refsynth.a.b.f``) names: imported module, then attributes."""
+    import importlib
+
+    parts = name.split(".")
+    for cut in range(len(parts), 0, -1):
+        try:
+            target = importlib.import_module(".".join(parts[:cut]))
+        except ImportError:
+            continue
+        for part in parts[cut:]:
+            target = getattr(target, part)
+        return target
+    raise ImportError(name)
+
+
+def test_every_function_the_paper_map_names_exists():
+    text = (ROOT / "docs" / "paper_map.md").read_text(encoding="utf-8")
+    table = text[text.index("| paper | reference |"):text.index("## Modules")]
+    names = set(re.findall(r"`(refsynth(?:\.\w+)+)`", table))
+    assert len(names) > 40, len(names)
+    for name in sorted(names):
+        try:
+            _dotted(name)
+        except (ImportError, AttributeError) as error:
+            raise AssertionError(f"docs/paper_map.md names {name}, which does not exist: "
+                                 f"{error}") from None
+    for path in set(re.findall(r"`(tests/[\w.*]+\.py)`", table)):
+        assert list(ROOT.glob(path)), path
+
+
+def test_the_readme_shows_the_paper_preset_from_python_and_the_command_line():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert 'readings="paper"' in text and "--readings paper" in text
+    assert "--png-scale 1000" in text and "--partial" in text
+
+
+def test_the_oracle_page_gives_the_versions_and_the_case_count_as_they_are():
+    from refsynth.oracle.cases import CASE_SET_VERSION, build_cases
+    from refsynth.oracle.export import CONTRACT_VERSION
+    from refsynth.oracle.files import FORMAT_VERSION
+
+    text = (ROOT / "docs" / "oracle.md").read_text(encoding="utf-8")
+    manifest = (f'"version": {FORMAT_VERSION}, "contract": {CONTRACT_VERSION}, '
+                f'"case_set": {CASE_SET_VERSION}')
+    assert manifest in text
+    counts = {int(n) for n in re.findall(r"\b(\d+) cases, about", text)}
+    assert counts == {len(build_cases())}, counts
+    # the cases the page names after the contract (the contract's own are its helper's)
+    rest = text[text.index("## The golden cases"):]
+    named = re.findall(r"`((?:np|bp|eq\d+(?:_\d+)?)-[\w.-]+)`", rest)
+    assert len(named) >= 8, named
+    for name in named:
+        assert name in {case.name for case in build_cases()}, name

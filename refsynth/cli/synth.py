@@ -15,6 +15,12 @@ values <= 0 unless ``--allow-nonpositive`` is given. ``--out`` writes the format
 ``round(range × png-scale)`` (0 = unknown; default scale 1, which needs a
 range of whole numbers).
 
+The readings of the paper start from ``--readings`` (``refsynth``, the
+default, or ``paper``, the paper as printed), passed to
+:func:`refsynth.synthesize` as ``readings=``; each reading's own flag
+(``--range-copy``, ``--observation`` …) overrides that reading of the preset
+(:meth:`refsynth.Readings.replace`).
+
 Every output path (writable, none of the inputs, no two the same), every
 option and every limit is checked before the work starts; every file is
 written all or nothing (:func:`refsynth._files.write_atomic`).
@@ -57,7 +63,7 @@ from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
 from refsynth.synthesis.bp_model import COMPATIBILITIES
 from refsynth.synthesis.bp_observation import OBSERVATIONS
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
-from refsynth.synthesis.readings import split_options
+from refsynth.synthesis.readings import DEFAULT_PRESET, PRESETS, Readings, split_options
 
 __all__ = ["pixel_progress", "add_synth_parser"]
 
@@ -302,7 +308,8 @@ def _cmd_synth(args) -> int:
     options = {name: getattr(args, name) for name, _ in _METHOD_OPTIONS.values()}
     options.update({name: getattr(args, name) for name in _EQ2_OPTIONS + _BOTH_OPTIONS
                     if getattr(args, name) is not None})
-    keywords, readings = split_options(options)
+    keywords, overrides = split_options(options)
+    readings = Readings.preset(args.readings).replace(**overrides)
     report = pixel_progress("synthesizing", rate="px")
     if args.method == "bp":  # BP reports per mille of its work: shown as pixels' worth of it
         unknown = int(np.count_nonzero(~np.isfinite(partial)))
@@ -381,25 +388,35 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     synth.add_argument("--allow-nonpositive", action="store_true",
                        help="accept known range values <= 0 (a signed map; default: refused, "
                        "range is a distance > 0)")
-    eq2 = synth.add_argument_group("Eq. 2's readings (both methods; the README's 'Real data' "
-                                   "section audits each)")
+    readings = synth.add_argument_group(
+        "the readings of the paper (refsynth.Readings; the docs' departures page gives the "
+        "paper's text and the evidence for each)")
+    readings.add_argument("--readings", choices=list(PRESETS), default=DEFAULT_PRESET,
+                          help="the preset every reading starts from: paper (the paper as "
+                          "printed: Eq. 2 as written, Eq. 5's value copy, Fig. 6's BP) or "
+                          "refsynth (the measured readings); each flag below overrides one "
+                          f"reading of it (default {DEFAULT_PRESET})")
+    eq2 = synth.add_argument_group("Eq. 2's readings (both methods; default: the preset's)")
     eq2.add_argument("--channels", choices=["sum", "mean"],
-                     help="the intensity term over colour channels: their sum, as Eq. 2 "
-                     "(default), or their mean (refsynth 0.2)")
+                     help="the intensity term over colour channels: their sum, as Eq. 2, or "
+                     "their mean (default: sum in both presets)")
     eq2.add_argument("--range-weight", type=real, metavar="LAMBDA",
                      help="lambda, the weight of the range term against the intensity "
-                     "term (default 1: the paper's equal weights)")
+                     "term (default 1 in both presets: the paper's equal weights)")
     eq2.add_argument("--missing-range", choices=["mean", "ignore"],
-                     help="offsets a candidate has no range at: the support-weighted mean "
-                     "(default) or left out")
+                     help="offsets where the target has range and a candidate has none: "
+                     "charged the mean shared discrepancy (default: refsynth) or left out, "
+                     "as Eq. 2 is printed (default: paper)")
     eq2.add_argument("--grey", dest="colour", action="store_const", const=False,
-                     help="compare the BT.709 grey level instead of the colour channels")
-    both = synth.add_argument_group("what a pixel is given (both methods)")
+                     help="compare the BT.709 grey level instead of the colour channels "
+                     "(default: the colour channels in both presets)")
+    both = synth.add_argument_group("what a pixel is given (both methods; default: the "
+                                    "preset's)")
     both.add_argument("--range-copy", choices=list(RANGE_COPIES),
                       help="what a pixel gets from the neighbourhood Eq. 5 drew (NP) or its "
-                      "MAP label (BP): value (the centre range, the paper's) or offset (that "
-                      "value shifted by the two windows' consistent range difference: a "
-                      "departure, the default)")
+                      "MAP label (BP): value, the centre range, as Eq. 5 and Fig. 6 print it "
+                      "(default: paper), or offset, that value shifted by the two windows' "
+                      "consistent range difference (default: refsynth)")
     np_group = synth.add_argument_group("NP only (--method np)")
     np_group.add_argument("--epsilon", type=real, metavar="E",
                           help="tolerance of Eq. 5 (default 0.1)")
@@ -408,42 +425,43 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                           "priority)")
     np_group.add_argument("--no-isophotes", dest="use_isophotes", action="store_const",
                           const=False, help="drop the isophote term of Eq. 12 (default: use it)")
-    bp_group = synth.add_argument_group("BP only (--method bp)")
+    bp_group = synth.add_argument_group("BP only (--method bp; a reading's default is the "
+                                        "preset's)")
     bp_group.add_argument("--candidates", type=integer, metavar="K",
                           help="candidate labels per unknown pixel (default 8)")
-    bp_group.add_argument("--proximity", type=real, metavar="MU",
-                          help="weight of the spatial prior when ranking candidates "
-                          "(default 0: Eq. 2 alone, the paper's)")
-    bp_group.add_argument("--sigma-i", type=real, metavar="S",
-                          help="sigma_i of Eq. 7 (default 0.1)")
-    bp_group.add_argument("--sigma-s", type=real, metavar="S",
-                          help="sigma_s of Eq. 6, in units of the known range's span "
-                          "(default 0.2)")
     bp_group.add_argument("--iterations", type=integer, metavar="N",
                           help="at most this many message-passing sweeps (default 50)")
+    bp_group.add_argument("--proximity", type=real, metavar="MU",
+                          help="weight of a spatial prior when ranking candidates "
+                          "(default 0 in both presets: Eq. 2 alone, as Fig. 6)")
+    bp_group.add_argument("--sigma-i", type=real, metavar="S",
+                          help="sigma_i of Eq. 7 (default 0.1 in both presets)")
+    bp_group.add_argument("--sigma-s", type=real, metavar="S",
+                          help="sigma_s of Eq. 6, in units of the known range's span "
+                          "(default 0.2 in both presets)")
     bp_group.add_argument("--proposals", choices=["np", "np-completed"],
-                          help="a departure from Fig. 6: NP's fill proposes one more label "
-                          "per pixel (np-completed: the training patches' unknown range "
-                          "from NP too); default none, the paper's candidates")
+                          help="NP's fill proposes one more label per pixel (np-completed: "
+                          "the training patches' unknown range from NP too) (default: none "
+                          "in both presets, Fig. 6's candidates)")
     bp_group.add_argument("--proposal-runs", type=integer, metavar="S",
                           help="with --proposals: this many NP fills propose (default 1)")
     bp_group.add_argument("--observation", choices=list(OBSERVATIONS),
-                          help="the observations' range for the candidates' ranking: np "
-                          "(the default, a departure from Fig. 6) completes it by NP's fill "
-                          "(NP's time on top, depends on --seed), colorization by the "
-                          "colorization fill (0.4-0.8's default: faster, less accurate), "
-                          "colorization-completed the training patches' too, measured is "
-                          "the paper's")
+                          help="the observations' range for the candidates' ranking: "
+                          "measured, as Fig. 6 (default: paper); np, completed by NP's fill "
+                          "(NP's time on top, follows --seed; default: refsynth); "
+                          "colorization, by the colorization fill (faster, less accurate); "
+                          "colorization-completed, the training patches' too")
     bp_group.add_argument("--training-radius", choices=list(TRAINING_RADII),
-                          help="each node's training disc: gap (the default, a departure) "
-                          "widens it by the node's distance to the nearest measured pixel, "
-                          "fixed is the paper's r")
+                          help="each node's training disc: fixed, Fig. 6's r (default: "
+                          "paper), or gap, r widened by the node's distance to the nearest "
+                          "measured pixel (default: refsynth)")
     bp_group.add_argument("--offset-tolerance", type=real, metavar="T",
                           help="with the offset copy: how closely the windows' range "
                           "differences must agree for a label to be shifted, a power of two "
-                          "fraction of the measured span (default 0.125 = 2**-3 on NP's "
+                          "fraction of the measured span (default: 0.125 = 2**-3 on NP's "
                           "fill; 0.0078125 = 2**-7, NP's, with the other observations)")
     bp_group.add_argument("--compatibility", choices=list(COMPATIBILITIES),
-                          help="a departure in Eq. 6: overlap-centres counts the two labels' "
-                          "centres as one more shared pixel; default overlap, the paper's")
+                          help="Eq. 6 over the two labels' overlap, as printed, or "
+                          "overlap-centres, the labels' centres counted as one more shared "
+                          "pixel (default: overlap in both presets)")
     return synth
