@@ -19,60 +19,72 @@ listing the valid ones, before any work.
 The fields, the paper's text, the two presets and the evidence
 ----------------------------------------------------------------
 
-====================  ===========  =============  ================================================
-field                 ``paper``    ``refsynth``   the paper's text; the evidence for refsynth's
-====================  ===========  =============  ================================================
-``range_weight``      1            1              Eq. 2 adds the intensity and range terms with
-                                                  no weight (λ = 1 on the normalised terms); λ = 16
-                                                  lost on the Motorcycle at every fraction.
-``missing_range``     ``ignore``   ``mean``       Eq. 2 sums over the data both neighbourhoods
-                                                  have; charging the target's other offsets the
-                                                  mean shared discrepancy won at 63 and 85 %.
-``colour``            True         True           Eq. 2's ``I`` is "grayscale or color"; the
-                                                  Middlebury images are colour (§3.3).
-``channels``          ``sum``      ``sum``        Eq. 2's intensity term over the channels: their
-                                                  sum as written (the mean lost at every fraction).
-``range_copy``        ``value``    ``offset``     Eq. 5: "R_q is then used to specify R_p"; Fig. 6,
-                                                  step 6: the centre pixel's depth. The shifted
-                                                  copy won at every fraction and size, NP and BP.
-``confidence_update`` ``best``     ``best``       After Eq. 11: "the confidence of the augmented
-                                                  voxel which most resemble the neighborhood of
-                                                  V_p is assigned to C(V_p)".
-``edges_last``        True         True           §3.2.4: voxels on an edge are deferred "to the
-                                                  very end" (read on the fill front).
-``observation``       ``measured`` ``np``         Fig. 6, step 1: the patches of the registered
-                                                  intensity and *incomplete* range; completing
-                                                  them by NP's fill won at every fraction.
-``training_radius``   ``fixed``    ``gap``        Fig. 6, step 2: "the local training set located
-                                                  up to distance r"; the disc widened by the gap's
-                                                  depth pays with the completed observations.
-``compatibility``     ``overlap``  ``overlap``    Eq. 6: the pixels of the two candidates in their
-                                                  overlap (``overlap-centres`` tied).
-``proximity``         0            0              Fig. 6, step 2 ranks by the patches' match alone
-                                                  (a spatial prior lost at every fraction).
-``sigma_i``           0.1          0.1            Eq. 7's σ_i: "parameters of the algorithm", no
-                                                  value given (a factor of 2 moves MAR < 1.5 %).
-``sigma_s``           0.2          0.2            Eq. 6's σ_s: as σ_i.
-``product``           ``max``      ``max``        Eq. 8's MAP estimate; Eq. 9's operator is lost in
-                                                  the text: max-product, as Freeman et al. 2000.
-``tolerance``         0            1e-4           §3.3: 50 iterations, no stopping rule; 0 stops
-                                                  only at an exact fixed point, where further
-                                                  sweeps change nothing.
-``edge_rule``         ``silent``   ``silent``     §3.2.3: a node sends once it has heard from all
-                                                  its other neighbours "except those edge-labeled
-                                                  nodes" — edge nodes send nothing (``paper``: they
-                                                  receive nothing either, EQUATIONS.md's reading;
-                                                  the two tied).
-``offset_tolerance``  None         None           BP's agreement for the shifted labels (no paper
-                                                  text: ``range_copy="offset"`` only); None: by the
-                                                  observation, ``2**-3`` on NP's fill, else
-                                                  ``2**-7``.
-``proposals``         None         None           Fig. 6's candidates are the training patches
-                                                  only; NP's fills as more labels lost at 63 %.
-``proposal_runs``     1            1              The NP fills that propose (with ``proposals``).
-====================  ===========  =============  ================================================
+======================  =============  =============  ============================================
+field                   ``paper``      ``refsynth``   the paper's text; the evidence for
+                                                      refsynth's value
+======================  =============  =============  ============================================
+``range_weight``        1              1              Eq. 2 adds the intensity and range terms
+                                                      with no weight (λ = 1 on the normalised
+                                                      terms); λ = 16 lost on the Motorcycle at
+                                                      every fraction.
+``missing_range``       ``ignore``     ``mean``       Eq. 2 sums over the data both neighbourhoods
+                                                      have; charging the target's other offsets
+                                                      the mean shared discrepancy won at 63 and 85
+                                                      %.
+``colour``              True           True           Eq. 2's ``I`` is "grayscale or color"; the
+                                                      Middlebury images are colour (§3.3).
+``channels``            ``sum``        ``sum``        Eq. 2's intensity term over the channels:
+                                                      their sum as written (the mean lost at every
+                                                      fraction).
+``range_copy``          ``value``      ``offset``     Eq. 5: "R_q is then used to specify R_p";
+                                                      Fig. 6, step 6: the centre pixel's depth.
+                                                      The shifted copy won at every fraction and
+                                                      size, NP and BP.
+``confidence_update``   ``best``       ``best``       After Eq. 11: "the confidence of the
+                                                      augmented voxel which most resemble the
+                                                      neighborhood of V_p is assigned to C(V_p)".
+``edges_last``          True           True           §3.2.4: voxels on an edge are deferred "to
+                                                      the very end" (read on the fill front).
+``observation``         ``measured``   ``np``         Fig. 6, step 1: the patches of the
+                                                      registered intensity and *incomplete* range;
+                                                      completing them by NP's fill won at every
+                                                      fraction.
+``training_radius``     ``fixed``      ``gap``        Fig. 6, step 2: "the local training set
+                                                      located up to distance r"; the disc widened
+                                                      by the gap's depth pays with the completed
+                                                      observations.
+``compatibility``       ``overlap``    ``overlap``    Eq. 6: the pixels of the two candidates in
+                                                      their overlap (``overlap-centres`` tied).
+``proximity``           0              0              Fig. 6, step 2 ranks by the patches' match
+                                                      alone (a spatial prior lost at every
+                                                      fraction).
+``sigma_i``             0.1            0.1            Eq. 7's σ_i: "parameters of the algorithm",
+                                                      no value given (a factor of 2 moves MAR <
+                                                      1.5 %).
+``sigma_s``             0.2            0.2            Eq. 6's σ_s: as σ_i.
+``product``             ``max``        ``max``        Eq. 8's MAP estimate; Eq. 9's operator is
+                                                      lost in the text: max-product, as Freeman et
+                                                      al. 2000.
+``tolerance``           0              1e-4           §3.3: 50 iterations, no stopping rule; 0
+                                                      stops only at an exact fixed point, where
+                                                      further sweeps change nothing.
+``edge_rule``           ``silent``     ``silent``     §3.2.3: a node sends once it has heard from
+                                                      all its other neighbours "except those edge-
+                                                      labeled nodes" — edge nodes send nothing
+                                                      (``paper``: they receive nothing either,
+                                                      EQUATIONS.md's reading; the two tied).
+``offset_tolerance``    None           None           BP's agreement for the shifted labels (no
+                                                      paper text: ``range_copy="offset"`` only);
+                                                      None: by the observation, ``2**-3`` on NP's
+                                                      fill, else ``2**-7``.
+``proposals``           None           None           Fig. 6's candidates are the training patches
+                                                      only; NP's fills as more labels lost at 63
+                                                      %.
+``proposal_runs``       1              1              The NP fills that propose (with
+                                                      ``proposals``).
+======================  =============  =============  ============================================
 
-The figures behind each line are in the README's departures section and in the docstring
+The figures behind each line are on the documentation's departures page and in the docstring
 of the module that implements the departure (:mod:`refsynth.synthesis.similarity`,
 :mod:`refsynth.synthesis.range_copy`, :mod:`refsynth.synthesis.bp_observation`,
 :mod:`refsynth.synthesis.bp_gap_radius`, :mod:`refsynth.synthesis.bp_centres`,
