@@ -144,7 +144,8 @@ def test_resize_keeps_half_covered_cells(tmp_path):
 
 def test_mismatched_sizes(tmp_path):
     np.save(tmp_path / "gt.npy", np.ones((3, 5)))
-    with pytest.raises(ValueError, match=r"`truth` must match the image's size.*\(3, 4\).*\(3, 5\)"):
+    with pytest.raises(ValueError, match=r"`truth` must match the image's size.*\(3, 4\).*"
+                                         r"\(3, 5\)"):
         load_rgbd(_rgb(tmp_path / "i.png", 3, 4), tmp_path / "gt.npy")
 
 
