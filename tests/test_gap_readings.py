@@ -1,4 +1,4 @@
-"""refsynth.synthesis.gap_readings: row gaps, the row interpolation, the gate, the residual reading."""
+"""synthesis.gap_readings: row gaps, the row interpolation, the gate, the residual reading."""
 
 from __future__ import annotations
 
