@@ -28,7 +28,8 @@ Run::
         --scenes motorcycle,kv2_livingroom_raw,nyu_basement_raw_00050 --seeds 0
 
 ``--arrays DIR`` keeps each NP / BP result as ``DIR/<scene>_<sampling>_<size>_<method>_<seed>.npy``
-and reuses it on the next run (its seconds are then not measured: NaN).
+(a classical fill's without the seed) and reuses it on the next run (its seconds are then not
+measured: NaN).
 """
 
 from __future__ import annotations
@@ -90,9 +91,16 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
     rows = []
     if (name, size, sampling, "row-linear", seeds[0]) not in have:
         for method in (*scenes.CLASSICAL, "row-linear"):
+            path = (Path(arrays) / f"{name}_{sampling}_{size}_{method}.npy"
+                    if arrays and method != "row-linear" else None)
             start = time.perf_counter()
-            estimate = (row_interpolation(partial) if method == "row-linear"
-                        else BASELINES[method](scene.intensity, partial))
+            if path is not None and path.is_file():
+                estimate, start = np.load(path), math.nan
+            else:
+                estimate = (row_interpolation(partial) if method == "row-linear"
+                            else BASELINES[method](scene.intensity, partial))
+                if path is not None:
+                    np.save(path, estimate)
             rows.append(_row(scene, name, size, sampling, method, seeds[0], estimate, known,
                              time.perf_counter() - start))
     for base in bases:
