@@ -44,7 +44,7 @@ import numpy as np
 from scipy import ndimage
 
 from refsynth._checks import check_choice, is_real
-from refsynth.synthesis.api import synthesize, validate_inputs
+from refsynth.synthesis.limits import validate_inputs
 
 __all__ = [
     "INTERPOLATIONS",
@@ -63,6 +63,14 @@ INTERPOLATIONS = ("linear", "nearest")
 OPEN_GAPS = ("estimate", "interpolation")
 #: The relative jump above which :func:`gap_gate` keeps the synthesized range.
 DEFAULT_JUMP = 0.1
+
+
+def _synthesize():
+    """:func:`refsynth.synthesize`, imported when called: the module's post-pass
+    (:func:`gap_gate`) stays importable by :mod:`refsynth.synthesis.api` itself."""
+    from refsynth.synthesis.api import synthesize
+
+    return synthesize
 
 
 def _check_jump(jump) -> float:
@@ -218,7 +226,7 @@ def residual_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
     trend = _interpolate(values, interpolation)
     known = np.isfinite(values)
     residual = np.where(known, values - trend, np.nan)
-    synthesized = synthesize(intensity, residual, **synth_options).range
+    synthesized = _synthesize()(intensity, residual, **synth_options).range
     return np.where(known, values, trend + synthesized)
 
 
@@ -309,5 +317,5 @@ def gated_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
     _check_jump(jump)
     check_choice("open_gaps", open_gaps, OPEN_GAPS)
     _, values = validate_inputs(intensity, partial_range)
-    synthesized = synthesize(intensity, values, **synth_options).range
+    synthesized = _synthesize()(intensity, values, **synth_options).range
     return gap_gate(synthesized, values, jump=jump, open_gaps=open_gaps)
