@@ -9,9 +9,10 @@ result, so the readings differ by the post-pass only:
 - ``np`` / ``bp``: :func:`refsynth.synthesize` (the paper's reading with refsynth's defaults);
 - ``np-clip``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``jump=0`` (every
   bounded gap clipped to its bounds, nothing interpolated);
-- ``np-gate<J>``: :func:`~refsynth.synthesis.gap_readings.gated_synthesis` with ``jump=J``
-  (interpolate the gaps whose bounds differ by at most J × the larger, clip the others);
-- ``np-gate<J>-open``: the same, and the gaps open at the border take their bound's value;
+- ``np-gate<J>-open``: :func:`~refsynth.synthesis.gap_readings.gated_synthesis` with
+  ``jump=J`` (interpolate the gaps whose bounds differ by at most J × the larger, clip the
+  others; a gap open at the border takes its bound's value);
+- ``np-gate<J>``: the same with ``open_gaps="estimate"`` (an open gap keeps NP's range);
 - ``np-residual`` (``--residual``; a run of its own):
   :func:`~refsynth.synthesis.gap_readings.residual_synthesis`;
 - ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` alone;

@@ -106,10 +106,10 @@ def test_row_interpolation_refuses_bad_input():
 def test_gap_gate_hand_built():
     partial = np.array([[1.0, nan, 1.1, nan, nan, 3.0, nan]])
     estimate = np.array([[9.0, 7.0, 9.0, 0.0, 2.5, 9.0, 8.0]])
-    out = gap_gate(estimate, partial, jump=0.2)
+    out = gap_gate(estimate, partial, jump=0.2, open_gaps="estimate")
     # 1 -> 1.1 is smooth (interpolated); 1.1 -> 3 holds an edge (clipped); the open gap kept
     np.testing.assert_allclose(out, [[1.0, 1.05, 1.1, 1.1, 2.5, 3.0, 8.0]])
-    out = gap_gate(estimate, partial, jump=0.2, open_gaps="interpolation")
+    out = gap_gate(estimate, partial, jump=0.2)  # the open gap takes its bound by default
     assert out[0, -1] == 3.0
     # jump = 0 only clips; jump = inf interpolates every bounded gap
     np.testing.assert_allclose(gap_gate(estimate, partial, jump=0.0)[0, :3], [1.0, 1.1, 1.1])
@@ -124,7 +124,7 @@ def test_gap_gate_stays_within_the_bounds(seed, jump):
     if not np.isfinite(partial).any():
         partial[0, 0] = 1.0
     estimate = rng.uniform(-10, 10, partial.shape)
-    out = gap_gate(estimate, partial, jump=jump)
+    out = gap_gate(estimate, partial, jump=jump, open_gaps="estimate")
     left, right, width = row_gaps(partial)
     rows = np.arange(6)[:, None]
     lv, rv = partial[rows, np.maximum(left, 0)], partial[rows, np.maximum(right, 0)]
