@@ -9,10 +9,12 @@ result, so the readings differ by the post-pass only:
 - ``np`` / ``bp``: :func:`refsynth.synthesize` (the paper's reading with refsynth's defaults);
 - ``np-clip``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``jump=0`` (every
   bounded gap clipped to its bounds, nothing interpolated);
-- ``np-gate<J>-open``: :func:`~refsynth.synthesis.gap_readings.gated_synthesis` with
-  ``jump=J`` (interpolate the gaps whose bounds differ by at most J × the larger, clip the
+- ``np-gate<J>``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``jump=J`` and
+  no edges (interpolate every gap whose bounds differ by at most J × the larger, clip the
   others; a gap open at the border takes its bound's value);
-- ``np-gate<J>``: the same with ``open_gaps="estimate"`` (an open gap keeps NP's range);
+- ``np-gate<J>-w<M>``: :func:`~refsynth.synthesis.gap_readings.gated_synthesis`'s post-pass
+  with ``jump=J, max_gap=M`` and the Canny edges NP used (a smooth gap wider than M that
+  holds an intensity edge keeps NP's range);
 - ``np-residual`` (``--residual``; a run of its own):
   :func:`~refsynth.synthesis.gap_readings.residual_synthesis`;
 - ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` alone;
@@ -58,7 +60,9 @@ from refsynth._files import write_atomic  # noqa: E402
 from refsynth.evaluation.baselines import BASELINES  # noqa: E402
 from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
 from refsynth.evaluation.metrics import evaluate  # noqa: E402
-from refsynth.synthesis.api import synthesize  # noqa: E402
+from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity  # noqa: E402
+from refsynth.synthesis.api import synthesize, validate_inputs  # noqa: E402
+from refsynth.synthesis.canny import canny  # noqa: E402
 from refsynth.synthesis.gap_readings import (  # noqa: E402
     gap_gate,
     residual_synthesis,
@@ -66,13 +70,14 @@ from refsynth.synthesis.gap_readings import (  # noqa: E402
 )
 
 DEFAULT_JUMPS = (0.05, 0.1, 0.2)
+DEFAULT_MAX_GAPS = (6,)
 DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")
 
 
-def readings(base: str, jumps: Sequence[float]) -> list[str]:
+def readings(base: str, jumps: Sequence[float], max_gaps: Sequence[int]) -> list[str]:
     """The post-pass readings' labels of one base method."""
     return [base, f"{base}-clip", *[f"{base}-gate{j:g}" for j in jumps],
-            *[f"{base}-gate{j:g}-open" for j in jumps]]
+            *[f"{base}-gate{j:g}-w{m}" for j in jumps for m in max_gaps]]
 
 
 def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) -> dict:
@@ -83,12 +88,14 @@ def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) ->
 
 
 def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str],
-             seeds: Sequence[int], jumps: Sequence[float], residual: bool,
-             arrays: str | None, have: set, progress=None) -> list[dict]:
+             seeds: Sequence[int], jumps: Sequence[float], max_gaps: Sequence[int],
+             residual: bool, arrays: str | None, have: set, progress=None) -> list[dict]:
     """Every row of one scene × sampling (the classical fills once, the bases per seed)."""
     scene = scenes.load(spec, size)
     known = known_mask(scene, sampling)
     partial = np.where(known, scene.range, np.nan)
+    image = validate_inputs(scene.intensity, partial)[0]   # NP's edges: refsynth.synthesize's
+    edges = canny(quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS, sigma=0.8)
     rows = []
     if (name, size, sampling, "row-linear", seeds[0]) not in have:
         for method in (*scenes.CLASSICAL, "row-linear"):
@@ -124,11 +131,14 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
             rows.append(_row(scene, name, size, sampling, f"{base}-clip", seed,
                              gap_gate(estimate, partial, jump=0.0), known, seconds))
             for jump in jumps:
-                for open_gaps, suffix in (("estimate", ""), ("interpolation", "-open")):
-                    gated = gap_gate(estimate, partial, jump=jump, open_gaps=open_gaps)
-                    rows.append(_row(scene, name, size, sampling, f"{base}-gate{jump:g}{suffix}",
-                                     seed, gated, known, seconds))
-            post = (time.perf_counter() - start) / (1 + 2 * len(jumps))
+                rows.append(_row(scene, name, size, sampling, f"{base}-gate{jump:g}", seed,
+                                 gap_gate(estimate, partial, jump=jump), known, seconds))
+                for max_gap in max_gaps:
+                    gated = gap_gate(estimate, partial, jump=jump, max_gap=max_gap, edges=edges)
+                    rows.append(_row(scene, name, size, sampling,
+                                     f"{base}-gate{jump:g}-w{max_gap}", seed, gated, known,
+                                     seconds))
+            post = (time.perf_counter() - start) / (1 + len(jumps) * (1 + len(max_gaps)))
             if residual:
                 start = time.perf_counter()
                 estimate = residual_synthesis(scene.intensity, partial, seed=seed, **options)
@@ -178,6 +188,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--samplings", default=",".join(DEFAULT_SAMPLINGS))
     parser.add_argument("--bases", default="np,bp", help="np, bp or np,bp (default)")
     parser.add_argument("--jumps", default=",".join(f"{j:g}" for j in DEFAULT_JUMPS))
+    parser.add_argument("--max-gaps", default=",".join(map(str, DEFAULT_MAX_GAPS)),
+                        help="max_gap values of the edge rule (default 6)")
     parser.add_argument("--seeds", default="0", help="comma-separated seeds (default 0)")
     parser.add_argument("--residual", action="store_true", help="also run residual_synthesis")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse NP, BP results")
@@ -195,6 +207,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         jumps = [float(j) for j in scenes._list(args.jumps)]
         if any(not j >= 0 for j in jumps):
             raise ValueError("--jumps must list numbers >= 0")
+        max_gaps = [int(m) for m in scenes._list(args.max_gaps)]
+        if any(m < 0 for m in max_gaps):
+            raise ValueError("--max-gaps must list integers >= 0")
         seeds = [int(s) for s in scenes._list(args.seeds)]
         if not seeds or min(seeds) < 0:
             raise ValueError("--seeds must list non-negative integers")
@@ -212,14 +227,14 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     if args.resume and Path(args.json).is_file():
         rows = [r for r in json.loads(Path(args.json).read_text())["runs"] if r["size"] == size]
     have = {(r["scene"], r["size"], r["sampling"], r["method"], r["seed"]) for r in rows}
-    methods = [m for b in bases for m in readings(b, jumps)]
+    methods = [m for b in bases for m in readings(b, jumps, max_gaps)]
     methods += [f"{b}-residual" for b in bases] if args.residual else []
     methods += ["row-linear", *scenes.CLASSICAL]
     progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     for name, spec in specs:
         for sampling in samplings:
-            rows += run_case(name, spec, size, sampling, bases, seeds, jumps, args.residual,
-                             args.arrays, have, progress)
+            rows += run_case(name, spec, size, sampling, bases, seeds, jumps, max_gaps,
+                             args.residual, args.arrays, have, progress)
             if args.json:
                 write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), runs=rows),
                                                    indent=1, allow_nan=True).encode())

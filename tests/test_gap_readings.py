@@ -209,3 +209,43 @@ def test_gated_synthesis_checks_before_any_work():
         gated_synthesis(np.zeros((3, 3)), partial, open_gaps="x")
     with pytest.raises(ValueError):
         gated_synthesis(np.zeros((3, 4)), partial)
+
+
+def test_gap_gate_keeps_the_estimate_in_a_wide_smooth_gap_with_an_edge():
+    partial = np.array([[1.0] + [nan] * 8 + [1.0]])
+    estimate = np.array([[1.0, 1.0, 1.0, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0, 1.0]])
+    edges = np.zeros(partial.shape, bool)
+    assert np.array_equal(gap_gate(estimate, partial), np.ones((1, 10)))  # no edges given
+    assert np.array_equal(gap_gate(estimate, partial, edges=edges), np.ones((1, 10)))
+    edges[0, 0] = edges[0, 9] = True  # on the bounds only: not inside the gap
+    assert np.array_equal(gap_gate(estimate, partial, edges=edges), np.ones((1, 10)))
+    edges[0, 3] = True
+    assert np.array_equal(gap_gate(estimate, partial, edges=edges), estimate)
+    # a gap no wider than max_gap is interpolated whatever the edges say
+    assert np.array_equal(gap_gate(estimate, partial, edges=edges, max_gap=8), np.ones((1, 10)))
+    assert np.array_equal(gap_gate(estimate, partial, edges=edges, max_gap=None),
+                          np.ones((1, 10)))
+    with pytest.raises(ValueError, match="edges"):
+        gap_gate(estimate, partial, edges=edges.astype(int))
+    with pytest.raises(ValueError, match="max_gap"):
+        gap_gate(estimate, partial, max_gap=-1)
+
+
+def test_gated_synthesis_gates_with_synthesizes_edges():
+    """Wide gaps (9 px) over a textured plane: the gate sees the same Canny edges as NP."""
+    shape = (12, 22)
+    truth = _plane(shape, 2.0, 0.005, 0.0)
+    partial = np.where(_columns(shape, [0, 1, 11, 12, 21]), truth, nan)
+    image = _texture(shape, 11)
+    edges = np.zeros(shape, bool)
+    edges[:, 5] = True
+    given_edges = gated_synthesis(image, partial, seed=0, edges=edges)
+    synthesized = refsynth.synthesize(image, partial, seed=0, edges=edges).range
+    assert np.array_equal(given_edges, gap_gate(synthesized, partial, edges=edges))
+    np.testing.assert_allclose(given_edges[:, 12:21], truth[:, 12:21], atol=1e-12)
+    own = gated_synthesis(image, partial, seed=0)
+    canny_edges = refsynth.synthesis.canny(
+        refsynth.numeric.quantise_grey(refsynth.numeric.quantise_intensity(image)) * 2.0**-16,
+        sigma=0.8)
+    synthesized = refsynth.synthesize(image, partial, seed=0).range
+    assert np.array_equal(own, gap_gate(synthesized, partial, edges=canny_edges))

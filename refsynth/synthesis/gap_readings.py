@@ -43,13 +43,16 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from refsynth._checks import check_choice, is_real
+from refsynth._checks import check_choice, check_int, is_real
+from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
+from refsynth.synthesis.canny import canny
 from refsynth.synthesis.limits import validate_inputs
 
 __all__ = [
     "INTERPOLATIONS",
     "OPEN_GAPS",
     "DEFAULT_JUMP",
+    "DEFAULT_MAX_GAP",
     "row_gaps",
     "row_interpolation",
     "gap_gate",
@@ -63,6 +66,8 @@ INTERPOLATIONS = ("linear", "nearest")
 OPEN_GAPS = ("interpolation", "estimate")
 #: The relative jump above which :func:`gap_gate` keeps the synthesized range.
 DEFAULT_JUMP = 0.1
+#: The widest smooth gap :func:`gap_gate` interpolates whatever the intensity edges say.
+DEFAULT_MAX_GAP = 6
 
 
 def _synthesize():
@@ -230,14 +235,27 @@ def residual_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
     return np.where(known, values, trend + synthesized)
 
 
+def _canny_edges(image: np.ndarray, canny_sigma: float) -> np.ndarray:
+    """Canny edges as :func:`refsynth.synthesize` detects them: the grey level brought to [0, 1]."""
+    levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
+    return canny(levels, sigma=canny_sigma)
+
+
 def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = DEFAULT_JUMP,
+             max_gap: int | None = DEFAULT_MAX_GAP, edges: np.ndarray | None = None,
              open_gaps: str = "interpolation") -> np.ndarray:
     """Interpolate the smooth gaps of each row, clip the estimate in the others (a post-pass).
 
     For an unknown pixel whose row gap (:func:`row_gaps`) has bounds ``l`` and ``r`` on both
-    sides: if ``|R(r) − R(l)| ≤ jump · max(|R(l)|, |R(r)|)`` (no depth edge between them), the
-    result is :func:`row_interpolation`'s value; otherwise ``estimate`` clipped to
-    ``[min(R(l), R(r)), max(R(l), R(r))]``.
+    sides:
+
+    - a *jump* gap, ``|R(r) − R(l)| > jump · max(|R(l)|, |R(r)|)`` (a depth edge between the
+      bounds): ``estimate`` clipped to ``[min(R(l), R(r)), max(R(l), R(r))]``;
+    - a *smooth* gap: :func:`row_interpolation`'s value, except in a gap wider than
+      ``max_gap`` that holds an intensity edge (a pixel of ``edges`` strictly between the
+      bounds in its row), where ``estimate`` is kept as it is: an object between two
+      measured columns that agree (a part of the Motorcycle in front of its background) is
+      what NP and BP can see and the line cannot.
 
     Parameters
     ----------
@@ -247,7 +265,13 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
         The measured range the estimate was made from.
     jump : float, default 0.1
         The relative difference of the two bounds above which a gap holds a depth edge, in
-        ``[0, inf]``: 0 clips every bounded gap, ``inf`` interpolates every one.
+        ``[0, inf]``: 0 clips every bounded gap, ``inf`` makes every bounded gap smooth.
+    max_gap : int or None, default 6
+        The widest smooth gap interpolated whatever ``edges`` say, in pixels; ``None``: every
+        smooth gap is interpolated.
+    edges : ndarray of shape (H, W), bool, optional
+        The intensity edges (:func:`gated_synthesis` gives :func:`refsynth.synthesize`'s:
+        Canny on the grey level, §3.2); without them every smooth gap is interpolated.
     open_gaps : {"interpolation", "estimate"}
         A gap with one bound only (at the border, or beside a row's hole): take the bound's
         value (:func:`row_interpolation`'s; the default, measured better on the screening
@@ -266,12 +290,17 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
     [[1.0, 1.0, 1.0, 9.0, 9.0, 9.0]]
     """
     jump = _check_jump(jump)
+    if max_gap is not None:
+        max_gap = check_int("max_gap", max_gap, minimum=0)
     check_choice("open_gaps", open_gaps, OPEN_GAPS)
     values = np.asarray(partial_range, dtype=float)
     estimate = np.asarray(estimate, dtype=float)
     if values.ndim != 2 or estimate.shape != values.shape:
         raise ValueError(f"estimate must have partial_range's 2-D shape {values.shape}, "
                          f"got {estimate.shape}")
+    if edges is not None and (np.shape(edges) != values.shape
+                              or np.asarray(edges).dtype != np.bool_):
+        raise ValueError(f"edges must be a bool array of partial_range's shape {values.shape}")
     known = np.isfinite(values)
     left, right, width = row_gaps(values)
     rows = np.arange(values.shape[0])[:, None]
@@ -280,28 +309,35 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
     bounded = width > 0
     with np.errstate(invalid="ignore"):
         edge = np.abs(rv - lv) > jump * np.fmax(np.abs(lv), np.abs(rv))
+    smooth = bounded & ~edge
+    if edges is not None and max_gap is not None:
+        counts = np.concatenate([np.zeros((values.shape[0], 1), np.int64),
+                                 np.cumsum(edges, axis=1)], axis=1)
+        inside = counts[rows, np.maximum(right, 0)] - counts[rows, np.maximum(left, 0) + 1]
+        smooth &= ~((width > max_gap) & (inside > 0))
     interpolated = row_interpolation(values)
     out = np.where(bounded & edge, np.clip(estimate, np.fmin(lv, rv), np.fmax(lv, rv)),
                    estimate)
-    out = np.where(bounded & ~edge, interpolated, out)
+    out = np.where(smooth, interpolated, out)
     if open_gaps == "interpolation":
         out = np.where(width < 0, interpolated, out)
     return np.where(known, values, out)
 
 
 def gated_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
-                    jump: float = DEFAULT_JUMP, open_gaps: str = "interpolation",
-                    **synth_options) -> np.ndarray:
-    """:func:`refsynth.synthesize`, then :func:`gap_gate`: synthesis only where a gap holds an edge.
+                    jump: float = DEFAULT_JUMP, max_gap: int | None = DEFAULT_MAX_GAP,
+                    open_gaps: str = "interpolation", **synth_options) -> np.ndarray:
+    """:func:`refsynth.synthesize`, then :func:`gap_gate` with the intensity's Canny edges.
 
     Parameters
     ----------
     intensity, partial_range : ndarray
         As for :func:`refsynth.synthesize`.
-    jump, open_gaps
+    jump, max_gap, open_gaps
         As for :func:`gap_gate` (checked before any work).
     **synth_options
-        Keywords of :func:`refsynth.synthesize` (``method``, ``seed``, ...).
+        Keywords of :func:`refsynth.synthesize` (``method``, ``seed``, ...); its ``edges``
+        (or the Canny edges at its ``canny_sigma``) are the gate's too.
 
     Returns
     -------
@@ -316,7 +352,13 @@ def gated_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
     [1.0, 2.0, 3.0, 4.0, 4.5, 5.0]
     """
     _check_jump(jump)
+    if max_gap is not None:
+        check_int("max_gap", max_gap, minimum=0)
     check_choice("open_gaps", open_gaps, OPEN_GAPS)
-    _, values = validate_inputs(intensity, partial_range)
+    image, values = validate_inputs(intensity, partial_range)
     synthesized = _synthesize()(intensity, values, **synth_options).range
-    return gap_gate(synthesized, values, jump=jump, open_gaps=open_gaps)
+    edges = synth_options.get("edges")
+    if edges is None:
+        edges = _canny_edges(image, synth_options.get("canny_sigma", 0.8))
+    return gap_gate(synthesized, values, jump=jump, max_gap=max_gap, edges=edges,
+                    open_gaps=open_gaps)
