@@ -14,7 +14,8 @@ result, so the readings differ by the post-pass only:
   others; a gap open at the border takes its bound's value);
 - ``np-gate<J>-w<M>``: :func:`~refsynth.synthesis.gap_readings.gated_synthesis`'s post-pass
   with ``jump=J, max_gap=M`` and the Canny edges NP used (a smooth gap wider than M that
-  holds an intensity edge keeps NP's range);
+  holds an intensity edge keeps NP's range); ``-mean``: ``wide_gaps="mean"`` (there the
+  mean of NP's range and the line);
 - ``np-residual`` (``--residual``; a run of its own):
   :func:`~refsynth.synthesis.gap_readings.residual_synthesis`;
 - ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` alone;
@@ -74,7 +75,7 @@ DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")
 def readings(base: str, jumps: Sequence[float], max_gaps: Sequence[int]) -> list[str]:
     """The post-pass readings' labels of one base method."""
     return [base, f"{base}-clip", *[f"{base}-gate{j:g}" for j in jumps],
-            *[f"{base}-gate{j:g}-w{m}" for j in jumps for m in max_gaps]]
+            *[f"{base}-gate{j:g}-w{m}{x}" for j in jumps for m in max_gaps for x in ("", "-mean")]]
 
 
 def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) -> dict:
@@ -86,7 +87,8 @@ def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) ->
 
 def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str],
              seeds: Sequence[int], jumps: Sequence[float], max_gaps: Sequence[int],
-             residual: bool, arrays: str | None, have: set, progress=None) -> list[dict]:
+             residual: bool, arrays: str | None, have: set, progress=None,
+             stored_only: bool = False) -> list[dict]:
     """Every row of one scene × sampling (the classical fills once, the bases per seed)."""
     scene = scenes.load(spec, size)
     known = known_mask(scene, sampling)
@@ -117,6 +119,8 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
                     if arrays else None)
             if path is not None and path.is_file():
                 estimate, seconds = np.load(path), math.nan
+            elif stored_only:
+                continue
             else:
                 start = time.perf_counter()
                 estimate = synthesize(scene.intensity, partial, seed=seed, **options).range
@@ -131,11 +135,13 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
                 rows.append(_row(scene, name, size, sampling, f"{base}-gate{jump:g}", seed,
                                  gap_gate(estimate, partial, jump=jump), known, seconds))
                 for max_gap in max_gaps:
-                    gated = gap_gate(estimate, partial, jump=jump, max_gap=max_gap, edges=edges)
-                    rows.append(_row(scene, name, size, sampling,
-                                     f"{base}-gate{jump:g}-w{max_gap}", seed, gated, known,
-                                     seconds))
-            post = (time.perf_counter() - start) / (1 + len(jumps) * (1 + len(max_gaps)))
+                    for wide, suffix in (("estimate", ""), ("mean", "-mean")):
+                        gated = gap_gate(estimate, partial, jump=jump, max_gap=max_gap,
+                                         edges=edges, wide_gaps=wide)
+                        rows.append(_row(scene, name, size, sampling,
+                                         f"{base}-gate{jump:g}-w{max_gap}{suffix}", seed, gated,
+                                         known, seconds))
+            post = (time.perf_counter() - start) / (1 + len(jumps) * (1 + 2 * len(max_gaps)))
             if residual:
                 start = time.perf_counter()
                 estimate = residual_synthesis(scene.intensity, partial, seed=seed, **options)
@@ -190,6 +196,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--seeds", default="0", help="comma-separated seeds (default 0)")
     parser.add_argument("--residual", action="store_true", help="also run residual_synthesis")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse NP, BP results")
+    parser.add_argument("--stored-only", action="store_true",
+                        help="with --arrays: skip the NP / BP runs not stored there")
     parser.add_argument("--json", default=None, help="write the runs and the summary here")
     parser.add_argument("--resume", action="store_true", help="keep the runs in --json")
     parser.add_argument("--mar", action="store_true", help="MARs in the table, not ratios")
@@ -212,6 +220,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
             raise ValueError("--seeds must list non-negative integers")
         if args.resume and not args.json:
             raise ValueError("--resume needs --json")
+        if args.stored_only and not args.arrays:
+            raise ValueError("--stored-only needs --arrays")
         if args.arrays and not Path(args.arrays).is_dir():
             raise ValueError(f"--arrays must be an existing folder, got {args.arrays!r}")
         specs = scenes.scene_specs(args.folder, args.motorcycle,
@@ -231,7 +241,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     for name, spec in specs:
         for sampling in samplings:
             rows += run_case(name, spec, size, sampling, bases, seeds, jumps, max_gaps,
-                             args.residual, args.arrays, have, progress)
+                             args.residual, args.arrays, have, progress,
+                             stored_only=args.stored_only)
             if args.json:
                 write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), runs=rows),
                                                    indent=1, allow_nan=True).encode())

@@ -44,6 +44,7 @@ def test_table_arrays_and_resume(bench, folder, tmp_path):
     cells = dict(zip([c.strip() for c in header.split("|")], [c.strip() for c in line.split("|")]))
     runs = json.loads(target.read_text())["runs"]
     assert {r["method"] for r in runs} == {"np", "np-clip", "np-gate0.1", "np-gate0.1-w6",
+                                           "np-gate0.1-w6-mean",
                                            "row-linear", "nearest", "linear", "colorization",
                                            "joint-bilateral"}
     mar = {r["method"]: r["mar"] for r in runs}

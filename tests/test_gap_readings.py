@@ -221,6 +221,8 @@ def test_gap_gate_keeps_the_estimate_in_a_wide_smooth_gap_with_an_edge():
     assert np.array_equal(gap_gate(estimate, partial, edges=edges), np.ones((1, 10)))
     edges[0, 3] = True
     assert np.array_equal(gap_gate(estimate, partial, edges=edges), estimate)
+    mean = gap_gate(estimate, partial, edges=edges, wide_gaps="mean")
+    np.testing.assert_allclose(mean, (estimate + 1.0) / 2)
     # a gap no wider than max_gap is interpolated whatever the edges say
     assert np.array_equal(gap_gate(estimate, partial, edges=edges, max_gap=8), np.ones((1, 10)))
     assert np.array_equal(gap_gate(estimate, partial, edges=edges, max_gap=None),
@@ -229,6 +231,8 @@ def test_gap_gate_keeps_the_estimate_in_a_wide_smooth_gap_with_an_edge():
         gap_gate(estimate, partial, edges=edges.astype(int))
     with pytest.raises(ValueError, match="max_gap"):
         gap_gate(estimate, partial, max_gap=-1)
+    with pytest.raises(ValueError, match="wide_gaps"):
+        gap_gate(estimate, partial, wide_gaps="line")
 
 
 def test_gated_synthesis_gates_with_synthesizes_edges():

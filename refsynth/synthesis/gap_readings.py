@@ -51,6 +51,7 @@ from refsynth.synthesis.limits import validate_inputs
 __all__ = [
     "INTERPOLATIONS",
     "OPEN_GAPS",
+    "WIDE_GAPS",
     "DEFAULT_JUMP",
     "DEFAULT_MAX_GAP",
     "row_gaps",
@@ -62,6 +63,8 @@ __all__ = [
 
 #: The interpolations :func:`residual_synthesis` accepts.
 INTERPOLATIONS = ("linear", "nearest")
+#: What :func:`gap_gate` gives a wide smooth gap holding an intensity edge.
+WIDE_GAPS = ("estimate", "mean")
 #: What :func:`gap_gate` does with a gap open at the image's border (one bound only).
 OPEN_GAPS = ("interpolation", "estimate")
 #: The relative jump above which :func:`gap_gate` keeps the synthesized range.
@@ -243,7 +246,7 @@ def _canny_edges(image: np.ndarray, canny_sigma: float) -> np.ndarray:
 
 def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = DEFAULT_JUMP,
              max_gap: int | None = DEFAULT_MAX_GAP, edges: np.ndarray | None = None,
-             open_gaps: str = "interpolation") -> np.ndarray:
+             wide_gaps: str = "estimate", open_gaps: str = "interpolation") -> np.ndarray:
     """Interpolate the smooth gaps of each row, clip the estimate in the others (a post-pass).
 
     For an unknown pixel whose row gap (:func:`row_gaps`) has bounds ``l`` and ``r`` on both
@@ -253,9 +256,10 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
       bounds): ``estimate`` clipped to ``[min(R(l), R(r)), max(R(l), R(r))]``;
     - a *smooth* gap: :func:`row_interpolation`'s value, except in a gap wider than
       ``max_gap`` that holds an intensity edge (a pixel of ``edges`` strictly between the
-      bounds in its row), where ``estimate`` is kept as it is: an object between two
-      measured columns that agree (a part of the Motorcycle in front of its background) is
-      what NP and BP can see and the line cannot.
+      bounds in its row), where ``estimate`` is kept as it is (``wide_gaps="estimate"``) or
+      averaged with the line (``"mean"``): an object between two measured columns that agree
+      (a part of the Motorcycle in front of its background) is what NP and BP can see and
+      the line cannot.
 
     Parameters
     ----------
@@ -272,6 +276,9 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
     edges : ndarray of shape (H, W), bool, optional
         The intensity edges (:func:`gated_synthesis` gives :func:`refsynth.synthesize`'s:
         Canny on the grey level, §3.2); without them every smooth gap is interpolated.
+    wide_gaps : {"estimate", "mean"}
+        A smooth gap wider than ``max_gap`` with an edge inside: the estimate, or the mean of
+        the estimate and :func:`row_interpolation`'s value.
     open_gaps : {"interpolation", "estimate"}
         A gap with one bound only (at the border, or beside a row's hole): take the bound's
         value (:func:`row_interpolation`'s; the default, measured better on the screening
@@ -292,6 +299,7 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
     jump = _check_jump(jump)
     if max_gap is not None:
         max_gap = check_int("max_gap", max_gap, minimum=0)
+    check_choice("wide_gaps", wide_gaps, WIDE_GAPS)
     check_choice("open_gaps", open_gaps, OPEN_GAPS)
     values = np.asarray(partial_range, dtype=float)
     estimate = np.asarray(estimate, dtype=float)
@@ -310,15 +318,19 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
     with np.errstate(invalid="ignore"):
         edge = np.abs(rv - lv) > jump * np.fmax(np.abs(lv), np.abs(rv))
     smooth = bounded & ~edge
+    wide = np.zeros(values.shape, bool)
     if edges is not None and max_gap is not None:
         counts = np.concatenate([np.zeros((values.shape[0], 1), np.int64),
                                  np.cumsum(edges, axis=1)], axis=1)
         inside = counts[rows, np.maximum(right, 0)] - counts[rows, np.maximum(left, 0) + 1]
-        smooth &= ~((width > max_gap) & (inside > 0))
+        wide = smooth & (width > max_gap) & (inside > 0)
+        smooth &= ~wide
     interpolated = row_interpolation(values)
     out = np.where(bounded & edge, np.clip(estimate, np.fmin(lv, rv), np.fmax(lv, rv)),
                    estimate)
     out = np.where(smooth, interpolated, out)
+    if wide_gaps == "mean":
+        out = np.where(wide, 0.5 * (estimate + interpolated), out)
     if open_gaps == "interpolation":
         out = np.where(width < 0, interpolated, out)
     return np.where(known, values, out)
@@ -326,14 +338,15 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
 
 def gated_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
                     jump: float = DEFAULT_JUMP, max_gap: int | None = DEFAULT_MAX_GAP,
-                    open_gaps: str = "interpolation", **synth_options) -> np.ndarray:
+                    wide_gaps: str = "estimate", open_gaps: str = "interpolation",
+                    **synth_options) -> np.ndarray:
     """:func:`refsynth.synthesize`, then :func:`gap_gate` with the intensity's Canny edges.
 
     Parameters
     ----------
     intensity, partial_range : ndarray
         As for :func:`refsynth.synthesize`.
-    jump, max_gap, open_gaps
+    jump, max_gap, wide_gaps, open_gaps
         As for :func:`gap_gate` (checked before any work).
     **synth_options
         Keywords of :func:`refsynth.synthesize` (``method``, ``seed``, ...); its ``edges``
@@ -354,6 +367,7 @@ def gated_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
     _check_jump(jump)
     if max_gap is not None:
         check_int("max_gap", max_gap, minimum=0)
+    check_choice("wide_gaps", wide_gaps, WIDE_GAPS)
     check_choice("open_gaps", open_gaps, OPEN_GAPS)
     image, values = validate_inputs(intensity, partial_range)
     synthesized = _synthesize()(intensity, values, **synth_options).range
@@ -361,4 +375,4 @@ def gated_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
     if edges is None:
         edges = _canny_edges(image, synth_options.get("canny_sigma", 0.8))
     return gap_gate(synthesized, values, jump=jump, max_gap=max_gap, edges=edges,
-                    open_gaps=open_gaps)
+                    wide_gaps=wide_gaps, open_gaps=open_gaps)
