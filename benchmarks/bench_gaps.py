@@ -103,6 +103,8 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
             start = time.perf_counter()
             if path is not None and path.is_file():
                 estimate, start = np.load(path), math.nan
+            elif stored_only and method != "row-linear":
+                continue
             else:
                 estimate = (row_interpolation(partial) if method == "row-linear"
                             else BASELINES[method](scene.intensity, partial))
@@ -197,7 +199,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--residual", action="store_true", help="also run residual_synthesis")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse NP, BP results")
     parser.add_argument("--stored-only", action="store_true",
-                        help="with --arrays: skip the NP / BP runs not stored there")
+                        help="with --arrays: skip the runs not stored there")
     parser.add_argument("--json", default=None, help="write the runs and the summary here")
     parser.add_argument("--resume", action="store_true", help="keep the runs in --json")
     parser.add_argument("--mar", action="store_true", help="MARs in the table, not ratios")

@@ -220,8 +220,9 @@ def test_gap_gate_keeps_the_estimate_in_a_wide_smooth_gap_with_an_edge():
     edges[0, 0] = edges[0, 9] = True  # on the bounds only: not inside the gap
     assert np.array_equal(gap_gate(estimate, partial, edges=edges), np.ones((1, 10)))
     edges[0, 3] = True
-    assert np.array_equal(gap_gate(estimate, partial, edges=edges), estimate)
-    mean = gap_gate(estimate, partial, edges=edges, wide_gaps="mean")
+    assert np.array_equal(gap_gate(estimate, partial, edges=edges, wide_gaps="estimate"),
+                          estimate)
+    mean = gap_gate(estimate, partial, edges=edges)
     np.testing.assert_allclose(mean, (estimate + 1.0) / 2)
     # a gap no wider than max_gap is interpolated whatever the edges say
     assert np.array_equal(gap_gate(estimate, partial, edges=edges, max_gap=8), np.ones((1, 10)))
@@ -247,6 +248,8 @@ def test_gated_synthesis_gates_with_synthesizes_edges():
     synthesized = refsynth.synthesize(image, partial, seed=0, edges=edges).range
     assert np.array_equal(given_edges, gap_gate(synthesized, partial, edges=edges))
     np.testing.assert_allclose(given_edges[:, 12:21], truth[:, 12:21], atol=1e-12)
+    np.testing.assert_allclose(given_edges[:, 2:11], (synthesized[:, 2:11] + truth[:, 2:11]) / 2,
+                               atol=1e-12)
     own = gated_synthesis(image, partial, seed=0)
     canny_edges = refsynth.synthesis.canny(
         refsynth.numeric.quantise_grey(refsynth.numeric.quantise_intensity(image)) * 2.0**-16,
