@@ -32,13 +32,14 @@ departure, measured against it and against the classical fills of
 
 Measured (``benchmarks/bench_gaps.py``, Table 4's protocol at 450 × 375, seed 0; ratio of MAR
 to the best of the nearest, linear, colorization and joint-bilateral fills, geometric mean over
-the Motorcycle, NYU Depth v2 and Kinect v2 rooms and the Middlebury Reindeer × x-stripes 63 /
-78 % and Fig. 2's distance sampling): NP 1.2 → 0.84, BP 1.09 → 0.82; on the distance sampling
-of an NYU room NP 4.0 → 1.19 (the line itself is 1.05 there: the raw Kinect depth edges do not
-sit on the intensity edges, so placing them by the intensity loses to averaging); on the
-Motorcycle's x-stripes no worse than the synthesis alone beyond 3 %. Interpolating every smooth
-gap (``max_gap=None``) won more indoors and lost 6–8 % on the Motorcycle's 11- and 17-px gaps
-(78 and 85 % unknown), where NP sees parts of the machine between columns that agree.
+18 cases: the Motorcycle, three NYU Depth v2 frames, a Kinect v2 room and the Middlebury
+Reindeer × x-stripes 63 / 78 % and Fig. 2's distance sampling at 60 %): NP 1.59 → 0.92, BP
+1.46 → 0.90; indoors NP 1.78 → 1.04, BP 1.62 → 1.02, the worst case an NYU frame's distance
+sampling (NP 2.35 → 1.53; the line itself is 1.45 there, the Delaunay fill 1.0: raw Kinect
+holes break the rows). On the Motorcycle's x-stripes (63 / 78 / 85 %) NP 0.303 / 0.463 / 0.624
+→ 0.280 / 0.462 / 0.618 px, BP 0.282 / 0.439 / 0.594 → 0.273 / 0.449 / 0.603. Interpolating
+every smooth gap (``max_gap=None``) won more indoors and lost 6–8 % on the Motorcycle's 11- and
+17-px gaps, where NP sees parts of the machine between columns that agree.
 
 The test of a jump, ``|R(r) − R(l)| > jump · max(|R(l)|, |R(r)|)``, is relative: the same for
 depth in any unit and for disparity (a relative change of depth is the same relative change of
