@@ -6,7 +6,7 @@ validates it and returns its canonical form:
 
 - scenes: ``synthetic`` (the synthetic room of seed 0; ``synthetic-N`` for
   seed N), ``motorcycle`` (the Middlebury 2014 pair of scikit-image),
-  ``motorcycle-crop`` (issue #10's protocol: its columns 70:670, 600 × 500,
+  ``motorcycle-crop`` (its centred 6:5 crop: columns 70:670, 600 × 500,
   the disparity in the pair's own pixels), or a path pair ``IMAGE:DISPARITY`` (PNG/PFM/NPY, see
   :func:`refsynth.scenes.load_middlebury`);
 - sizes: ``128`` (square), ``450x375`` (width × height, as the paper
@@ -88,18 +88,18 @@ SYNTHESIS_METHODS: dict[str, dict] = {
     "bp": {"method": "bp"},
     "bp-noedges": {"method": "bp", "use_edges": False},
     # Fig. 6 as printed: BP's defaults complete the observations and widen the training
-    # disc (issue #10's departures, refsynth.synthesis.bp_observation / bp_gap_radius)
+    # disc (departures measured on real data, refsynth.synthesis.bp_observation /
+    # bp_gap_radius)
     "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
                 "range_copy": "value"},
-    # BP's observations completed by NP's fill (an option in 0.8, BP's default since 0.9:
-    # the same as "bp" now, the name kept for 0.8's commands)
+    # BP's observations completed by NP's fill, named: the same as "bp" (BP's default)
     "bp-obs-np": {"method": "bp", "observation": "np"},
-    # completed by the colorization fill instead: 0.4-0.8's default BP (no random choice)
+    # completed by the colorization fill instead (no random choice)
     "bp-obs-colorization": {"method": "bp", "observation": "colorization"},
 }
 #: Variants the default grid leaves out (a block's methods None), chosen by name with
-#: ``--methods``: ``bp-obs-np`` is ``bp`` under its 0.8 name, ``bp-obs-colorization``
-#: 0.4–0.8's BP.
+#: ``--methods``: ``bp-obs-np`` is ``bp`` under another name, ``bp-obs-colorization``
+#: BP on the colorization fill.
 OPTION_METHODS = ("bp-obs-np", "bp-obs-colorization")
 
 #: Every sampling of the paper's experiments: Table 1's grids, Table 4's
@@ -514,7 +514,7 @@ def parse_list(text: str, parse: Callable[[str], str], what: str) -> list[str]:
 
 
 def _is_stochastic(method: str) -> bool:
-    """NP draws from the Eq. 5 set, and so does BP on NP's fill (its default since 0.9);
+    """NP draws from the Eq. 5 set, and so does BP on NP's fill (its default);
     BP on another fill and the baselines do not."""
     options = SYNTHESIS_METHODS.get(method)
     return options is not None and draws_at_random(options)   # None: a baseline

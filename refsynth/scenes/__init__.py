@@ -16,6 +16,12 @@ scored on.
         :func:`motorcycle` (Middlebury 2014, resized to the paper's
         450 × 375, Table 4) and :func:`load_middlebury` (any image +
         disparity from disk).
+    :mod:`~refsynth.scenes.rgbd`
+        :func:`load_rgbd`: any image with its depth or disparity from disk
+        (PNG of stored integers with their scale and invalid values,
+        ``.npy``, ``.pfm``), an optional crop, and Table 4's protocol
+        (centred crop to the target's aspect, area resize);
+        :func:`load_rgbd_folder`: a folder described by a ``scene.json``.
     :mod:`~refsynth.scenes.resize`
         Exact area-averaging resizes for non-integer factors, and the masked
         one for disparity maps with holes.
@@ -36,7 +42,7 @@ One room model, one ray caster
         vignetting, noise) and :func:`texture_views` (views cut from a
         photograph on the cylinder).
 
-The same bits on every machine (issue #11)
+The same bits on every machine
     :mod:`~refsynth.scenes.portable`
         What the ray casters, textures and poses use instead of BLAS products,
         ``np.linalg.norm``, ``hypot`` and numpy's SIMD trigonometry: explicit
@@ -57,6 +63,13 @@ doi:10.1007/s11263-007-0108-2.
 
 from refsynth.scenes.middlebury import MOTORCYCLE_CROP, load_middlebury, motorcycle
 from refsynth.scenes.resize import MIN_DISPARITY_COVERAGE, resize_area, resize_disparity
+from refsynth.scenes.rgbd import (
+    TABLE4_SIZE,
+    centre_crop,
+    load_rgbd,
+    load_rgbd_folder,
+    read_scene_metadata,
+)
 from refsynth.scenes.rig import (
     CAMERA_STEP,
     DELTA_Y,
@@ -93,6 +106,11 @@ __all__ = [
     "motorcycle",
     "MOTORCYCLE_CROP",
     "load_middlebury",
+    "load_rgbd",
+    "load_rgbd_folder",
+    "read_scene_metadata",
+    "centre_crop",
+    "TABLE4_SIZE",
     "resize_area",
     "resize_disparity",
     "MIN_DISPARITY_COVERAGE",

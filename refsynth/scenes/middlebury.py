@@ -65,7 +65,7 @@ def require_scikit_image(what: str = "motorcycle()") -> None:
 #: The pair's size, (width, height).
 MOTORCYCLE_SIZE = (741, 500)
 
-#: Issue #10's crop of the pair, ``(rows, cols)``: 600 × 500, which
+#: The centred 6:5 crop of the pair, ``(rows, cols)``: 600 × 500, which
 #: area-resizes to the paper's 450 × 375 without stretching the scene.
 MOTORCYCLE_CROP = ((0, 500), (70, 670))
 
@@ -94,7 +94,7 @@ def motorcycle(
     crop : pair of (start, stop) pairs, optional
         ``((row_start, row_stop), (col_start, col_stop))`` of the 741 × 500
         pair to keep before resizing; default the whole pair.
-        :data:`MOTORCYCLE_CROP` is issue #10's protocol, ``((0, 500), (70,
+        :data:`MOTORCYCLE_CROP` is the centred 6:5 crop, ``((0, 500), (70,
         670))``: 600 × 500, which resizes to 450 × 375 with the same scale
         (0.75) along both axes.
     units : {"resized", "native"}, default "resized"
@@ -132,7 +132,7 @@ def motorcycle(
     >>> scene.intensity.shape, scene.units, scene.name
     ((60, 90, 3), 'disparity (px)', 'motorcycle-90x60')
 
-    Issue #10's protocol: the 600 × 500 crop, resized by 0.75, the disparity
+    The centred 6:5 crop, 600 × 500, resized by 0.75, the disparity
     kept in the pair's pixels (4/3 of the resized unit):
 
     >>> crop = motorcycle((450, 375), crop=MOTORCYCLE_CROP, units="native")

@@ -53,7 +53,7 @@ def _box_resize(values: np.ndarray, new: int, axis: int) -> np.ndarray:
     Per output cell, the sum over its source pixels in ascending order, each
     ``weight · value``, as elementwise array operations over the other axes:
     no BLAS product and no reduction whose order a library chooses, so the
-    result is the same bits on every machine (issue #11). Source pixels of
+    result is the same bits on every machine. Source pixels of
     weight 0 are skipped, so a NaN or inf reaches only the cells it lies in.
     """
     values = np.moveaxis(values, axis, 0)
@@ -91,7 +91,7 @@ def resize_area(image: np.ndarray, size: int | tuple[int, int]) -> np.ndarray:
     The products are evaluated in a fixed order, not by BLAS: first each
     output row as the sum over its source rows in ascending order, then each
     output column likewise, so that the result is the same bits whatever the
-    BLAS library, kernel or thread count (issue #11).
+    BLAS library, kernel or thread count.
 
     Parameters
     ----------

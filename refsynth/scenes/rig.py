@@ -120,7 +120,7 @@ class RigTexture:
             on = np.nonzero(wall == index)
             a, h = along[on], y[on]
             waves = np.zeros(a.shape)
-            for amplitude, fa, fy, phase in self.waves[index]:  # left to right (issue #11)
+            for amplitude, fa, fy, phase in self.waves[index]:  # left to right (portable)
                 waves = waves + amplitude * portable_sin(2 * np.pi * (a * fa + h * fy) + phase)
             value = albedo[on] + waves
             for _, a0, a1, y0, y1, poster, stripes in self.posters[self.posters[:, 0] == index]:

@@ -285,7 +285,7 @@ def render_views(
         rays = _view_rays((height, width), focal, true_pan[k], shifts[k], supersample, rng)
         _, intensity = cast_rig_rays(room, np.zeros(3), rays)
         total = intensity[..., 0]
-        for sample in range(1, intensity.shape[-1]):  # left to right (issue #11)
+        for sample in range(1, intensity.shape[-1]):  # left to right (portable)
             total = total + intensity[..., sample]
         images[k] = (total / intensity.shape[-1]) * shade
     images = np.clip(images + rng.normal(0.0, noise, images.shape), 0.0, 1.0)

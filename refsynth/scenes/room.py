@@ -242,7 +242,7 @@ def _slab(rays: np.ndarray, offset: np.ndarray, half: np.ndarray, to_local: np.n
     """The slab method on every ray given: hit distance (inf on a miss) and world normal.
 
     The products with ``to_local`` are explicit 3-term sums (:func:`~refsynth.scenes.
-    portable.rotate3`), not BLAS: the same bits on every machine (issue #11).
+    portable.rotate3`), not BLAS: the same bits on every machine.
     """
     start = rotate3(to_local, -offset)  # the rays' origin in the box's frame
     local = rotate3(to_local, rays)

@@ -322,7 +322,7 @@ def synthetic_room(shape: tuple[int, int] = (128, 128), seed=0) -> Scene:
     v = (height / 2 - (np.arange(height) + 0.5)) / focal
     camera = np.stack(np.broadcast_arrays(u[None, :], v[:, None], 1.0), axis=-1)
     cos, sin = portable_cos(room.yaw), portable_sin(room.yaw)
-    # camera @ R, as explicit 3-term sums (no BLAS: issue #11)
+    # camera @ R, as explicit 3-term sums (no BLAS: the same bits everywhere)
     rays = rotate3(np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]]), camera)
     rays /= norm3(rays)[..., None]
 

@@ -1,0 +1,264 @@
+"""NP and BP against the classical fills across a row scan's gaps, with the gap readings.
+
+The readings of :mod:`refsynth.synthesis.gap_readings` on the scenes and protocol of
+``bench_scenes.py`` (Table 4's centred 6:5 crop and area resize, MAR of Eq. 13 over the unknown
+pixels with truth): per scene × sampling × seed, NP (and BP) run once with
+:func:`refsynth.synthesize`'s defaults, and every post-pass reading is applied to that one
+result, so the readings differ by the post-pass only:
+
+- ``np`` / ``bp``: :func:`refsynth.synthesize` (the paper's reading with refsynth's defaults);
+- ``np-clip``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``jump=0`` (every
+  bounded gap clipped to its bounds, nothing interpolated);
+- ``np-gate<J>``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``jump=J`` and
+  no edges (interpolate every gap whose bounds differ by at most J × the larger, clip the
+  others; a gap open at the border takes its bound's value);
+- ``np-gate<J>-w<M>``: :func:`~refsynth.synthesis.gap_readings.gated_synthesis`'s post-pass
+  with ``jump=J, max_gap=M`` and the Canny edges NP used (a smooth gap wider than M that
+  holds an intensity edge keeps NP's range); ``-mean``: ``wide_gaps="mean"`` (there the
+  mean of NP's range and the line);
+- ``np-residual`` (``--residual``; a run of its own):
+  :func:`~refsynth.synthesis.gap_readings.residual_synthesis`;
+- ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` alone;
+
+beside the four classical fills (nearest, linear, colorization, joint-bilateral). The table is
+``bench_scenes.py``'s: MAR (mean ± sd over seeds), the best classical fill, each method's ratio
+to it, and the aggregate (geometric mean and worst ratio, per group of scenes).
+
+Run::
+
+    python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0 \\
+        --json /work/notes/gap_450.json --arrays /tmp/gapcache
+    python benchmarks/bench_gaps.py ../shared/data --motorcycle --size 225x188 \\
+        --scenes motorcycle,kv2_livingroom_raw,nyu_basement_raw_00050 --seeds 0
+
+``--arrays DIR`` keeps each NP / BP result as ``DIR/<scene>_<sampling>_<size>_<method>_<seed>.npy``
+(a classical fill's without the seed) and reuses it on the next run (its seconds are then not
+measured: NaN).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+# this checkout's refsynth (not another one installed), and bench_scenes beside this file
+sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parent)]
+
+import bench_scenes as scenes  # noqa: E402
+
+from refsynth._files import write_atomic  # noqa: E402
+from refsynth.evaluation.baselines import BASELINES  # noqa: E402
+from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
+from refsynth.evaluation.metrics import evaluate  # noqa: E402
+from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity  # noqa: E402
+from refsynth.synthesis.api import synthesize, validate_inputs  # noqa: E402
+from refsynth.synthesis.canny import canny  # noqa: E402
+from refsynth.synthesis.gap_readings import (  # noqa: E402
+    gap_gate,
+    residual_synthesis,
+    row_interpolation,
+)
+
+DEFAULT_JUMPS = (0.05, 0.1, 0.2)
+DEFAULT_MAX_GAPS = (6,)
+DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")
+
+
+def readings(base: str, jumps: Sequence[float], max_gaps: Sequence[int]) -> list[str]:
+    """The post-pass readings' labels of one base method."""
+    return [base, f"{base}-clip", *[f"{base}-gate{j:g}" for j in jumps],
+            *[f"{base}-gate{j:g}-w{m}{x}" for j in jumps for m in max_gaps for x in ("", "-mean")]]
+
+
+def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) -> dict:
+    scores = evaluate(estimate, scene.range, known)
+    return dict(scene=name, size=size, units=scene.units, sampling=sampling, method=method,
+                seed=seed, mar=scores["mar"], rmse=scores["rmse"], evaluated=scores["n"],
+                unknown_percent=100.0 * float(np.mean(~known)), seconds=seconds)
+
+
+def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str],
+             seeds: Sequence[int], jumps: Sequence[float], max_gaps: Sequence[int],
+             residual: bool, arrays: str | None, have: set, progress=None,
+             stored_only: bool = False) -> list[dict]:
+    """Every row of one scene × sampling (the classical fills once, the bases per seed)."""
+    scene = scenes.load(spec, size)
+    known = known_mask(scene, sampling)
+    partial = np.where(known, scene.range, np.nan)
+    image = validate_inputs(scene.intensity, partial)[0]   # NP's edges: refsynth.synthesize's
+    edges = canny(quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS, sigma=0.8)
+    rows = []
+    if (name, size, sampling, "row-linear", seeds[0]) not in have:
+        for method in (*scenes.CLASSICAL, "row-linear"):
+            path = (Path(arrays) / f"{name}_{sampling}_{size}_{method}.npy"
+                    if arrays and method != "row-linear" else None)
+            start = time.perf_counter()
+            if path is not None and path.is_file():
+                estimate, start = np.load(path), math.nan
+            elif stored_only and method != "row-linear":
+                continue
+            else:
+                estimate = (row_interpolation(partial) if method == "row-linear"
+                            else BASELINES[method](scene.intensity, partial))
+                if path is not None:
+                    np.save(path, estimate)
+            rows.append(_row(scene, name, size, sampling, method, seeds[0], estimate, known,
+                             time.perf_counter() - start))
+    for base in bases:
+        options = {"method": "bp"} if base == "bp" else {}
+        for seed in seeds:
+            if (name, size, sampling, base, seed) in have:
+                continue
+            path = (Path(arrays) / f"{name}_{sampling}_{size}_{base}_{seed}.npy"
+                    if arrays else None)
+            if path is not None and path.is_file():
+                estimate, seconds = np.load(path), math.nan
+            elif stored_only:
+                continue
+            else:
+                start = time.perf_counter()
+                estimate = synthesize(scene.intensity, partial, seed=seed, **options).range
+                seconds = time.perf_counter() - start
+                if path is not None:
+                    np.save(path, estimate)
+            rows.append(_row(scene, name, size, sampling, base, seed, estimate, known, seconds))
+            start = time.perf_counter()
+            rows.append(_row(scene, name, size, sampling, f"{base}-clip", seed,
+                             gap_gate(estimate, partial, jump=0.0), known, seconds))
+            for jump in jumps:
+                rows.append(_row(scene, name, size, sampling, f"{base}-gate{jump:g}", seed,
+                                 gap_gate(estimate, partial, jump=jump), known, seconds))
+                for max_gap in max_gaps:
+                    for wide, suffix in (("estimate", ""), ("mean", "-mean")):
+                        gated = gap_gate(estimate, partial, jump=jump, max_gap=max_gap,
+                                         edges=edges, wide_gaps=wide)
+                        rows.append(_row(scene, name, size, sampling,
+                                         f"{base}-gate{jump:g}-w{max_gap}{suffix}", seed, gated,
+                                         known, seconds))
+            post = (time.perf_counter() - start) / (1 + len(jumps) * (1 + 2 * len(max_gaps)))
+            if residual:
+                start = time.perf_counter()
+                estimate = residual_synthesis(scene.intensity, partial, seed=seed, **options)
+                rows.append(_row(scene, name, size, sampling, f"{base}-residual", seed,
+                                 estimate, known, time.perf_counter() - start))
+            if progress is not None:
+                progress(f"{name} {sampling} {base} seed {seed}: MAR {rows[-1]['mar']:.4g} "
+                         f"({seconds:.1f} s; post-pass {post:.3f} s)")
+    return rows
+
+
+def format_table(summary: dict, methods: Sequence[str], mar: bool = False) -> str:
+    """Per case each method's ratio to the best classical fill (or its MAR), then the aggregate."""
+    header = ["scene", "sampling", "best classical", *methods]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for entry in summary["cases"]:
+        values = entry["methods"]
+        best = entry.get("best_classical")
+        cells = [entry["scene"], entry["sampling"],
+                 f"{best} {values[best]['mar']:.4g}" if best else "–"]
+        for method in methods:
+            value = values.get(method)
+            if value is None or (not mar and value.get("ratio") is None):
+                cells.append("–")
+            elif mar:
+                cells.append(scenes._fmt(value))
+            else:
+                cells.append(f"{value['ratio']:.2f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "Aggregate: ratio to the best classical fill (geometric mean / worst / cases "
+              "at or under 1.0)", "", "| method | group | cases | geomean | worst | ≤ 1.0 |",
+              "|---|---|---|---|---|---|"]
+    for method, groups in summary["aggregate"].items():
+        for group, value in groups.items():
+            lines.append(f"| {method} | {group} | {value['cases']} | {value['geomean']:.3f} | "
+                         f"{value['worst']:.3f} | {value['wins']} |")
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None, out=None) -> int:
+    out = out or sys.stdout
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("folder", nargs="?", default=None, help="a folder of scene folders")
+    parser.add_argument("--motorcycle", action="store_true", help="add the Motorcycle")
+    parser.add_argument("--scenes", default=None, help="comma-separated scene names to keep")
+    parser.add_argument("--size", default="450x375", help="WxH (default 450x375)")
+    parser.add_argument("--samplings", default=",".join(DEFAULT_SAMPLINGS))
+    parser.add_argument("--bases", default="np,bp", help="np, bp or np,bp (default)")
+    parser.add_argument("--jumps", default=",".join(f"{j:g}" for j in DEFAULT_JUMPS))
+    parser.add_argument("--max-gaps", default=",".join(map(str, DEFAULT_MAX_GAPS)),
+                        help="max_gap values of the edge rule (default 6)")
+    parser.add_argument("--seeds", default="0", help="comma-separated seeds (default 0)")
+    parser.add_argument("--residual", action="store_true", help="also run residual_synthesis")
+    parser.add_argument("--arrays", default=None, help="a folder to keep / reuse NP, BP results")
+    parser.add_argument("--stored-only", action="store_true",
+                        help="with --arrays: skip the runs not stored there")
+    parser.add_argument("--json", default=None, help="write the runs and the summary here")
+    parser.add_argument("--resume", action="store_true", help="keep the runs in --json")
+    parser.add_argument("--mar", action="store_true", help="MARs in the table, not ratios")
+    parser.add_argument("--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    try:
+        size = parse_size(args.size)
+        samplings = [parse_sampling(s) for s in scenes._list(args.samplings)]
+        bases = scenes._list(args.bases)
+        if not bases or set(bases) - {"np", "bp"}:
+            raise ValueError(f"--bases must list np and/or bp, got {args.bases!r}")
+        jumps = [float(j) for j in scenes._list(args.jumps)]
+        if any(not j >= 0 for j in jumps):
+            raise ValueError("--jumps must list numbers >= 0")
+        max_gaps = [int(m) for m in scenes._list(args.max_gaps)]
+        if any(m < 0 for m in max_gaps):
+            raise ValueError("--max-gaps must list integers >= 0")
+        seeds = [int(s) for s in scenes._list(args.seeds)]
+        if not seeds or min(seeds) < 0:
+            raise ValueError("--seeds must list non-negative integers")
+        if args.resume and not args.json:
+            raise ValueError("--resume needs --json")
+        if args.stored_only and not args.arrays:
+            raise ValueError("--stored-only needs --arrays")
+        if args.arrays and not Path(args.arrays).is_dir():
+            raise ValueError(f"--arrays must be an existing folder, got {args.arrays!r}")
+        specs = scenes.scene_specs(args.folder, args.motorcycle,
+                                   scenes._list(args.scenes) if args.scenes else None,
+                                   warn=lambda m: print(m, file=sys.stderr))
+    except ValueError as error:
+        print(f"bench_gaps.py: {error}", file=sys.stderr)
+        return 2
+    rows = []
+    if args.resume and Path(args.json).is_file():
+        rows = [r for r in json.loads(Path(args.json).read_text())["runs"] if r["size"] == size]
+    have = {(r["scene"], r["size"], r["sampling"], r["method"], r["seed"]) for r in rows}
+    methods = [m for b in bases for m in readings(b, jumps, max_gaps)]
+    methods += [f"{b}-residual" for b in bases] if args.residual else []
+    methods += ["row-linear", *scenes.CLASSICAL]
+    progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    for name, spec in specs:
+        for sampling in samplings:
+            rows += run_case(name, spec, size, sampling, bases, seeds, jumps, max_gaps,
+                             args.residual, args.arrays, have, progress,
+                             stored_only=args.stored_only)
+            if args.json:
+                write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), runs=rows),
+                                                   indent=1, allow_nan=True).encode())
+    chosen = [r for r in rows if r["scene"] in {n for n, _ in specs}
+              and r["sampling"] in samplings and r["method"] in methods
+              and r["seed"] in seeds]
+    summary = scenes.summarise(chosen, methods)
+    print(f"bench_gaps: size {size}, seeds {','.join(map(str, seeds))}, {len(specs)} scenes, "
+          "MAR (Eq. 13) in each scene's unit" if args.mar else
+          "each method's MAR (Eq. 13) over the best classical fill's", file=out)
+    print(format_table(summary, methods, mar=args.mar), file=out)
+    return 0
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    sys.exit(main())

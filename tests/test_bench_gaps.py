@@ -1,0 +1,70 @@
+"""A smoke test of ``benchmarks/bench_gaps.py`` on a tiny scene folder the test writes."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+
+@pytest.fixture(scope="module")
+def bench(benchmark_script):
+    return benchmark_script("bench_gaps")
+
+
+@pytest.fixture()
+def folder(tmp_path):
+    """A 40 × 48 plane scene with a step, its intensity following its range."""
+    path = tmp_path / "step"
+    path.mkdir()
+    rows, cols = np.mgrid[0:40, 0:48]
+    depth = 2.0 + 0.01 * cols + 1.0 * (cols >= 24)
+    grey = (60 + 150 * (cols >= 24) + 10 * np.sin(rows)).astype(np.uint8)
+    Image.fromarray(np.stack([grey] * 3, axis=-1)).save(path / "rgb.png")
+    Image.fromarray(np.round(depth * 1000).astype(np.uint16)).save(path / "depth.png")
+    (path / "scene.json").write_text(json.dumps(
+        {"image": "rgb.png", "truth": "depth.png", "scale": 1000, "kind": "depth"}))
+    return tmp_path
+
+
+def test_table_arrays_and_resume(bench, folder, tmp_path):
+    arrays = tmp_path / "arrays"
+    arrays.mkdir()
+    target = tmp_path / "runs.json"
+    argv = [str(folder), "--size", "24x20", "--samplings", "x63", "--bases", "np",
+            "--jumps", "0.1", "--arrays", str(arrays), "--json", str(target), "--quiet",
+            "--mar"]
+    out = io.StringIO()
+    assert bench.main(argv, out=out) == 0
+    line = next(x for x in out.getvalue().splitlines() if x.startswith("| step"))
+    header = next(x for x in out.getvalue().splitlines() if x.startswith("| scene"))
+    cells = dict(zip([c.strip() for c in header.split("|")], [c.strip() for c in line.split("|")]))
+    runs = json.loads(target.read_text())["runs"]
+    assert {r["method"] for r in runs} == {"np", "np-clip", "np-gate0.1", "np-gate0.1-w6",
+                                           "np-gate0.1-w6-mean",
+                                           "row-linear", "nearest", "linear", "colorization",
+                                           "joint-bilateral"}
+    mar = {r["method"]: r["mar"] for r in runs}
+    assert float(cells["np"]) == pytest.approx(mar["np"], rel=1e-3)
+    # the gate interpolates the smooth gaps, so it is never worse than NP on this scene
+    assert mar["np-gate0.1"] <= mar["np"] + 1e-12
+    assert (arrays / "step_x63_24x20_np_0.npy").is_file()
+    assert (arrays / "step_x63_24x20_linear.npy").is_file()
+    # a second run reuses the arrays: the same MARs
+    target.unlink()
+    assert bench.main(argv, out=io.StringIO()) == 0
+    again = {r["method"]: r["mar"] for r in json.loads(target.read_text())["runs"]}
+    assert again == mar
+    assert bench.main(argv + ["--resume"], out=io.StringIO()) == 0
+    assert len(json.loads(target.read_text())["runs"]) == len(runs)
+
+
+@pytest.mark.parametrize("bad", [["--bases", "np,xx"], ["--jumps", "-1"], ["--resume"],
+                                 ["--arrays", "/nonexistent/folder"]])
+def test_bad_arguments_exit_2(bench, folder, bad, capsys):
+    assert bench.main([str(folder), *bad], out=io.StringIO()) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bench_gaps.py: ") and err.count("\n") == 1
