@@ -8,11 +8,11 @@ The analogues of the paper's figures on refsynth's scenes, and the demo's;
 file                                      what
 ========================================  ===============================================
 ``demo_result.png``,                      :func:`refsynth.plotting.demo.run_demo` (exactly
-``demo_np_bp.png``,                       what ``python -m refsynth demo --quick --out
-``demo_comparison.png``                   figures`` writes)
+``demo_np_bp.png``,                       what ``demo --quick --out figures``
+``demo_comparison.png``                   writes)
 ``model_view.png``,                       :func:`refsynth.plotting.story.run_pipeline_demo`:
-``pipeline_np.png``,                      the main demo's figures, exactly what ``python -m
-``pipeline_bp.png``                       refsynth demo`` writes (run in a temporary folder)
+``pipeline_np.png``,                      the main demo's figures, exactly what ``demo``
+``pipeline_bp.png``                       writes (run in a temporary folder)
 ``fig07_ordering.png``                    Fig. 7: priority (Eqs. 10–12) against onion-peel
                                           order: fill order, result, residual
 ``fig11_samplings_room.png``              Figs. 11/Table 1: the grid samplings × NP × BP
