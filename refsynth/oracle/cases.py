@@ -194,6 +194,12 @@ def _run_cases(large: bool) -> list[Case]:
              dict(neighbourhood=3, radius=2.5, use_edges=True, candidates=5, iterations=12,
                   colour=False, sigma_i=0.5, range_weight=4.0, **COLORIZATION), 11),
     ]
+    # all eight labels (the default k): BP's confidence sums eight weights, where a pairwise
+    # sum (numpy's, from eight terms on) rounds differently from the contract's left to right
+    eight = _scene(0, (10, 12), 3, "noise", 0.3)
+    cases.append(Case("bp-10x12-k8", "bp", eight,
+                      dict(neighbourhood=3, radius=3.0, use_edges=True, candidates=8,
+                           iterations=8, **COLORIZATION), 0))
     # BP as Fig. 6 prints it (the observations' measured range, the fixed disc), and the
     # training patches completed too, beside the defaults above
     sparse = _scene(13, (16, 16), 1, "noise", 0.3)
