@@ -17,6 +17,7 @@ that ``oracle check`` fails, naming the case and the array where the mistake fir
 from __future__ import annotations
 
 import importlib.util
+import json
 import math
 import sys
 from pathlib import Path
@@ -81,6 +82,17 @@ def _first(cases_dir, function, case):
     report = check_function(function, cases_dir, case=case, timeout=None)
     assert not report.passed, f"the wrong port passed {case}"
     return report.mismatch
+
+
+def test_the_added_cases_hold_the_contracts_bits(cases_dir):
+    """The NPZ (inputs, expected outputs) of the cases added for these mistakes: a change of
+    the reference's Eq. 12 order or confidence rule changes them."""
+    manifest = json.loads((cases_dir / "manifest.json").read_text())
+    sha = {entry["name"]: entry["sha256"] for entry in manifest["cases"]}
+    assert {name: sha[name] for name in ("eq10_12-arithmetic", "bp-10x12-k8")} == {
+        "eq10_12-arithmetic": "2003fcada1235e9ca769940ad32b95f8b38824e89bc085d832c8e7487412f599",
+        "bp-10x12-k8": "1f521ca39347e71b76ab2fd5f65f20e18d133d564fa4c1e282cc7dfe68710dcb",
+    }
 
 
 # ----------------------------------------------------------------------------- Eq. 12
