@@ -17,7 +17,10 @@ cases carry NP's random numbers too, and ``q_observation`` is NP's result on the
 grid) and by the colorization fill (``observation="colorization"``, the prepared
 ``q_observation``), the training disc widened by the gap's depth and shifted labels
 (``range_copy="offset"``), and Fig. 6 as printed (``observation="measured"``,
-``training_radius="fixed"``, ``range_copy="value"``) beside them. A run's options hold every
+``training_radius="fixed"``, ``range_copy="value"``) beside them; ``bp-10x12-k8`` has all
+eight labels (the default ``k``), where numpy's pairwise sum of the confidence's eight
+weights differs from the contract's sum left to right (:mod:`refsynth.oracle.contract`).
+A run's options hold every
 option the method takes, its default filled in (:data:`NP_DEFAULTS`, :data:`BP_DEFAULTS`), so
 a port reads them all from the case.
 """

@@ -39,7 +39,10 @@ The inputs and outputs of each kind, B the batch:
 - ``eq10_12``: hand-built 9×9 windows ``filled``, ``q_range``, ``confidence``, ``edges``
   (B, 9, 9), the target ``pixel`` and the ``best`` match (B, 2) (row, column);
   ``neighbourhood``, ``use_isophotes`` → ``C``, ``D``, ``E_term``, ``P``, ``edge_count``,
-  ``assigned_product``, ``assigned_best`` (B,).
+  ``assigned_product``, ``assigned_best`` (B,). ``eq10_12-arithmetic``'s windows are the
+  ones where Eq. 12's other operation orders give another ``D`` (an ulp): only the
+  contract's ``1 − |g_row m_col − g_col m_row| / ‖m‖``, the un-normalised Sobel vector
+  divided by its norm once, passes it (:mod:`refsynth.oracle.contract`).
 - ``eq13``: ``estimate``, ``truth``, ``known`` (H, W) → ``mar`` ().
 - ``canny``: ``image`` (H, W); ``sigma`` → ``edges`` (H, W) bool.
 - the registration stage: Eq. 14 ``x``, ``y``; ``focal`` → ``x_c``, ``y_c``; Eqs. 15–17
