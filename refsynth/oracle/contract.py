@@ -20,7 +20,7 @@ C1. Intensity and range are quantised to ``2**-16`` of their spans:
     ``q = rint((x − min) / span · 2**16)`` in float64 (intensity: ``min``/``max`` over all
     pixels and channels; range: over the measured pixels; a zero span counts as 1)
     (:func:`refsynth.numeric.quantise_intensity`, :func:`~refsynth.numeric.quantise_range`).
-    With ``colour=False`` Eq. 2 and Canny see the grey level ``(w0 R + w1 G) + w2 B``
+    Canny, and Eq. 2 with ``colour=False``, see the grey level ``(w0 R + w1 G) + w2 B``
     (BT.709) of the quantised colour, quantised again (:func:`~refsynth.numeric.quantise_grey`).
 C2. Eq. 2's Gaussian window is the integer table ``G = rint(2**18 g)``
     (:func:`~refsynth.numeric.window_weights`). Eq. 2 is four sums of integer products,
@@ -37,8 +37,8 @@ C3. The distance from the sums (:func:`~refsynth.numeric.combine_eq2`), ``u = 2*
 C4. A synthesized pixel's confidence is rounded to ``2**-40``
     (``rint(x · 2**40) · 2**-40``, :func:`~refsynth.numeric.on_confidence_grid`), so
     Eq. 11's window sums are exact in any order.
-C5. Eq. 10 is ``P = C · max(D, 0) + 1 / (1 + E)``; ``‖m‖ = sqrt(m_row² + m_col²)`` (not
-    ``hypot``); Eq. 12's arithmetic is below.
+C5. Eq. 10 is ``P = C · max(D, 0) + 1 / (1 + E)`` (here ``C`` is Eq. 11's confidence
+    term); ``‖m‖ = sqrt(m_row² + m_col²)`` (not ``hypot``); Eq. 12's arithmetic is below.
 C6. BP in float64, in logarithms; a node's incoming messages are summed left, up, right,
     down; the measured neighbours' terms are added right, left, below, above.
 C7. No libm or SIMD transcendental in a result: ``exp`` and ``log`` are
