@@ -411,8 +411,15 @@ MUTATIONS = [
              "Eq. 9's message j→i from the sender's whole belief (j's message not taken out)"),
     Mutation("bpref-belief-order", "bp-reference", BELIEF_REF,
              "for q in ((r, c - 1), (r - 1, c), (r, c + 1), (r + 1, c))",
+             "for q in ((r, c - 1), (r, c + 1), (r - 1, c), (r + 1, c))",
+             "a belief's incoming messages summed left, right, up, down (not left, up, …)"),
+    Mutation("bpref-belief-first-two", "bp-reference", BELIEF_REF,
+             "for q in ((r, c - 1), (r - 1, c), (r, c + 1), (r + 1, c))",
              "for q in ((r - 1, c), (r, c - 1), (r, c + 1), (r + 1, c))",
-             "a belief's incoming messages summed up, left, right, down (not left, up, …)"),
+             "a belief's first two incoming messages swapped (up, left, right, down)",
+             equivalent="the sum starts at 0.0 and 0.0 + a is a exactly, so (0 + a) + b and "
+                        "(0 + b) + a are both the one rounding of a + b: only the third "
+                        "and fourth terms' places can change a bit"),
     Mutation("bpref-normalise-kept", "bp-reference", BELIEF_REF,
              "        return m - m.max()\n", "        return m\n",
              "a max-product message not normalised"),
