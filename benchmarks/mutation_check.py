@@ -73,7 +73,7 @@ TESTS = {
     "completion": ["tests/test_completion.py", "tests/test_progress.py"],
     # the literal references: fast == reference, the by-hand equations, and the oracle's
     # cases as the reference writes them (their hashes)
-    "bp-reference": ["tests/test_bp_paper_reference.py"],
+    "bp-reference": ["tests/test_bp_paper_reference.py", "tests/test_mutation_gaps.py"],
     "np-reference": ["tests/test_oracle_contract.py",
                      "tests/test_oracle.py::test_filling_the_defaults_kept_the_cases_arrays_bit_"
                      "for_bit", "tests/test_reference.py"],
