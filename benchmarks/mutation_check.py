@@ -3,8 +3,12 @@
 Applies single-line mutations to the code that puts the paper's equations together — NP
 (refsynth/synthesis/nonparametric.py, its Eq. 2 table filltable.py), BP (bp.py, its candidate
 search bp_search.py, Eq. 6 in bp_model.py, Eq. 9 in messages.py), the fill order (priority.py,
-its queue frontqueue.py, the onion order onion.py) and registration
-(refsynth/registration/*.py): operators, indices, dropped terms, swapped arguments, among them
+its queue frontqueue.py, the onion order onion.py), registration
+(refsynth/registration/*.py) and the literal references themselves (NP's in
+refsynth/synthesis/reference.py, BP as printed in refsynth/synthesis/belief/reference.py:
+killed by the fast == reference tests, the by-hand equations and the oracle cases' hashes,
+since the oracle's expected values come from the reference and a mutated reference would
+otherwise agree with itself): operators, indices, dropped terms, swapped arguments, among them
 the seven of issue #11 — one at a time, in a *copy* of the project
 (never the working tree), runs the relevant test files there with ``pytest -x -q``, and prints
 killed / survived per mutation.
