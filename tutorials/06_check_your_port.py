@@ -15,7 +15,7 @@
 # # Tutorial 6 — check your own port against the oracle
 #
 # Torres-Méndez & Dudek (IJCV 2008), §3.2.2 (Eqs. 2–5) and §3.2.4
-# (Eqs. 10–12); refsynth's numeric contract (`refsynth.oracle.contract`) and its oracle.
+# (Eqs. 10–12); refsynth's numeric contract and its oracle (issue #11).
 #
 # **Before this tutorial**: tutorial 1 — Eq. 2, NP's candidate set and draw
 # (Eqs. 3–5), the fill order (Eqs. 10–12).
@@ -96,7 +96,7 @@ for role in ("input", "prepared", "output", "trace"):
 # the filled pixels within `r` (Eq. 3), compare neighbourhoods with Eq. 2 and
 # copy from the best match (Eq. 4) — the value as Eq. 5 prints it: these small
 # cases ask for `range_copy="value"` and the product rule of Eq. 11, so that a
-# first port can leave out refsynth's offset copy (the default;
+# first port can leave out refsynth's offset copy (the default since 0.5;
 # exercise 1). It returns its outputs and its step trace
 # in the oracle's layout. It reuses refsynth's Eq. 2 and priority terms so that
 # it stays short; a real port would have its own (and check them on the `eq2`
@@ -279,13 +279,13 @@ print(f"tutorial 6 ran in {time.perf_counter() - START:.0f} s")
 #    `np-8x8-ramp`): the unknown pixels sorted by their chessboard distance to
 #    the known range, ties by the prepared `onion_tie` (a permutation of the
 #    unknown pixels in raster order). Check it until `np-8x8-ramp` passes.
-#    Then teach it **the offset copy** (`range_copy="offset"`, NP's default,
-#    the cases `np-14x18-planes` and `np-14x18-planes-value-copy`):
+#    Then teach it **the offset copy** (`range_copy="offset"`, NP's default
+#    since 0.5, the cases `np-14x18-planes` and `np-14x18-planes-value-copy`):
 #    after the draw, shift the drawn value by the windows' consistent range
-#    difference — the rule is in `refsynth.oracle.contract` (the shift Δ and
-#    its clips) and in `refsynth.synthesis.range_copy`. Which array does the oracle name on
+#    difference — the rule is in the README's oracle section and in
+#    `refsynth.synthesis.range_copy`. Which array does the oracle name on
 #    `np-14x18-planes` before you add it?
-# 2. **Plant the dropped-factor bug**: give a synthesized pixel
+# 2. **Plant the dropped-factor bug of issue #11**: give a synthesized pixel
 #    the best match's confidence alone instead of `C(p) · C(best)`. Before you
 #    run the check, predict from the golden trace (`step_C`) the first step the
 #    oracle will report, and which array it names; then verify. Why can no
