@@ -3,15 +3,18 @@
 Applies single-line mutations to the code that puts the paper's equations together — NP
 (refsynth/synthesis/nonparametric.py, its Eq. 2 table filltable.py), BP (bp.py, its candidate
 search bp_search.py, Eq. 6 in bp_model.py, Eq. 9 in messages.py), the fill order (priority.py,
-its queue frontqueue.py, the onion order onion.py), registration
-(refsynth/registration/*.py) and the literal references themselves (NP's in
-refsynth/synthesis/reference.py, BP as printed in refsynth/synthesis/belief/reference.py:
-killed by the fast == reference tests, the by-hand equations and the oracle cases' hashes,
-since the oracle's expected values come from the reference and a mutated reference would
-otherwise agree with itself): operators, indices, dropped terms, swapped arguments, among them
+its queue frontqueue.py, the onion order onion.py) and registration
+(refsynth/registration/*.py): operators, indices, dropped terms, swapped arguments, among them
 the seven of issue #11 — one at a time, in a *copy* of the project
 (never the working tree), runs the relevant test files there with ``pytest -x -q``, and prints
 killed / survived per mutation.
+
+The literal references are mutated too: BP as printed (refsynth/synthesis/belief/reference.py,
+``bpref-*``) and the oracle's reference (refsynth/synthesis/reference.py, ``oref-*``, NP's
+and BP's steps). The oracle's expected values come from that reference, so a mutated
+reference agrees with its own cases; its mutants are killed by the fast == reference
+tests, the by-hand equations and the hashes of the cases the contract's rules name
+(tests/test_oracle_contract.py).
 
 A mutation is (file, an exact substring of one original line, its replacement). If the
 original is not found (the code moved on), the mutation is skipped with a message. A
@@ -56,7 +59,7 @@ BP_MODEL = "refsynth/synthesis/bp_model.py"
 MESSAGES = "refsynth/synthesis/messages.py"
 COMPLETION = "refsynth/synthesis/completion.py"
 BELIEF_REF = "refsynth/synthesis/belief/reference.py"   # BP as printed (Fig. 6)
-REFERENCE = "refsynth/synthesis/reference.py"          # the oracle's literal reference
+ORACLE_REFERENCE = "refsynth/synthesis/reference.py"   # the oracle's literal reference
 REG = "refsynth/registration"
 
 ORACLE_FAST = "tests/test_oracle.py::test_the_fast_code_passes_every_case_it_handles"
@@ -75,14 +78,14 @@ TESTS = {
                  "tests/test_np_speed_front.py", "tests/test_np_speed_steps.py",
                  "tests/test_mutation_gaps.py"],
     "completion": ["tests/test_completion.py", "tests/test_progress.py"],
+    "registration": ["tests/test_panorama.py", "tests/test_laser_camera.py",
+                     "tests/test_registration_scenes.py"],
     # the literal references: fast == reference, the by-hand equations, and the oracle's
     # cases as the reference writes them (their hashes)
     "bp-reference": ["tests/test_bp_paper_reference.py", "tests/test_mutation_gaps.py"],
-    "np-reference": ["tests/test_oracle_contract.py",
-                     "tests/test_oracle.py::test_filling_the_defaults_kept_the_cases_arrays_bit_"
-                     "for_bit", "tests/test_reference.py"],
-    "registration": ["tests/test_panorama.py", "tests/test_laser_camera.py",
-                     "tests/test_registration_scenes.py"],
+    "oracle-reference": ["tests/test_oracle_contract.py",
+                         "tests/test_oracle.py::test_filling_the_defaults_kept_the_cases_"
+                         "arrays_bit_for_bit", "tests/test_reference.py"],
 }
 
 
@@ -438,34 +441,46 @@ MUTATIONS = [
              "ranked = sorted(range(len(dist)), key=lambda i: (dist[i], i))[:kk]",
              "ranked = sorted(range(len(dist)), key=lambda i: (dist[i], -i))[:kk]",
              "equal distances ranked by the last offset in the disc, not the first"),
-    # -- NP's literal reference (refsynth/synthesis/reference.py) -------------------------
-    Mutation("npref-eq5-threshold", "np-reference", REFERENCE,
+    # -- the oracle's literal reference (refsynth/synthesis/reference.py) -----------------
+    Mutation("oref-eq5-threshold", "oracle-reference", ORACLE_REFERENCE,
              "threshold = (1.0 + epsilon) * distances[best]",
              "threshold = distances[best] + epsilon",
              "Eq. 5's threshold (1 + ε) d_best as d_best + ε"),
-    Mutation("npref-eq5-strict", "np-reference", REFERENCE,
+    Mutation("oref-eq5-strict", "oracle-reference", ORACLE_REFERENCE,
              "members = [i for i, d in enumerate(distances) if d <= threshold]",
              "members = [i for i, d in enumerate(distances) if d < threshold] or [best]",
              "Eq. 5's ≤ as <"),
-    Mutation("npref-eq4-last", "np-reference", REFERENCE,
+    Mutation("oref-eq4-last", "oracle-reference", ORACLE_REFERENCE,
              "best = distances.index(min(distances))",
              "best = len(distances) - 1 - distances[::-1].index(min(distances))",
              "Eq. 4's tie: the last minimum, not the first"),
-    Mutation("npref-eq11-update", "np-reference", REFERENCE,
+    Mutation("oref-eq11-update", "oracle-reference", ORACLE_REFERENCE,
              "c_best = confidence_term(conf, *candidates[best], n)",
              "c_best = confidence_term(conf, *source, n)",
              "Eq. 11's update from the drawn member's window, not N_best's"),
-    Mutation("npref-eq10-sum", "np-reference", REFERENCE,
+    Mutation("oref-eq10-sum", "oracle-reference", ORACLE_REFERENCE,
              "P = C * max(D, 0.0) + E", "P = C * max(D, 0.0) * E",
              "Eq. 10's sum of the terms as a product"),
-    Mutation("npref-eq12-order", "np-reference", REFERENCE,
+    Mutation("oref-eq12-order", "oracle-reference", ORACLE_REFERENCE,
              "d_term = 1.0 - abs(g_row * m_col - g_col * m_row) / norm",
              "d_term = 1.0 - abs(g_row * (m_col / norm) - g_col * (m_row / norm))",
              "Eq. 12's front normal normalised before the cross product (an ulp)"),
-    Mutation("npref-eq2-window", "np-reference", REFERENCE,
-             "sr = int(np.sum(window * dr * dr))", "sr = int(np.sum(dr * dr))",
-             "Eq. 2's range term without the Gaussian window"),
-    Mutation("npref-offset-clip", "np-reference", REFERENCE,
+    Mutation("oref-bp-confidence-clip", "oracle-reference", ORACLE_REFERENCE,
+             "confidence[r, c] = min(pooled, 1.0)", "confidence[r, c] = pooled",
+             "BP's confidence not clipped to 1"),
+    Mutation("oref-bp-confidence-sum", "oracle-reference", ORACLE_REFERENCE,
+             "pooled += weights[label] / z", "pooled += weights[label] / float(np.sum(weights))",
+             "BP's confidence normalised by numpy's pairwise sum, not left to right"),
+    Mutation("oref-bp-lift", "oracle-reference", ORACLE_REFERENCE,
+             "both = (a != NO_RANGE) & (b != NO_RANGE)",
+             "both = (a + int(shifts[0]) >= 0) & (b + int(shifts[1]) >= 0) & (a != NO_RANGE)"
+             " & (b != NO_RANGE)",
+             "a shifted label's range below 0 read as missing in Eq. 6 (no lift)"),
+    Mutation("oref-bp-message", "oracle-reference", ORACLE_REFERENCE,
+             "new[e] = _send(log_psi[e] + (belief[a] - messages[E + e])[:, None], 0, product)",
+             "new[e] = _send(log_psi[e] + belief[a][:, None], 0, product)",
+             "BP's message i→j from the sender's whole belief (j's message not taken out)"),
+    Mutation("oref-offset-clip", "oracle-reference", ORACLE_REFERENCE,
              "frame.span * 2.0**-RANGE_BITS)), float(low)), float(high))",
              "frame.span * 2.0**-RANGE_BITS)), -np.inf), np.inf)",
              "the offset copy's value not clipped to the measured range"),
