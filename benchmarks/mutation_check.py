@@ -9,6 +9,13 @@ the seven of issue #11 — one at a time, in a *copy* of the project
 (never the working tree), runs the relevant test files there with ``pytest -x -q``, and prints
 killed / survived per mutation.
 
+The literal references are mutated too: BP as printed (refsynth/synthesis/belief/reference.py,
+``bpref-*``) and the oracle's reference (refsynth/synthesis/reference.py, ``oref-*``, NP's
+and BP's steps). The oracle's expected values come from that reference, so a mutated
+reference agrees with its own cases; its mutants are killed by the fast == reference
+tests, the by-hand equations and the hashes of the cases the contract's rules name
+(tests/test_oracle_contract.py).
+
 A mutation is (file, an exact substring of one original line, its replacement). If the
 original is not found (the code moved on), the mutation is skipped with a message. A
 mutation known to be *equivalent* (it cannot change any result) says why; a survivor that is
@@ -52,6 +59,8 @@ BP_RANKING = "refsynth/synthesis/bp_ranking.py"
 BP_MODEL = "refsynth/synthesis/bp_model.py"
 MESSAGES = "refsynth/synthesis/messages.py"
 COMPLETION = "refsynth/synthesis/completion.py"
+BELIEF_REF = "refsynth/synthesis/belief/reference.py"   # BP as printed (Fig. 6)
+ORACLE_REFERENCE = "refsynth/synthesis/reference.py"   # the oracle's literal reference
 REG = "refsynth/registration"
 
 ORACLE_FAST = "tests/test_oracle.py::test_the_fast_code_passes_every_case_it_handles"
@@ -73,6 +82,12 @@ TESTS = {
     "np-reference": ["tests/test_np_reference.py"],
     "registration": ["tests/test_panorama.py", "tests/test_laser_camera.py",
                      "tests/test_registration_scenes.py"],
+    # the literal references: fast == reference, the by-hand equations, and the oracle's
+    # cases as the reference writes them (their hashes)
+    "bp-reference": ["tests/test_bp_paper_reference.py", "tests/test_mutation_gaps.py"],
+    "oracle-reference": ["tests/test_oracle_contract.py",
+                         "tests/test_oracle.py::test_filling_the_defaults_kept_the_cases_"
+                         "arrays_bit_for_bit", "tests/test_reference.py"],
 }
 
 
@@ -384,6 +399,93 @@ MUTATIONS = [
     Mutation("reg-eq19-tan", "registration", f"{REG}/range_image.py",
              "np.asarray(focal / np.tan(theta))", "np.asarray(focal * np.tan(theta))",
              "Eq. 19's f / tan θ as f · tan θ"),
+    # -- BP as printed (refsynth/synthesis/belief/reference.py) ---------------------------
+    Mutation("bpref-eq7-sign", "bp-reference", BELIEF_REF,
+             "return -distance / (2.0 * sigma_i * sigma_i)",
+             "return distance / (2.0 * sigma_i * sigma_i)", "Eq. 7's sign"),
+    Mutation("bpref-eq7-sigma", "bp-reference", BELIEF_REF,
+             "return -distance / (2.0 * sigma_i * sigma_i)",
+             "return -distance / (2.0 * sigma_i)", "Eq. 7's σ_i² as σ_i"),
+    Mutation("bpref-eq6-mean", "bp-reference", BELIEF_REF,
+             "return (int(np.sum(d * d)) * 2.0 ** (-2 * RANGE_BITS)) / count",
+             "return (int(np.sum(d * d)) * 2.0 ** (-2 * RANGE_BITS)) / a.size",
+             "Eq. 6's mean over the whole overlap, not the pixels where both have range"),
+    Mutation("bpref-message-subtraction", "bp-reference", BELIEF_REF,
+             "new[e] = send(psi[e], belief[a] - messages[E + e], 0, product)",
+             "new[e] = send(psi[e], belief[a] - messages[e], 0, product)",
+             "Eq. 9's message i→j: the sender's belief less its own outgoing message"),
+    Mutation("bpref-message-whole-belief", "bp-reference", BELIEF_REF,
+             "new[E + e] = send(psi[e], belief[b] - messages[e], 1, product)",
+             "new[E + e] = send(psi[e], belief[b], 1, product)",
+             "Eq. 9's message j→i from the sender's whole belief (j's message not taken out)"),
+    Mutation("bpref-belief-order", "bp-reference", BELIEF_REF,
+             "for q in ((r, c - 1), (r - 1, c), (r, c + 1), (r + 1, c))",
+             "for q in ((r, c - 1), (r, c + 1), (r - 1, c), (r + 1, c))",
+             "a belief's incoming messages summed left, right, up, down (not left, up, …)"),
+    Mutation("bpref-belief-first-two", "bp-reference", BELIEF_REF,
+             "for q in ((r, c - 1), (r - 1, c), (r, c + 1), (r + 1, c))",
+             "for q in ((r - 1, c), (r, c - 1), (r, c + 1), (r + 1, c))",
+             "a belief's first two incoming messages swapped (up, left, right, down)",
+             equivalent="the sum starts at 0.0 and 0.0 + a is a exactly, so (0 + a) + b and "
+                        "(0 + b) + a are both the one rounding of a + b: only the third "
+                        "and fourth terms' places can change a bit"),
+    Mutation("bpref-normalise-kept", "bp-reference", BELIEF_REF,
+             "        return m - m.max()\n", "        return m\n",
+             "a max-product message not normalised"),
+    Mutation("bpref-confidence-clip", "bp-reference", BELIEF_REF,
+             "min(float(left_to_right_sum(np.where(same, p, 0.0))), 1.0)",
+             "float(left_to_right_sum(np.where(same, p, 0.0)))",
+             "the confidence not clipped to 1"),
+    Mutation("bpref-confidence-numpy-sum", "bp-reference", BELIEF_REF,
+             "p = p / left_to_right_sum(p)", "p = p / np.sum(p)",
+             "the confidence normalised by numpy's pairwise sum, not left to right"),
+    Mutation("bpref-ranking-tie", "bp-reference", BELIEF_REF,
+             "ranked = sorted(range(len(dist)), key=lambda i: (dist[i], i))[:kk]",
+             "ranked = sorted(range(len(dist)), key=lambda i: (dist[i], -i))[:kk]",
+             "equal distances ranked by the last offset in the disc, not the first"),
+    # -- the oracle's literal reference (refsynth/synthesis/reference.py) -----------------
+    Mutation("oref-eq5-threshold", "oracle-reference", ORACLE_REFERENCE,
+             "threshold = (1.0 + epsilon) * distances[best]",
+             "threshold = distances[best] + epsilon",
+             "Eq. 5's threshold (1 + ε) d_best as d_best + ε"),
+    Mutation("oref-eq5-strict", "oracle-reference", ORACLE_REFERENCE,
+             "members = [i for i, d in enumerate(distances) if d <= threshold]",
+             "members = [i for i, d in enumerate(distances) if d < threshold] or [best]",
+             "Eq. 5's ≤ as <"),
+    Mutation("oref-eq4-last", "oracle-reference", ORACLE_REFERENCE,
+             "best = distances.index(min(distances))",
+             "best = len(distances) - 1 - distances[::-1].index(min(distances))",
+             "Eq. 4's tie: the last minimum, not the first"),
+    Mutation("oref-eq11-update", "oracle-reference", ORACLE_REFERENCE,
+             "c_best = confidence_term(conf, *candidates[best], n)",
+             "c_best = confidence_term(conf, *source, n)",
+             "Eq. 11's update from the drawn member's window, not N_best's"),
+    Mutation("oref-eq10-sum", "oracle-reference", ORACLE_REFERENCE,
+             "P = C * max(D, 0.0) + E", "P = C * max(D, 0.0) * E",
+             "Eq. 10's sum of the terms as a product"),
+    Mutation("oref-eq12-order", "oracle-reference", ORACLE_REFERENCE,
+             "d_term = 1.0 - abs(g_row * m_col - g_col * m_row) / norm",
+             "d_term = 1.0 - abs(g_row * (m_col / norm) - g_col * (m_row / norm))",
+             "Eq. 12's front normal normalised before the cross product (an ulp)"),
+    Mutation("oref-bp-confidence-clip", "oracle-reference", ORACLE_REFERENCE,
+             "confidence[r, c] = min(pooled, 1.0)", "confidence[r, c] = pooled",
+             "BP's confidence not clipped to 1"),
+    Mutation("oref-bp-confidence-sum", "oracle-reference", ORACLE_REFERENCE,
+             "pooled += weights[label] / z", "pooled += weights[label] / float(np.sum(weights))",
+             "BP's confidence normalised by numpy's pairwise sum, not left to right"),
+    Mutation("oref-bp-lift", "oracle-reference", ORACLE_REFERENCE,
+             "both = (a != NO_RANGE) & (b != NO_RANGE)",
+             "both = (a + int(shifts[0]) >= 0) & (b + int(shifts[1]) >= 0) & (a != NO_RANGE)"
+             " & (b != NO_RANGE)",
+             "a shifted label's range below 0 read as missing in Eq. 6 (no lift)"),
+    Mutation("oref-bp-message", "oracle-reference", ORACLE_REFERENCE,
+             "new[e] = _send(log_psi[e] + (belief[a] - messages[E + e])[:, None], 0, product)",
+             "new[e] = _send(log_psi[e] + belief[a][:, None], 0, product)",
+             "BP's message i→j from the sender's whole belief (j's message not taken out)"),
+    Mutation("oref-offset-clip", "oracle-reference", ORACLE_REFERENCE,
+             "frame.span * 2.0**-RANGE_BITS)), float(low)), float(high))",
+             "frame.span * 2.0**-RANGE_BITS)), -np.inf), np.inf)",
+             "the offset copy's value not clipped to the measured range"),
     Mutation("cascade-no-doubling", "completion", COMPLETION, "min(2 * most, max_sweeps)",
              "min(most, max_sweeps)",
              "the cascade's coarser levels given the finest level's sweeps, not twice as many"),

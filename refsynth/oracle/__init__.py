@@ -12,11 +12,14 @@
   (:mod:`refsynth.oracle.worker`), on a folder whose checksums are verified first
   (:mod:`refsynth.oracle.files`), and the arrays are compared by
   :mod:`refsynth.oracle.compare`.
+- :mod:`refsynth.oracle.contract`: the porter's contract, every float sequence a port must
+  reproduce (the numeric contract C1–C10, then NP and BP step by step), each with the case
+  that fails when it is broken.
 - :mod:`refsynth.oracle.adapters`: refsynth's own reference and fast code in the checker's
   calling convention (templates for a port's adapter).
 
-The numeric contract behind the cases is stated in :mod:`refsynth.numeric` and in the
-README's section "The oracle".
+The numeric contract behind the cases is :mod:`refsynth.oracle.contract` (its helpers live
+in :mod:`refsynth.numeric`).
 """
 
 from refsynth.oracle.adapters import refsynth_fast, refsynth_reference

@@ -17,7 +17,10 @@ cases carry NP's random numbers too, and ``q_observation`` is NP's result on the
 grid) and by the colorization fill (``observation="colorization"``, the prepared
 ``q_observation``), the training disc widened by the gap's depth and shifted labels
 (``range_copy="offset"``), and Fig. 6 as printed (``observation="measured"``,
-``training_radius="fixed"``, ``range_copy="value"``) beside them. A run's options hold every
+``training_radius="fixed"``, ``range_copy="value"``) beside them; ``bp-10x12-k8`` has all
+eight labels (the default ``k``), where numpy's pairwise sum of the confidence's eight
+weights differs from the contract's sum left to right (:mod:`refsynth.oracle.contract`).
+A run's options hold every
 option the method takes, its default filled in (:data:`NP_DEFAULTS`, :data:`BP_DEFAULTS`), so
 a port reads them all from the case.
 """
@@ -194,6 +197,12 @@ def _run_cases(large: bool) -> list[Case]:
              dict(neighbourhood=3, radius=2.5, use_edges=True, candidates=5, iterations=12,
                   colour=False, sigma_i=0.5, range_weight=4.0, **COLORIZATION), 11),
     ]
+    # all eight labels (the default k): BP's confidence sums eight weights, where a pairwise
+    # sum (numpy's, from eight terms on) rounds differently from the contract's left to right
+    eight = _scene(0, (10, 12), 3, "noise", 0.3)
+    cases.append(Case("bp-10x12-k8", "bp", eight,
+                      dict(neighbourhood=3, radius=3.0, use_edges=True, candidates=8,
+                           iterations=8, **COLORIZATION), 0))
     # BP as Fig. 6 prints it (the observations' measured range, the fixed disc), and the
     # training patches completed too, beside the defaults above
     sparse = _scene(13, (16, 16), 1, "noise", 0.3)

@@ -39,7 +39,10 @@ The inputs and outputs of each kind, B the batch:
 - ``eq10_12``: hand-built 9×9 windows ``filled``, ``q_range``, ``confidence``, ``edges``
   (B, 9, 9), the target ``pixel`` and the ``best`` match (B, 2) (row, column);
   ``neighbourhood``, ``use_isophotes`` → ``C``, ``D``, ``E_term``, ``P``, ``edge_count``,
-  ``assigned_product``, ``assigned_best`` (B,).
+  ``assigned_product``, ``assigned_best`` (B,). ``eq10_12-arithmetic``'s windows are the
+  ones where Eq. 12's other operation orders give another ``D`` (an ulp): only the
+  contract's ``1 − |g_row m_col − g_col m_row| / ‖m‖``, the un-normalised Sobel vector
+  divided by its norm once, passes it (:mod:`refsynth.oracle.contract`).
 - ``eq13``: ``estimate``, ``truth``, ``known`` (H, W) → ``mar`` ().
 - ``canny``: ``image`` (H, W); ``sigma`` → ``edges`` (H, W) bool.
 - the registration stage: Eq. 14 ``x``, ``y``; ``focal`` → ``x_c``, ``y_c``; Eqs. 15–17
@@ -178,7 +181,27 @@ def _priority_cases(g) -> list:
         ("filled", "q_range", "confidence", "edges", "pixel", "best"))}
     return [("eq10_12-n5", "eq10_12", inputs, dict(neighbourhood=5, use_isophotes=True)),
             ("eq10_12-n3-no-isophotes", "eq10_12", inputs,
-             dict(neighbourhood=3, use_isophotes=False))]
+             dict(neighbourhood=3, use_isophotes=False)),
+            ("eq10_12-arithmetic", "eq10_12", _arithmetic_windows(),
+             dict(neighbourhood=5, use_isophotes=True))]
+
+
+#: Seeds of random windows on which Eq. 12's other operation orders (the Sobel vector
+#: normalised before the cross product; each product divided by ``‖m‖`` separately; a
+#: multiplication by ``1 / ‖m‖``) each give a ``D`` one ulp or more away from the
+#: contract's ``1 − |g_row m_col − g_col m_row| / ‖m‖`` (found by a search over seeds).
+ARITHMETIC_SEEDS = (54, 87, 303, 387)
+
+
+def _arithmetic_windows() -> dict:
+    """The ``eq10_12-arithmetic`` batch: windows where only the contract's order of Eq. 12 passes.
+
+    Each window is drawn from its own seed (:data:`ARITHMETIC_SEEDS`), so the other
+    cases' draws are untouched.
+    """
+    windows = [_window("random", np.random.default_rng(seed)) for seed in ARITHMETIC_SEEDS]
+    return {key: np.stack([w[i] for w in windows]) for i, key in enumerate(
+        ("filled", "q_range", "confidence", "edges", "pixel", "best"))}
 
 
 def _mar_cases(g) -> list:
