@@ -282,9 +282,9 @@ print(f"tutorial 6 ran in {time.perf_counter() - START:.0f} s")
 #    Then teach it **the offset copy** (`range_copy="offset"`, NP's default,
 #    the cases `np-14x18-planes` and `np-14x18-planes-value-copy`):
 #    after the draw, shift the drawn value by the windows' consistent range
-#    difference — the rule is in the documentation's *Oracle* page and in
-#    `refsynth.synthesis.range_copy`. Which array does the oracle name on
-#    `np-14x18-planes` before you add it?
+#    difference — the rule is in `refsynth.oracle.contract` (the
+#    documentation's *Oracle* page) and in `refsynth.synthesis.range_copy`.
+#    Which array does the oracle name on `np-14x18-planes` before you add it?
 # 2. **Plant the dropped-factor bug**: give a synthesized pixel
 #    the best match's confidence alone instead of `C(p) · C(best)`. Before you
 #    run the check, predict from the golden trace (`step_C`) the first step the
