@@ -16,38 +16,38 @@ Notation: ``q`` values are int64 on a ``2**-16`` grid, ``NO_RANGE = −1`` where
 The numeric contract (C1–C10)
 -----------------------------
 
-C1. Intensity and range are quantised to ``2**-16`` of their spans:
-    ``q = rint((x − min) / span · 2**16)`` in float64 (intensity: ``min``/``max`` over all
-    pixels and channels; range: over the measured pixels; a zero span counts as 1)
-    (:func:`refsynth.numeric.quantise_intensity`, :func:`~refsynth.numeric.quantise_range`).
-    Canny, and Eq. 2 with ``colour=False``, see the grey level ``(w0 R + w1 G) + w2 B``
-    (BT.709) of the quantised colour, quantised again (:func:`~refsynth.numeric.quantise_grey`).
-C2. Eq. 2's Gaussian window is the integer table ``G = rint(2**18 g)``
-    (:func:`~refsynth.numeric.window_weights`). Eq. 2 is four sums of integer products,
-    ``si = Σ_v G_v Σ_c ΔI²``, ``sr = Σ_{v∈S} G_v ΔR²``, ``ws = Σ_{v∈S} G_v``,
-    ``wa = Σ_{v∈A} G_v`` (``S``: the offsets where both windows have range, ``A``: where
-    the target's has), exact in any order.
-C3. The distance from the sums (:func:`~refsynth.numeric.combine_eq2`), ``u = 2**-50``,
-    ``w = 2**-18``, ``ε = 10**-4``:
-    ``d = (si · u) / C + λ (sr · u)`` (``missing_range="ignore"``) or
-    ``d = (si · u) / C + (λ (sr · u) + λ ε) · ((wa · w) / (ws · w + ε))`` (``"mean"``).
-    ``C`` is the channel divisor: 1 with ``channels="sum"`` (Eq. 2's sum over the
-    channels, the default), the number of channels Eq. 2 sees with ``channels="mean"``
-    (3 for colour, 1 with ``colour=False`` or a grey image). ``λ`` is ``range_weight``.
-C4. A synthesized pixel's confidence is rounded to ``2**-40``
-    (``rint(x · 2**40) · 2**-40``, :func:`~refsynth.numeric.on_confidence_grid`), so
-    Eq. 11's window sums are exact in any order.
-C5. Eq. 10 is ``P = C · max(D, 0) + 1 / (1 + E)`` (here ``C`` is Eq. 11's confidence
-    term); ``‖m‖ = sqrt(m_row² + m_col²)`` (not ``hypot``); Eq. 12's arithmetic is below.
-C6. BP in float64, in logarithms; a node's incoming messages are summed left, up, right,
-    down; the measured neighbours' terms are added right, left, below, above.
-C7. No libm or SIMD transcendental in a result: ``exp`` and ``log`` are
-    :func:`~refsynth.numeric.portable_exp` and :func:`~refsynth.numeric.portable_log`
-    (IEEE ``+ − × ÷`` and ``ldexp`` only); sums over labels run left to right.
-C8. Ties are broken by fixed rules: the first candidate in the disc's raster order (Eq. 4,
-    BP's ranking), the seeded permutation ``tie`` (Eq. 10), the first maximum (Eq. 8).
-C9. No BLAS product and no library-ordered reduction on non-integer data.
-C10. Canny runs on the quantised grey level, with a portable Gaussian applied tap by tap.
+- C1. Intensity and range are quantised to ``2**-16`` of their spans:
+  ``q = rint((x − min) / span · 2**16)`` in float64 (intensity: ``min``/``max`` over all
+  pixels and channels; range: over the measured pixels; a zero span counts as 1)
+  (:func:`refsynth.numeric.quantise_intensity`, :func:`~refsynth.numeric.quantise_range`).
+  Canny, and Eq. 2 with ``colour=False``, see the grey level ``(w0 R + w1 G) + w2 B``
+  (BT.709) of the quantised colour, quantised again (:func:`~refsynth.numeric.quantise_grey`).
+- C2. Eq. 2's Gaussian window is the integer table ``G = rint(2**18 g)``
+  (:func:`~refsynth.numeric.window_weights`). Eq. 2 is four sums of integer products,
+  ``si = Σ_v G_v Σ_c ΔI²``, ``sr = Σ_{v∈S} G_v ΔR²``, ``ws = Σ_{v∈S} G_v``,
+  ``wa = Σ_{v∈A} G_v`` (``S``: the offsets where both windows have range, ``A``: where
+  the target's has), exact in any order.
+- C3. The distance from the sums (:func:`~refsynth.numeric.combine_eq2`), ``u = 2**-50``,
+  ``w = 2**-18``, ``ε = 10**-4``:
+  ``d = (si · u) / C + λ (sr · u)`` (``missing_range="ignore"``) or
+  ``d = (si · u) / C + (λ (sr · u) + λ ε) · ((wa · w) / (ws · w + ε))`` (``"mean"``).
+  ``C`` is the channel divisor: 1 with ``channels="sum"`` (Eq. 2's sum over the
+  channels, the default), the number of channels Eq. 2 sees with ``channels="mean"``
+  (3 for colour, 1 with ``colour=False`` or a grey image). ``λ`` is ``range_weight``.
+- C4. A synthesized pixel's confidence is rounded to ``2**-40``
+  (``rint(x · 2**40) · 2**-40``, :func:`~refsynth.numeric.on_confidence_grid`), so
+  Eq. 11's window sums are exact in any order.
+- C5. Eq. 10 is ``P = C · max(D, 0) + 1 / (1 + E)`` (here ``C`` is Eq. 11's confidence
+  term); ``‖m‖ = sqrt(m_row² + m_col²)`` (not ``hypot``); Eq. 12's arithmetic is below.
+- C6. BP in float64, in logarithms; a node's incoming messages are summed left, up, right,
+  down; the measured neighbours' terms are added right, left, below, above.
+- C7. No libm or SIMD transcendental in a result: ``exp`` and ``log`` are
+  :func:`~refsynth.numeric.portable_exp` and :func:`~refsynth.numeric.portable_log`
+  (IEEE ``+ − × ÷`` and ``ldexp`` only); sums over labels run left to right.
+- C8. Ties are broken by fixed rules: the first candidate in the disc's raster order (Eq. 4,
+  BP's ranking), the seeded permutation ``tie`` (Eq. 10), the first maximum (Eq. 8).
+- C9. No BLAS product and no library-ordered reduction on non-integer data.
+- C10. Canny runs on the quantised grey level, with a portable Gaussian applied tap by tap.
 
 Shared by NP and BP
 -------------------
