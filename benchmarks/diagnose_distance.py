@@ -21,23 +21,28 @@ ground truth:
     ``edges_last``), beside the nearest and linear fills.
 ``prototypes``
     Ideas for NP measured without touching the package (a hook in the traced
-    loop replaces the value NP writes): ``detail`` copies the source's
-    departure from the linear fill onto the target's linear fill (the offset
-    copy generalised to a slope: a measured source gives exactly the
-    interpolated value); ``detail-edges`` does so only where the gap's two
-    measured ends agree with the slopes beside them (no depth edge inside the
-    gap), and keeps NP's value elsewhere; ``onion-detail`` the first in the
-    onion order (narrow gaps filled from both sides, layer by layer).
+    loop replaces the value NP writes): ``interp-edges`` takes the linear
+    fill where the row's gap looks like one surface (the jump across it
+    within twice what the slopes beside it predict) and NP's value where it
+    does not; ``shape`` copies the drawn source's departure from the chord
+    between the pixels at the same offsets around it onto the chord between
+    the target's measured gap ends (the offset copy generalised from a
+    constant to a chord: the range's *shape* anchored to the range around
+    the target); ``onion-shape`` the same in the onion order (narrow gaps
+    filled from both sides, layer by layer).
 
-Run (the figures in ``docs/distance_sampling.md``)::
+Run (the numbers in ``docs/distance_sampling.md``)::
 
     python benchmarks/diagnose_distance.py figure ../shared/data --motorcycle \\
         --out figures/distance_diagnosis.png
     python benchmarks/diagnose_distance.py gaps ../shared/data --motorcycle \\
-        --scenes motorcycle,nyu_basement_raw_00000
+        --scenes motorcycle --variants np,onion,value-copy,no-edges,no-edge-tier
+    python benchmarks/diagnose_distance.py gaps ../shared/data \\
+        --scenes nyu_basement_raw_00000 --variants np,onion,value-copy,no-edges,no-edge-tier
     python benchmarks/diagnose_distance.py prototypes ../shared/data --motorcycle \\
-        --scenes motorcycle,nyu_basement_raw_00000,mb2005_reindeer_half \\
-        --samplings distance60,x78
+        --size 225x188 --scenes motorcycle,nyu_basement_raw_00000 --samplings distance60,x78
+    python benchmarks/diagnose_distance.py prototypes ../shared/data --size 225x188 \\
+        --scenes mb2005_reindeer_half,kv2_livingroom_raw --samplings distance60,x78
 """
 
 from __future__ import annotations
@@ -320,23 +325,49 @@ def smooth_gaps(known: np.ndarray, values: np.ndarray, tolerance: float) -> np.n
 
 
 def prototype(name: str):
-    """fill(scene, known, seed) -> range for a prototype ``name``."""
+    """fill(scene, known, seed) -> range for a prototype ``name`` (see the module's docstring).
+
+    ``interp-edges``: the linear fill where :func:`smooth_gaps` finds the row's gap smooth,
+    NP's value elsewhere. ``shape`` (and ``onion-shape``, in the onion order): the chord
+    between the measured ends of ``p``'s row gap plus the drawn source's departure from its
+    own chord, taken between the pixels at the same horizontal offsets around ``q``
+    (measured or synthesized); NP's value where those are not filled yet or the gap meets
+    the image's border. A constant departure is the offset copy; a measured source in a
+    known column has departure 0 only when the range is straight across it.
+    ``detail`` (the source's departure from the linear fill) is the linear fill exactly:
+    every measured source has departure 0, so every copy has.
+    """
     def fill(scene, known, seed):
         partial = np.where(known, scene.range, np.nan)
-        lin = linear_fill(scene.intensity, partial)
         span = float(np.nanmax(partial) - np.nanmin(partial))
-        smooth = smooth_gaps(known, partial, 2.0**-7 * span) if "edges" in name else None
+        lin = linear_fill(scene.intensity, partial)
+        smooth = smooth_gaps(known, partial, 2.0**-7 * span) if name == "interp-edges" else None
+        brackets = _row_brackets(known, partial) if name.endswith("shape") else None
         state = {}
 
         def override(p, q, original, known_p, filled, geometry, low, high):
-            if "lin" not in state:
-                Wp, pad = geometry
+            Wp, pad = geometry
+            if not state:
                 state["lin"] = np.pad(lin, pad).ravel()
-                state["smooth"] = None if smooth is None else np.pad(smooth, pad).ravel()
-            lin_p = state["lin"]
-            if state["smooth"] is not None and not state["smooth"][p]:
-                return None                       # a depth edge inside the gap: NP's value
-            return lin_p[p] + (original[q] - lin_p[q])
+                if brackets is not None:
+                    state["b"] = {k: v.ravel() for k, v in brackets.items()}
+            pr, pc = divmod(p, Wp)
+            pr, pc = pr - pad, pc - pad
+            if smooth is not None:
+                return state["lin"][p] if smooth[pr, pc] else None
+            b = state["b"]
+            i = pr * known.shape[1] + pc
+            cl, cr = b["cL"][i], b["cR"][i]
+            if not (np.isfinite(cl) and np.isfinite(cr)) or cr <= cl:
+                return None
+            left, right = int(pc - cl), int(cr - pc)
+            chord_p = b["L"][i] + (b["R"][i] - b["L"][i]) * left / (left + right)
+            ql, qr = q - left, q + right                # same row, padded frame
+            qc = q % Wp - pad
+            if qc - left < 0 or qc + right >= known.shape[1] or not (filled[ql] and filled[qr]):
+                return None
+            chord_q = original[ql] + (original[qr] - original[ql]) * left / (left + right)
+            return chord_p + (original[q] - chord_q)
 
         options = {"ordering": "onion"} if name.startswith("onion") else {}
         return traced_synthesize(scene.intensity, partial, seed=seed, override=override,
@@ -344,7 +375,7 @@ def prototype(name: str):
     return fill
 
 
-PROTOTYPES = ("detail", "detail-edges", "onion-detail")
+PROTOTYPES = ("interp-edges", "shape", "onion-shape")
 
 
 # ----------------------------------------------------------------------------- commands
