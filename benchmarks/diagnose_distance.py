@@ -331,7 +331,8 @@ def prototype(name: str):
     NP's value elsewhere. ``shape`` (and ``onion-shape``, in the onion order): the chord
     between the measured ends of ``p``'s row gap plus the drawn source's departure from its
     own chord, taken between the pixels at the same horizontal offsets around ``q``
-    (measured or synthesized); NP's value where those are not filled yet or the gap meets
+    (measured or synthesized) or, where those are not filled yet, between the measured
+    pixels beside ``q`` in its row (``q`` itself excluded); NP's value where the gap meets
     the image's border. A constant departure is the offset copy; a measured source in a
     known column has departure 0 only when the range is straight across it.
     ``detail`` (the source's departure from the linear fill) is the linear fill exactly:
@@ -363,10 +364,19 @@ def prototype(name: str):
             left, right = int(pc - cl), int(cr - pc)
             chord_p = b["L"][i] + (b["R"][i] - b["L"][i]) * left / (left + right)
             ql, qr = q - left, q + right                # same row, padded frame
-            qc = q % Wp - pad
-            if qc - left < 0 or qc + right >= known.shape[1] or not (filled[ql] and filled[qr]):
+            qrow, qc = divmod(q, Wp)
+            qrow, qc = qrow - pad, qc - pad
+            if qc - left >= 0 and qc + right < known.shape[1] and filled[ql] and filled[qr]:
+                chord_q = original[ql] + (original[qr] - original[ql]) * left / (left + right)
+                return chord_p + (original[q] - chord_q)
+            # else the chord between the measured pixels beside q (a measured q excluded)
+            j = qrow * known.shape[1] + qc
+            ends = ("LL", "RR") if known[qrow, qc] else ("L", "R")
+            lv, rv = b[ends[0]][j], b[ends[1]][j]
+            lc, rc = b["c" + ends[0]][j], b["c" + ends[1]][j]
+            if not (np.isfinite(lv) and np.isfinite(rv)) or rc <= lc:
                 return None
-            chord_q = original[ql] + (original[qr] - original[ql]) * left / (left + right)
+            chord_q = lv + (rv - lv) * (qc - lc) / (rc - lc)
             return chord_p + (original[q] - chord_q)
 
         options = {"ordering": "onion"} if name.startswith("onion") else {}
