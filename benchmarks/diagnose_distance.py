@@ -474,28 +474,27 @@ def command_gaps(args, out) -> dict:
     report = {}
     variants = {k: v for k, v in GAP_VARIANTS.items()
                 if not args.variants or k in args.variants.split(",")}
+    fills = {label: (lambda image, partial, options=options: synthesize(
+        image, partial, seed=args.seed, **options).range) for label, options in variants.items()}
+    fills.update(nearest=nearest_fill, linear=linear_fill)
     for name, scene in _scenes(args):
         known = known_mask(scene, args.sampling)
         partial = np.where(known, scene.range, np.nan)
         widths = gap_widths(known)
-        results = {}
-        for label, options in variants.items():
-            estimate = synthesize(scene.intensity, partial, seed=args.seed, **options).range
-            results[label] = mar_by_gap(estimate, scene.range, known, widths)
-        for label, fill in (("linear", linear_fill), ("nearest", nearest_fill)):
+        results = report[name] = {}
+        print(f"\n{name} ({scene.units}), {args.sampling}, seed {args.seed}: MAR by gap "
+              "width (columns; pixels scored in brackets), a row per method as it ends",
+              file=out, flush=True)
+        for label, fill in fills.items():
             results[label] = mar_by_gap(fill(scene.intensity, partial), scene.range, known,
                                         widths)
-        report[name] = results
-        keys = list(next(iter(results.values())))
-        counts = next(iter(results.values()))
-        print(f"\n{name} ({scene.units}), {args.sampling}, seed {args.seed}: MAR by gap "
-              "width (columns; pixels scored in brackets)", file=out)
-        print("| method | " + " | ".join(f"{k} ({counts[k][1]})" for k in keys) + " |",
-              file=out)
-        print("|---|" + "---|" * len(keys), file=out)
-        for label, values in results.items():
-            print(f"| {label} | " + " | ".join(_fmt(values[k][0]) for k in keys) + " |",
-                  file=out)
+            if len(results) == 1:
+                keys = list(results[label])
+                print("| method | " + " | ".join(f"{k} ({results[label][k][1]})" for k in keys)
+                      + " |", file=out)
+                print("|---|" + "---|" * len(keys), file=out)
+            print(f"| {label} | " + " | ".join(_fmt(results[label][k][0]) for k in keys) + " |",
+                  file=out, flush=True)
     return report
 
 
