@@ -199,15 +199,16 @@ def _key(row: dict) -> tuple:
 
 
 def tasks_for(specs, size, samplings, methods, seeds) -> list[tuple]:
-    """Every (scene, sampling, method, seed) to run, the slow methods first."""
+    """Every (scene, sampling, method, seed) to run: the classical fills first, then NP, then
+    BP (a long run that is stopped early still has whole columns), seed by seed."""
     tasks = []
     for name, spec in specs:
         for sampling in samplings:
             for method in methods:
                 for seed in (seeds if is_stochastic(method) else seeds[:1]):
                     tasks.append((name, spec, size, sampling, method, seed))
-    cost = {"bp": 0, "np": 1}
-    return sorted(tasks, key=lambda t: cost.get(t[4].split("-")[0], 2))
+    cost = {"np": 1, "bp": 2}
+    return sorted(tasks, key=lambda t: (cost.get(t[4].split("-")[0], 0), t[5]))
 
 
 def run(tasks: Sequence[tuple], jobs: int = 1, done: Sequence[dict] = (),

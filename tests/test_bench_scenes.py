@@ -104,3 +104,47 @@ def test_bad_arguments_exit_2_with_one_line(bench, folder, capsys, argv, message
     assert bench.main(full, out=io.StringIO()) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith("bench_scenes.py: ") and message in err[-1]
+
+
+# ----------------------------------------------------------------------------- diagnose_distance.py
+
+
+@pytest.fixture(scope="module")
+def diagnose(benchmark_script):
+    return benchmark_script("diagnose_distance")
+
+
+def test_gap_widths_by_hand(diagnose):
+    known = np.array([[1, 0, 0, 1, 0, 1, 0, 0, 0],
+                      [0, 0, 1, 1, 1, 1, 1, 1, 1]], bool)
+    assert diagnose.gap_widths(known).tolist() == [[0, 2, 2, 0, 1, 0, 3, 3, 3],
+                                                   [2, 2, 0, 0, 0, 0, 0, 0, 0]]
+
+
+def test_trace_equals_synthesize_and_points_at_filled_sources(diagnose):
+    rows, cols = np.mgrid[0:14, 0:18]
+    truth = 2.0 + 0.1 * cols + 0.5 * (cols >= 9)
+    intensity = np.where(cols >= 9, 0.8, 0.2) + 0.05 * np.sin(rows)
+    known = (cols % 3 == 0)
+    partial = np.where(known, truth, np.nan)
+    for options in ({}, {"ordering": "onion", "range_copy": "value"}):
+        trace = diagnose.traced_synthesize(intensity, partial, seed=1, **options)  # checks bits
+        assert len(trace.target) == int((~known).sum())
+        # every source was filled before its target: measured, or an earlier step
+        step = trace.step[trace.source[:, 0], trace.source[:, 1]]
+        order = np.arange(len(trace.target))
+        assert np.all(trace.source_known == (step < 0))
+        assert np.all((step < 0) | (step < order))
+        assert np.all(trace.range[known] == truth[known])
+
+
+def test_shape_prototype_is_exact_on_a_plane(diagnose):
+    # a plane: every chord is exact, so the shape copy gives the truth (NP alone does not)
+    rows, cols = np.mgrid[0:16, 0:20]
+    truth = 2.0 + 0.05 * cols + 0.01 * rows
+    intensity = 0.5 + 0.3 * np.sin(rows + 0.7 * cols)
+    known = np.zeros(truth.shape, bool)
+    known[:, [0, 2, 5, 7, 10, 13, 15, 19]] = True
+    scene = type("S", (), {"intensity": intensity, "range": truth})()
+    filled = diagnose.prototype("shape")(scene, known, 0)
+    assert np.abs(filled - truth).max() < 1e-5         # the range grid of the contract
