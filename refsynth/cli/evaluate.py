@@ -142,6 +142,7 @@ def _input_files(args) -> list[str]:
     for spec in (args.scene or "").split(","):
         if ":" in spec:
             files += [piece.strip() for piece in spec.split(":") if piece.strip()]
+            files += [piece.rpartition("@")[0] for piece in files[-1:] if "@" in piece]
     return files
 
 
@@ -227,7 +228,9 @@ def add_evaluate_parser(subparsers) -> argparse.ArgumentParser:
     )
     cases = parser.add_argument_group("cases (scenes × sizes × samplings × methods)")
     cases.add_argument("--scene", help="comma-separated: synthetic, synthetic-N, motorcycle "
-                       "(needs scikit-image), IMAGE:DISPARITY (default: synthetic,motorcycle)")
+                       "(needs scikit-image), IMAGE:DISPARITY[@SCALE] (SCALE: a PNG "
+                       "disparity's stored integers per pixel of disparity; default 1) "
+                       "(default: synthetic,motorcycle)")
     cases.add_argument("--size", help="comma-separated: N (square), WxH (e.g. 450x375) or "
                        "native (default: 128; native for IMAGE:DISPARITY)")
     cases.add_argument("--sampling", help="comma-separated: gRW_XW, xNN, distance, distanceNN "

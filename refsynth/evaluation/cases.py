@@ -8,7 +8,8 @@ validates it and returns its canonical form:
   seed N), ``motorcycle`` (the Middlebury 2014 pair of scikit-image),
   ``motorcycle-crop`` (its centred 6:5 crop: columns 70:670, 600 × 500,
   the disparity in the pair's own pixels), or a path pair ``IMAGE:DISPARITY`` (PNG/PFM/NPY, see
-  :func:`refsynth.scenes.load_middlebury`);
+  :func:`refsynth.scenes.load_middlebury`), ``IMAGE:DISPARITY@SCALE`` for a PNG disparity
+  stored as ``disparity × SCALE`` (0 = unknown; Middlebury 2005's half-size PNGs: ``@2``);
 - sizes: ``128`` (square), ``450x375`` (width × height, as the paper
   writes it), or ``native`` (a path pair or the Motorcycle as stored);
 - samplings: ``gRW_XW`` (the paper's grid stripes, known width RW, unknown
@@ -42,6 +43,7 @@ doi:10.1007/s11263-007-0108-2.
 from __future__ import annotations
 
 import functools
+import math
 import re
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -236,6 +238,27 @@ def scene_label(scene: str, size: str | None = None) -> str:
     return scene
 
 
+def _split_scale(text: str) -> tuple[str, float]:
+    """``IMAGE:DISPARITY@SCALE`` → (``IMAGE:DISPARITY``, SCALE); no ``@SCALE``: scale 1.
+
+    The ``@`` counts only when what follows it is a number and the path before it exists
+    (so a file name holding an ``@`` is read as it is).
+    """
+    head, at, tail = text.rpartition("@")
+    if not at:
+        return text, 1.0
+    try:
+        scale = float(tail)
+    except ValueError:
+        return text, 1.0
+    if not Path(head.rpartition(":")[2]).is_file() and Path(text.rpartition(":")[2]).is_file():
+        return text, 1.0
+    if not (math.isfinite(scale) and scale > 0):
+        raise ValueError(f"scene {text!r}: the disparity scale after '@' must be a finite "
+                         f"number > 0, got {tail!r}")
+    return head, scale
+
+
 def _split_pair(text: str) -> tuple[str, str]:
     """Split ``IMAGE:DISPARITY``; with several colons, at the one whose halves exist."""
     parts = text.split(":")
@@ -255,7 +278,8 @@ def parse_scene(text: str) -> str:
     ----------
     text : str
         ``synthetic`` (room of seed 0), ``synthetic-N``, ``motorcycle``,
-        ``motorcycle-crop``, or ``IMAGE:DISPARITY`` (two existing files).
+        ``motorcycle-crop``, or ``IMAGE:DISPARITY`` (two existing files), optionally with
+        ``@SCALE``: the stored PNG integers per unit of disparity (a finite number > 0).
 
     Returns
     -------
@@ -286,13 +310,15 @@ def parse_scene(text: str) -> str:
     if text in ("motorcycle", "motorcycle-crop"):
         return text
     if ":" in text:
-        image, disparity = _split_pair(text)
+        pair, scale = _split_scale(text)
+        image, disparity = _split_pair(pair)
         for what, path in (("image", image), ("disparity", disparity)):
             if not path:
                 raise ValueError(f"scene {text!r}: the {what} path is empty")
             if not Path(path).is_file():
                 raise FileNotFoundError(f"scene {text!r}: {what} file not found: {path}")
-        return f"{Path(image).resolve()}:{Path(disparity).resolve()}"
+        suffix = "" if scale == 1.0 else f"@{scale!r}"
+        return f"{Path(image).resolve()}:{Path(disparity).resolve()}{suffix}"
     raise ValueError(
         f"unknown scene {text!r}: expected synthetic, synthetic-N, motorcycle, motorcycle-crop "
         "or IMAGE:DISPARITY"
@@ -629,8 +655,9 @@ def load_scene(scene: str, size: str):
     if scene == "motorcycle-crop":
         return motorcycle(dims if dims is not None else (600, 500), crop=MOTORCYCLE_CROP,
                           units="native")
-    image, disparity = _split_pair(scene)
-    return load_middlebury(image, disparity, size=dims)
+    pair, scale = _split_scale(scene)
+    image, disparity = _split_pair(pair)
+    return load_middlebury(image, disparity, size=dims, disparity_scale=scale)
 
 
 def known_mask(scene, sampling: str) -> np.ndarray:
