@@ -78,6 +78,7 @@ from refsynth.scenes import load_rgbd, load_rgbd_folder, motorcycle  # noqa: E40
 from refsynth.scenes.rgbd import METADATA_FILE  # noqa: E402
 from refsynth.synthesis.api import synthesize  # noqa: E402
 from refsynth.synthesis.options import draws_at_random  # noqa: E402
+from refsynth.synthesis.readings import split_options  # noqa: E402
 
 #: The classical fills a synthesis method is compared with.
 CLASSICAL = ("nearest", "linear", "colorization", "joint-bilateral")
@@ -178,7 +179,9 @@ def fill(scene, known: np.ndarray, method: str, seed: int) -> tuple[np.ndarray, 
         estimate = BASELINES[method](scene.intensity, partial)
     else:
         options = VARIANTS.get(method, SYNTHESIS_METHODS.get(method))
-        estimate = synthesize(scene.intensity, partial, seed=seed, **options).range
+        keywords, readings = split_options(options)
+        estimate = synthesize(scene.intensity, partial, seed=seed, **keywords,
+                              readings=readings).range
     return estimate, time.perf_counter() - start
 
 

@@ -34,7 +34,7 @@ ground truth:
 Run (the numbers in ``docs/distance_sampling.md``)::
 
     python benchmarks/diagnose_distance.py figure ../shared/data --motorcycle \\
-        --out figures/distance_diagnosis.png
+        --out docs/images/distance_diagnosis.png
     python benchmarks/diagnose_distance.py gaps ../shared/data --motorcycle \\
         --scenes motorcycle --variants np,onion,value-copy,no-edges,no-edge-tier
     python benchmarks/diagnose_distance.py gaps ../shared/data \\
@@ -78,6 +78,7 @@ from refsynth.synthesis.limits import validate_inputs  # noqa: E402
 from refsynth.synthesis.neighbourhood import disc_offsets  # noqa: E402
 from refsynth.synthesis.onion import onion_order  # noqa: E402
 from refsynth.synthesis.priority import FillFront  # noqa: E402
+from refsynth.synthesis.readings import split_options  # noqa: E402
 
 MAX_GAP = 6
 #: NP's readings compared by ``gaps``: label -> synthesize() keywords.
@@ -228,8 +229,9 @@ def traced_synthesize(intensity, partial, *, seed=0, check=True, override=None,
                            override=override, **options)
     trace.edges = edges
     if check and override is None:
+        keywords, readings = split_options(options)
         reference = synthesize(intensity, partial, seed=seed, use_edges=use_edges,
-                               canny_sigma=canny_sigma, **options).range
+                               canny_sigma=canny_sigma, **keywords, readings=readings).range
         if not np.array_equal(reference, trace.range):
             raise AssertionError("the traced NP differs from refsynth.synthesize: "
                                  "update the trace below to the package's np_fill")
@@ -475,7 +477,8 @@ def command_gaps(args, out) -> dict:
     variants = {k: v for k, v in GAP_VARIANTS.items()
                 if not args.variants or k in args.variants.split(",")}
     fills = {label: (lambda image, partial, options=options: synthesize(
-        image, partial, seed=args.seed, **options).range) for label, options in variants.items()}
+        image, partial, seed=args.seed, **split_options(options)[0],
+        readings=split_options(options)[1]).range) for label, options in variants.items()}
     fills.update(nearest=nearest_fill, linear=linear_fill)
     for name, scene in _scenes(args):
         known = known_mask(scene, args.sampling)
