@@ -59,26 +59,10 @@ from refsynth.scenes.middlebury import MOTORCYCLE_CROP
 from refsynth.synthesis.options import draws_at_random
 
 __all__ = [
-    "Case",
-    "SYNTHESIS_METHODS",
-    "DEFAULT_SAMPLINGS",
-    "DISTANCE_KNOWN_FRACTION",
-    "DEFAULT_GRID",
-    "QUICK_GRID",
-    "method_names",
-    "scene_label",
-    "size_tuple",
-    "case_memory",
-    "MAX_STRIPE_WIDTH",
-    "parse_scene",
-    "parse_size",
-    "parse_sampling",
-    "parse_method",
-    "parse_list",
-    "build_cases",
-    "grid_cases",
-    "load_scene",
-    "known_mask",
+    "Case", "SYNTHESIS_METHODS", "DEFAULT_SAMPLINGS", "DISTANCE_KNOWN_FRACTION", "DEFAULT_GRID",
+    "QUICK_GRID", "method_names", "scene_label", "size_tuple", "case_memory", "MAX_STRIPE_WIDTH",
+    "parse_scene", "parse_size", "parse_sampling", "parse_method", "parse_list", "build_cases",
+    "grid_cases", "load_scene", "known_mask",
 ]
 
 #: The synthesis variants: keyword arguments of :func:`refsynth.synthesize`.
@@ -239,19 +223,15 @@ def scene_label(scene: str, size: str | None = None) -> str:
 
 
 def _split_scale(text: str) -> tuple[str, float]:
-    """``IMAGE:DISPARITY@SCALE`` → (``IMAGE:DISPARITY``, SCALE); no ``@SCALE``: scale 1.
-
-    The ``@`` counts only when what follows it is a number and the path before it exists
-    (so a file name holding an ``@`` is read as it is).
-    """
+    """``IMAGE:DISPARITY@SCALE`` → (``IMAGE:DISPARITY``, SCALE), else (text, 1.0); an ``@`` in
+    a file name that exists counts as part of the name."""
     head, at, tail = text.rpartition("@")
-    if not at:
-        return text, 1.0
     try:
-        scale = float(tail)
+        scale = float(tail) if at else None
     except ValueError:
-        return text, 1.0
-    if not Path(head.rpartition(":")[2]).is_file() and Path(text.rpartition(":")[2]).is_file():
+        scale = None
+    if scale is None or (not Path(head.rpartition(":")[2]).is_file()
+                         and Path(text.rpartition(":")[2]).is_file()):
         return text, 1.0
     if not (math.isfinite(scale) and scale > 0):
         raise ValueError(f"scene {text!r}: the disparity scale after '@' must be a finite "
