@@ -356,3 +356,36 @@ def check_memory_need(need: float, what: str, hint: str = "", limit: float | Non
 
 
 __all__ += ["check_in_range", "format_bytes", "physical_memory", "check_memory_need"]
+
+
+def check_crop(crop, shape: tuple[int, int]) -> tuple[tuple[int, int], tuple[int, int]]:
+    """``crop`` as ``((r0, r1), (c0, c1))`` with ``0 <= start < stop <= size``; None: all of it.
+
+    Raises ``TypeError`` if ``crop`` is not two pairs of integers, ``ValueError`` if it does
+    not lie inside ``shape`` (rows, columns).
+
+    >>> check_crop(((1, 3), (0, 4)), (3, 4))
+    ((1, 3), (0, 4))
+    """
+    height, width = shape
+    if crop is None:
+        return (0, height), (0, width)
+    try:
+        (r0, r1), (c0, c1) = crop
+        ok = all(is_int(v) for v in (r0, r1, c0, c1))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise TypeError(
+            "The parameter `crop` must be ((row_start, row_stop), (col_start, col_stop)) "
+            f"of integers, got {crop!r}"
+        )
+    if not (0 <= r0 < r1 <= height and 0 <= c0 < c1 <= width):
+        raise ValueError(
+            "The parameter `crop` must be ((row_start, row_stop), (col_start, col_stop)) "
+            f"with 0 <= start < stop <= {height} rows and {width} columns, got {crop!r}"
+        )
+    return (int(r0), int(r1)), (int(c0), int(c1))
+
+
+__all__.append("check_crop")

@@ -322,16 +322,18 @@ def test_motorcycle_crop_is_the_pair_cut_then_resized():
     assert skimage is not None
 
 
-@pytest.mark.parametrize("crop", [((0, 0), (0, 10)), ((0, 501), (0, 10)), ((0, 10), (-1, 10)),
-                                  ((0, 10),), "0:500", ((0, 10.5), (0, 10)), ((5, 2), (0, 10))])
-def test_motorcycle_crop_refused_before_loading(crop, monkeypatch):
+@pytest.mark.parametrize("crop, error", [
+    (((0, 0), (0, 10)), ValueError), (((0, 501), (0, 10)), ValueError),
+    (((0, 10), (-1, 10)), ValueError), (((5, 2), (0, 10)), ValueError),
+    (((0, 10),), TypeError), ("0:500", TypeError), (((0, 10.5), (0, 10)), TypeError)])
+def test_motorcycle_crop_refused_before_loading(crop, error, monkeypatch):
     import refsynth.scenes.middlebury as middlebury
 
     def no_load(*args, **kwargs):
         raise AssertionError("loaded before the check")
 
     monkeypatch.setattr(middlebury, "require_scikit_image", no_load)
-    with pytest.raises(ValueError, match=r"`crop` must be \(\(row_start, row_stop\)"):
+    with pytest.raises(error, match=r"`crop` must be \(\(row_start, row_stop\)"):
         motorcycle(32, crop=crop)
 
 

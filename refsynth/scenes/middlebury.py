@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from refsynth._checks import check_choice, check_size, is_int, is_real
+from refsynth._checks import check_choice, check_crop, check_size, is_real
 from refsynth.io import IMAGE_SUFFIXES, read_image, read_range
 from refsynth.scenes.resize import resize_area, resize_disparity
 from refsynth.scenes.scene import Scene
@@ -143,7 +143,7 @@ def motorcycle(
     True
     """
     width, height = check_size(size)
-    rows, cols = _check_crop(crop)
+    rows, cols = check_crop(crop, MOTORCYCLE_SIZE[::-1])
     check_choice("units", units, ("resized", "native"))
     require_scikit_image()
     from skimage import data as skimage_data
@@ -164,24 +164,6 @@ def motorcycle(
         units="disparity (pair px)" if units == "native" else "disparity (px)",
         name=name,
     )
-
-
-def _check_crop(crop) -> tuple[tuple[int, int], tuple[int, int]]:
-    """``crop`` as ``((r0, r1), (c0, c1))`` inside the pair, or the whole pair if None."""
-    width, height = MOTORCYCLE_SIZE
-    if crop is None:
-        return (0, height), (0, width)
-    try:
-        (r0, r1), (c0, c1) = crop
-        ok = all(is_int(v) for v in (r0, r1, c0, c1))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok or not (0 <= r0 < r1 <= height and 0 <= c0 < c1 <= width):
-        raise ValueError(
-            "The parameter `crop` must be ((row_start, row_stop), (col_start, col_stop)) "
-            f"with 0 <= start < stop <= {height} rows and {width} columns, got {crop!r}"
-        )
-    return (int(r0), int(r1)), (int(c0), int(c1))
 
 
 def _read_disparity(path: Path, disparity_scale: float) -> np.ndarray:

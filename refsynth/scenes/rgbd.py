@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from refsynth._checks import check_choice, check_size, is_int, is_real
+from refsynth._checks import check_choice, check_crop, check_size, is_int, is_real
 from refsynth.io import IMAGE_SUFFIXES, read_image, read_npy, read_pfm
 from refsynth.scenes.resize import resize_area, resize_disparity
 from refsynth.scenes.scene import Scene
@@ -96,29 +96,6 @@ def _check_invalid(invalid) -> tuple[float, ...]:
             f"values that mean 'no measurement'), got {invalid!r}"
         )
     return tuple(float(v) for v in invalid)
-
-
-def _check_crop(crop, shape: tuple[int, int]) -> tuple[tuple[int, int], tuple[int, int]]:
-    """``crop`` as ``((r0, r1), (c0, c1))`` with ``0 <= start < stop <= size``."""
-    height, width = shape
-    if crop is None:
-        return (0, height), (0, width)
-    try:
-        (r0, r1), (c0, c1) = crop
-        ok = all(is_int(v) for v in (r0, r1, c0, c1))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise TypeError(
-            "The parameter `crop` must be ((row_start, row_stop), (col_start, col_stop)) "
-            f"of integers, got {crop!r}"
-        )
-    if not (0 <= r0 < r1 <= height and 0 <= c0 < c1 <= width):
-        raise ValueError(
-            "The parameter `crop` must be ((row_start, row_stop), (col_start, col_stop)) "
-            f"with 0 <= start < stop <= {height} rows and {width} columns, got {crop!r}"
-        )
-    return (int(r0), int(r1)), (int(c0), int(c1))
 
 
 # ----------------------------------------------------------------------------- reading
@@ -328,7 +305,7 @@ def load_rgbd(
             f"The parameter `truth` must match the image's size (H, W) = {intensity.shape[:2]}, "
             f"got {ground_truth.shape} from '{truth_path}'"
         )
-    (r0, r1), (c0, c1) = _check_crop(crop, ground_truth.shape)
+    (r0, r1), (c0, c1) = check_crop(crop, ground_truth.shape)
     intensity = intensity[r0:r1, c0:c1]
     ground_truth = ground_truth[r0:r1, c0:c1]
     if target is not None:
