@@ -178,20 +178,25 @@ def write_registered_camera(path, registration, focal: float) -> Path:
                              warp=registration.warp, crop=crop)
 
 
-def read_camera_file(path) -> tuple[CylindricalCamera | PinholeCamera, tuple[int, int]]:
-    """The camera and the image shape of a camera file (module docstring for the format)."""
-    path = Path(path)
+def _read_json(path: Path, what: str, max_bytes: int):
+    """The JSON value in ``path`` (a ``what``, at most ``max_bytes``); one-line errors naming it."""
     if not path.is_file():
-        raise FileNotFoundError(f"camera file not found: {path}")
-    if path.stat().st_size > _MAX_CAMERA_BYTES:
-        raise ValueError(f"{path} is not a camera file ({path.stat().st_size} bytes)")
+        raise FileNotFoundError(f"{what} not found: {path}")
+    if path.stat().st_size > max_bytes:
+        raise ValueError(f"{path} is not a {what} ({path.stat().st_size} bytes)")
     try:
-        record = json.loads(path.read_bytes().decode("utf-8"))
+        return json.loads(path.read_bytes().decode("utf-8"))
     except RecursionError:
         raise ValueError(f"cannot read {path} as JSON: it is nested too deeply") from None
     except ValueError as error:  # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
         reason = " ".join(str(error).split())
         raise ValueError(f"cannot read {path} as JSON: {reason}") from None
+
+
+def read_camera_file(path) -> tuple[CylindricalCamera | PinholeCamera, tuple[int, int]]:
+    """The camera and the image shape of a camera file (module docstring for the format)."""
+    path = Path(path)
+    record = _read_json(path, "camera file", _MAX_CAMERA_BYTES)
     if not isinstance(record, dict) or record.get("format") != CAMERA_FORMAT:
         raise ValueError(f"{path} is not a camera file (format {CAMERA_FORMAT!r}, as "
                          "'register' writes)")
@@ -357,17 +362,7 @@ def read_poses(path) -> list[np.ndarray]:
         not 4×4 numbers or not rigid.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"poses file not found: {path}")
-    if path.stat().st_size > _MAX_POSES_BYTES:
-        raise ValueError(f"{path} is not a poses file ({path.stat().st_size} bytes)")
-    try:
-        entries = json.loads(path.read_bytes().decode("utf-8"))
-    except RecursionError:
-        raise ValueError(f"cannot read {path} as JSON: it is nested too deeply") from None
-    except ValueError as error:  # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
-        reason = " ".join(str(error).split())
-        raise ValueError(f"cannot read {path} as JSON: {reason}") from None
+    entries = _read_json(path, "poses file", _MAX_POSES_BYTES)
     if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise ValueError(f"{path} must hold a JSON list of objects, one pose per PLY")
     poses = []
