@@ -50,6 +50,7 @@ from refsynth.synthesis.bp import BPResult, bp_fill
 from refsynth.synthesis.bp_observation import np_observation, observation_fill
 from refsynth.synthesis.bp_proposals import np_proposals
 from refsynth.synthesis.canny import canny
+from refsynth.synthesis.gap_readings import gap_gate
 from refsynth.synthesis.limits import (
     check_canny_sigma,
     check_memory,
@@ -145,6 +146,12 @@ class SynthesisResult:
     iterations: int = 0
     candidate_values: np.ndarray | None = None
     bp: BPResult | None = None
+
+
+def _gaps(filled: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
+          reading: str) -> np.ndarray:
+    """The reading ``gaps`` after the fill: as filled, or :func:`gap_gate` with the edges."""
+    return filled if reading == "copy" else gap_gate(filled, range_values, edges=edges)
 
 
 def synthesize(
@@ -407,7 +414,8 @@ def synthesize(
             image, range_values, edge_map, rng, **common, **options,
             range_copy=chosen["range_copy"], confidence_update=chosen["confidence_update"],
             edges_last=chosen["edges_last"])
-        return SynthesisResult(range=filled, confidence=confidence, order=order,
+        return SynthesisResult(range=_gaps(filled, range_values, edge_map, chosen["gaps"]),
+                               confidence=confidence, order=order,
                                edges=edge_map, method=method, params=params)
     bp_options = dict(k=options["candidates"], iterations=options["iterations"],
                       proximity=proximity, sigma_i=chosen["sigma_i"], sigma_s=chosen["sigma_s"],
@@ -438,7 +446,8 @@ def synthesize(
         bp_options["observation_completed"] = observation.endswith("-completed")
     bp = bp_fill(image, range_values, edge_map, **bp_options,
                  **{**common, "progress": stages.stage(1)})
-    return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
+    return SynthesisResult(range=_gaps(bp.range, range_values, edge_map, chosen["gaps"]),
+                           confidence=bp.confidence, order=bp.order,
                            edges=edge_map, method=method, params=params,
                            iterations=bp.iterations, candidate_values=bp.candidate_values,
                            bp=bp)
