@@ -69,6 +69,7 @@ from refsynth.synthesis.options import (
 from refsynth.synthesis.progress import StagedProgress
 from refsynth.synthesis.range_copy import default_offset_tolerance
 from refsynth.synthesis.readings import DEFAULT_PRESET, Readings, resolve_readings
+from refsynth.synthesis.uncertainty import uncertainty_map
 
 __all__ = [
     "SynthesisResult",
@@ -123,6 +124,10 @@ class SynthesisResult:
         BP: the whole model and its solution — candidates, unary terms, pairs,
         ``log Ψ``, the final messages and beliefs (see
         :class:`refsynth.synthesis.bp.BPResult`); None for NP.
+    uncertainty : ndarray of shape (H, W), float64, or None
+        Each pixel's expected absolute error in the range's unit: 0 where
+        measured, finite and > 0 on every synthesized pixel
+        (:func:`refsynth.synthesis.uncertainty.uncertainty_map` of ``range``).
 
     Examples
     --------
@@ -145,6 +150,7 @@ class SynthesisResult:
     iterations: int = 0
     candidate_values: np.ndarray | None = None
     bp: BPResult | None = None
+    uncertainty: np.ndarray | None = None
 
 
 def synthesize(
@@ -408,7 +414,8 @@ def synthesize(
             range_copy=chosen["range_copy"], confidence_update=chosen["confidence_update"],
             edges_last=chosen["edges_last"])
         return SynthesisResult(range=filled, confidence=confidence, order=order,
-                               edges=edge_map, method=method, params=params)
+                               edges=edge_map, method=method, params=params,
+                               uncertainty=uncertainty_map(range_values, filled))
     bp_options = dict(k=options["candidates"], iterations=options["iterations"],
                       proximity=proximity, sigma_i=chosen["sigma_i"], sigma_s=chosen["sigma_s"],
                       tolerance=chosen["tolerance"], product=chosen["product"],
@@ -441,4 +448,6 @@ def synthesize(
     return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
                            edges=edge_map, method=method, params=params,
                            iterations=bp.iterations, candidate_values=bp.candidate_values,
-                           bp=bp)
+                           bp=bp, uncertainty=uncertainty_map(
+                               range_values, bp.range, method="bp",
+                               candidate_values=bp.candidate_values))

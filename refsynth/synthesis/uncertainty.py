@@ -111,10 +111,11 @@ def _check_inputs(partial_range, estimate, raw, candidate_values, method):
         if candidate_values is None:
             raise ValueError("The parameter `candidate_values` is needed with method='bp' "
                              "(BP's labels' centre ranges, SynthesisResult.candidate_values)")
-        candidate_values = np.asarray(
-            check_real_array("candidate_values", candidate_values, ndims=(2,)), np.float64)
+        candidate_values = np.asarray(check_real_array("candidate_values", candidate_values),
+                                      np.float64)
         count = int(unknown.sum())
-        if candidate_values.shape[0] != count:
+        if candidate_values.ndim != 2 or candidate_values.shape[0] != count or (
+                count and not candidate_values.shape[1]):
             raise ValueError(f"The parameter `candidate_values` must have one row per unknown "
                              f"pixel ({count}), got shape {candidate_values.shape}")
         if not np.isfinite(candidate_values).all():
