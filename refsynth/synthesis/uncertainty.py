@@ -65,7 +65,6 @@ from scipy import ndimage
 
 from refsynth._checks import check_choice, check_real_array
 from refsynth.numeric import left_to_right_sum
-from refsynth.synthesis.gap_readings import row_gaps, row_interpolation
 
 __all__ = ["CALIBRATION", "UNCERTAINTY_METHODS", "WINDOW", "uncertainty_features",
            "uncertainty_map"]
@@ -143,6 +142,47 @@ def _noise(partial: np.ndarray, known: np.ndarray) -> float:
     return float(np.finfo(np.float64).tiny)
 
 
+def _bounds(known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, the nearest known column at or left of it, and at or right (−1: none)."""
+    width = known.shape[1]
+    cols = np.broadcast_to(np.arange(width), known.shape)
+    left = np.maximum.accumulate(np.where(known, cols, -1), axis=1)
+    right = np.minimum.accumulate(np.where(known, cols, width)[:, ::-1], axis=1)[:, ::-1]
+    return left, np.where(right == width, -1, right)
+
+
+def _line(values: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """Linear between the bounding known pixels of each row, constant beyond (none: NaN)."""
+    left, right = _bounds(known)
+    rows = np.arange(values.shape[0])[:, None]
+    lv, rv = values[rows, np.maximum(left, 0)], values[rows, np.maximum(right, 0)]
+    t = (np.arange(values.shape[1])[None, :] - left) / np.maximum(right - left, 1)
+    out = np.where((left >= 0) & (right >= 0), lv + t * (rv - lv), np.where(left >= 0, lv, rv))
+    return np.where((left < 0) & (right < 0), np.nan, out)
+
+
+def _row_line(partial: np.ndarray, known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The row interpolation and each pixel's position in its gap (a 0–1/2 fraction).
+
+    The interpolation is :func:`refsynth.synthesis.gap_readings.row_interpolation`'s, bit for
+    bit (a row without a measured pixel filled along its column from the rows that have one);
+    the position is the distance to the nearer bounding column over ``right − left``, 1/2 in
+    a gap open at the border or in a row without a measured pixel.
+    """
+    line = _line(partial, known)
+    empty = ~known.any(axis=1)
+    if empty.any():
+        filled = ~empty[:, None] & np.ones(partial.shape, bool)
+        line = _line(np.where(filled, line, np.nan).T, filled.T).T
+    line = np.where(known, partial, line)
+    left, right = _bounds(known)
+    cols = np.arange(partial.shape[1])[None, :]
+    bounded = (left >= 0) & (right >= 0) & ~known
+    position = np.where(bounded, np.minimum(cols - left, right - cols)
+                        / np.maximum(right - left, 1), 0.5)
+    return line, position
+
+
 def uncertainty_features(partial_range: np.ndarray, estimate: np.ndarray, *,
                          raw: np.ndarray | None = None,
                          candidate_values: np.ndarray | None = None,
@@ -169,7 +209,7 @@ def uncertainty_features(partial_range: np.ndarray, estimate: np.ndarray, *,
     partial, known, estimate, raw, values, method = _check_inputs(
         partial_range, estimate, raw, candidate_values, method)
     unknown = ~known
-    line = row_interpolation(partial)
+    line, position = _row_line(partial, known)
     spread = (np.maximum(np.maximum(estimate, raw), line)
               - np.minimum(np.minimum(estimate, raw), line))
     labels = np.zeros(partial.shape)
@@ -179,10 +219,6 @@ def uncertainty_features(partial_range: np.ndarray, estimate: np.ndarray, *,
     dense = np.where(known, partial, estimate)
     variation = (ndimage.maximum_filter(dense, WINDOW, mode="nearest")
                  - ndimage.minimum_filter(dense, WINDOW, mode="nearest"))
-    left, right, width = row_gaps(partial)
-    cols = np.arange(partial.shape[1])[None, :]
-    near = np.minimum(cols - left, right - cols)
-    position = np.where(width > 0, near / np.maximum(width + 1, 1), 0.5)
     distance = ndimage.distance_transform_edt(unknown)
     floor = _noise(partial, known) * distance
     terms = dict(spread=spread, labels=labels, variation=variation * (0.25 + position),
