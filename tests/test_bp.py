@@ -227,7 +227,8 @@ def test_bp_fill_keeps_measurements_and_copies_candidate_centres(scene, product,
     image, truth, known = scene
     partial = np.where(known, truth, np.nan)
     result = refsynth.synthesize(image, partial, method="bp", neighbourhood=3, candidates=3,
-                                 iterations=5, readings={"product": product, "range_copy": copy})
+                                 iterations=5, readings={"product": product, "range_copy": copy,
+                                                         "gaps": "copy"})
     np.testing.assert_array_equal(result.range[known], truth[known])
     assert np.all(np.isfinite(result.range))
     if copy == "value":  # Fig. 6's labels: a measured value
