@@ -1,6 +1,6 @@
 """The uncertainty map against the true errors: its mean, its ranking (AUSE), its zeros.
 
-Per scene × sampling × method (NP, BP with :func:`refsynth.synthesize`'s defaults, seed 0), on
+Per scene × sampling × method (NP, BP as they fill, ``readings={"gaps": "copy"}``, seed 0), on
 the scenes and protocol of ``bench_scenes.py`` (Table 4's centred crop and area resize; the
 unknown pixels with truth are scored):
 
@@ -17,7 +17,8 @@ unknown pixels with truth are scored):
   came from ``--arrays``).
 
 ``--gate`` also scores the map of :func:`~refsynth.synthesis.gap_readings.gap_gate`'s
-post-pass (the method's fill given as ``raw``). ``--fit`` re-fits the weights and scales of
+post-pass with the fill's edges — :func:`refsynth.synthesize`'s default, ``gaps="gate"`` —
+(the method's fill given as ``raw``). ``--fit`` re-fits the weights and scales of
 :data:`refsynth.synthesis.uncertainty.CALIBRATION` on the cases run (a grid search of the
 weights whose ``mean / MAR`` varies least across the cases among those of mean AUSE at most
 0.15, the scale centring that ratio's range on 1) and prints them; with ``--gate`` the
@@ -54,7 +55,9 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).res
 import bench_scenes as scenes  # noqa: E402
 
 from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
-from refsynth.synthesis.api import synthesize  # noqa: E402
+from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity  # noqa: E402
+from refsynth.synthesis.api import synthesize, validate_inputs  # noqa: E402
+from refsynth.synthesis.canny import canny  # noqa: E402
 from refsynth.synthesis.gap_readings import gap_gate  # noqa: E402
 from refsynth.synthesis.uncertainty import (  # noqa: E402
     CALIBRATION,
@@ -94,9 +97,9 @@ def load_result(name, spec, size, sampling, method, arrays):
         return scene, known, result
     partial = np.where(known, scene.range, np.nan)
     start = time.perf_counter()
-    out = synthesize(scene.intensity, partial, method=method, seed=0)
+    out = synthesize(scene.intensity, partial, method=method, seed=0, readings={"gaps": "copy"})
     seconds = time.perf_counter() - start
-    result = dict(range=out.range, confidence=out.confidence, seconds=seconds)
+    result = dict(range=out.range, confidence=out.confidence, edges=out.edges, seconds=seconds)
     if out.candidate_values is not None:
         result["candidate_values"] = out.candidate_values
     if path is not None:
@@ -110,7 +113,12 @@ def score_case(scene, known, result, method, gate=False) -> tuple[dict, np.ndarr
     partial = np.where(known, scene.range, np.nan)
     estimate, raw = result["range"], None
     if gate:
-        estimate, raw = gap_gate(result["range"], partial), result["range"]
+        edges = result.get("edges")
+        if edges is None:   # a cache without them: synthesize's Canny, recomputed
+            levels = quantise_grey(quantise_intensity(validate_inputs(
+                scene.intensity, partial)[0])) * 2.0**-INTENSITY_BITS
+            edges = canny(levels, sigma=0.8)
+        estimate, raw = gap_gate(result["range"], partial, edges=edges), result["range"]
     start = time.perf_counter()
     unc = uncertainty_map(partial, estimate, method=method, raw=raw,
                           candidate_values=result.get("candidate_values"))
