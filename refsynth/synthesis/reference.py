@@ -531,7 +531,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
        maximum (sum-product: log-sum-exp); stop when no message moved by more than
        ``tolerance``. The edge rule (with ``use_edges``): a node on an edge, measured or
        not, sends nothing — an unknown one no message, a measured one no term in step 4
-       (``edge_rule="silent"``); with ``"paper"`` it also receives nothing (no message and
+       (``edge_rule="silent"``); with ``"deaf"`` it also receives nothing (no message and
        no fixed-neighbour term), so that no message crosses an edge.
     6. Eq. 8, ``x_i = argmax b_i`` (the first maximum); its centre range is the result, its
        belief pooled over labels proposing the same range (within 1 % of the span) the
@@ -548,7 +548,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
 
     Parameters are :func:`refsynth.synthesize`'s (``k`` is ``candidates``); ``image``,
     ``range_values``, ``edges`` and ``colour`` as in :func:`np_reference`; ``edge_rule`` is
-    ``"silent"`` or ``"paper"`` (above); ``rng`` (a ``numpy.random.Generator``, used with
+    ``"silent"`` or ``"deaf"`` (above); ``rng`` (a ``numpy.random.Generator``, used with
     ``observation="np"`` only) as in :func:`np_reference`. Returns :class:`BPReference`.
     """
     H, W = range_values.shape
@@ -568,7 +568,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
         agreement = 2.0**-3 if observation == "np" else 2.0**-7
     training = observed if observation == "colorization-completed" else frame
     on_edge = np.asarray(edges, dtype=bool) & use_edges
-    deaf = edge_rule == "paper"
+    deaf = edge_rule == "deaf"
     known = np.isfinite(range_values)
     pad = max(int(math.ceil(radius)), h + 1)
     nodes = [(r, c) for r in range(H) for c in range(W) if not known[r, c]]
