@@ -214,7 +214,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         for gate in (False, True) if args.gate else (False,):
             row, estimate, raw = score_case(scene, known, result, method, gate)
             collected[method].append((scene, known, result, estimate, raw))
-            label = f"{method}+gate" if gate else method
+            label = f"{method} (default)" if gate else f"{method} (gaps=\"copy\")"
             figures.setdefault(label, []).append(row)
             print(f"| {name} | {sampling} | {label} | {row['mar']:.4g} {row['units']} | "
                   f"{row['mean_ratio']:.2f} | {row['ause']:.3f} | {row['random']:.3f} | "
