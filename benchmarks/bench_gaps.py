@@ -1,44 +1,37 @@
-"""NP and BP against the classical fills across a row scan's gaps, with the gap readings.
+"""NP and BP with and without the gap reading, against the classical fills.
 
-The readings of :mod:`refsynth.synthesis.gap_readings` on the scenes and protocol of
+The reading ``gaps`` of :mod:`refsynth.synthesis.gap_readings` on the scenes and protocol of
 ``bench_scenes.py`` (Table 4's centred 6:5 crop and area resize, MAR of Eq. 13 over the unknown
 pixels with truth): per scene × sampling × seed, NP (and BP) run once with
-:func:`refsynth.synthesize`'s defaults, and every post-pass reading is applied to that one
-result, so the readings differ by the post-pass only:
+``readings={"gaps": "copy"}`` (every unknown pixel as the method filled it, the paper's
+reading) and the gate is applied to that one result, so the rows differ by the post-pass only:
 
-- ``np`` / ``bp``: :func:`refsynth.synthesize` (the paper's reading with refsynth's defaults);
-- ``np-clip``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``jump=0`` (every
-  bounded gap clipped to its bounds, nothing interpolated);
-- ``np-gate<J>``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``jump=J`` and
-  no edges (interpolate every gap whose bounds differ by at most J × the larger, clip the
-  others; a gap open at the border takes its bound's value);
-- ``np-gate<J>-w<M>``: :func:`~refsynth.synthesis.gap_readings.gated_synthesis`'s post-pass
-  with ``jump=J, max_gap=M`` and the Canny edges NP used (a smooth gap wider than M that
-  holds an intensity edge keeps NP's range); ``-mean``: ``wide_gaps="mean"`` (there the
-  mean of NP's range and the line);
-- ``np-residual`` (``--residual``; a run of its own):
-  :func:`~refsynth.synthesis.gap_readings.residual_synthesis`;
-- ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` alone;
+- ``np-copy`` / ``bp-copy``: the fill as copied (``gaps="copy"``);
+- ``np`` / ``bp``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with its defaults and the
+  Canny edges NP used: bit for bit :func:`refsynth.synthesize`'s default (``gaps="gate"``);
+- ``np-clip``: the gate with ``jump=0`` (every bounded gap clipped to its bounds, no line);
+- ``np-jump<J>`` (``--jumps``): the gate with ``jump=J``;
+- ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` of the completed
+  slices (:func:`~refsynth.synthesis.gap_readings.complete_slices`) alone;
 
 beside the four classical fills (nearest, linear, colorization, joint-bilateral). The table is
-``bench_scenes.py``'s: MAR (mean ± sd over seeds), the best classical fill, each method's ratio
-to it, and the aggregate (geometric mean and worst ratio, per group of scenes).
+``bench_scenes.py``'s: each method's ratio to the best classical fill (or ``--mar``: MAR, mean
+± sd over seeds), and the aggregate (geometric mean and worst ratio, per group of scenes).
 
 Run::
 
-    python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0 \\
-        --json /work/notes/gap_450.json --arrays /tmp/gapcache
-    python benchmarks/bench_gaps.py ../shared/data --motorcycle --size 225x188 \\
-        --scenes motorcycle,kv2_livingroom_raw,nyu_basement_raw_00050 --seeds 0
+    python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0,1,2 \\
+        --samplings x63,x78,distance60,g5_25 --arrays /tmp/gaps --json /tmp/gaps.json
 
-``--arrays DIR`` keeps each NP / BP result as ``DIR/<scene>_<sampling>_<size>_<method>_<seed>.npy``
-(a classical fill's without the seed) and reuses it on the next run (its seconds are then not
-measured: NaN).
+``--arrays DIR`` keeps each NP / BP fill as
+``DIR/<scene>_<sampling>_<size>_<method>-copy_<seed>.npy`` (a classical fill's without the
+seed) and reuses it on the next run (its seconds are then not measured: NaN).
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 import os
@@ -62,20 +55,17 @@ from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity  
 from refsynth.synthesis.api import synthesize, validate_inputs  # noqa: E402
 from refsynth.synthesis.canny import canny  # noqa: E402
 from refsynth.synthesis.gap_readings import (  # noqa: E402
+    complete_slices,
     gap_gate,
-    residual_synthesis,
     row_interpolation,
 )
 
-DEFAULT_JUMPS = (0.05, 0.1, 0.2)
-DEFAULT_MAX_GAPS = (6,)
-DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")
+DEFAULT_SAMPLINGS = ("x63", "x78", "distance60", "g5_25")
 
 
-def readings(base: str, jumps: Sequence[float], max_gaps: Sequence[int]) -> list[str]:
+def readings(base: str, jumps: Sequence[float]) -> list[str]:
     """The post-pass readings' labels of one base method."""
-    return [base, f"{base}-clip", *[f"{base}-gate{j:g}" for j in jumps],
-            *[f"{base}-gate{j:g}-w{m}{x}" for j in jumps for m in max_gaps for x in ("", "-mean")]]
+    return [f"{base}-copy", base, f"{base}-clip", *[f"{base}-jump{j:g}" for j in jumps]]
 
 
 def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) -> dict:
@@ -86,9 +76,8 @@ def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) ->
 
 
 def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str],
-             seeds: Sequence[int], jumps: Sequence[float], max_gaps: Sequence[int],
-             residual: bool, arrays: str | None, have: set, progress=None,
-             stored_only: bool = False) -> list[dict]:
+             seeds: Sequence[int], jumps: Sequence[float], arrays: str | None, have: set,
+             progress=None, stored_only: bool = False) -> list[dict]:
     """Every row of one scene × sampling (the classical fills once, the bases per seed)."""
     scene = scenes.load(spec, size)
     known = known_mask(scene, sampling)
@@ -106,18 +95,17 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
             elif stored_only and method != "row-linear":
                 continue
             else:
-                estimate = (row_interpolation(partial) if method == "row-linear"
+                estimate = (row_interpolation(complete_slices(partial)) if method == "row-linear"
                             else BASELINES[method](scene.intensity, partial))
                 if path is not None:
-                    np.save(path, estimate)
+                    write_atomic(path, _npy(estimate))
             rows.append(_row(scene, name, size, sampling, method, seeds[0], estimate, known,
                              time.perf_counter() - start))
     for base in bases:
-        options = {"method": "bp"} if base == "bp" else {}
         for seed in seeds:
-            if (name, size, sampling, base, seed) in have:
+            if (name, size, sampling, f"{base}-copy", seed) in have:
                 continue
-            path = (Path(arrays) / f"{name}_{sampling}_{size}_{base}_{seed}.npy"
+            path = (Path(arrays) / f"{name}_{sampling}_{size}_{base}-copy_{seed}.npy"
                     if arrays else None)
             if path is not None and path.is_file():
                 estimate, seconds = np.load(path), math.nan
@@ -125,34 +113,34 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
                 continue
             else:
                 start = time.perf_counter()
-                estimate = synthesize(scene.intensity, partial, seed=seed, **options).range
+                estimate = synthesize(scene.intensity, partial, method=base, seed=seed,
+                                      readings={"gaps": "copy"}).range
                 seconds = time.perf_counter() - start
                 if path is not None:
-                    np.save(path, estimate)
-            rows.append(_row(scene, name, size, sampling, base, seed, estimate, known, seconds))
+                    write_atomic(path, _npy(estimate))
             start = time.perf_counter()
+            gated = gap_gate(estimate, partial, edges=edges)
+            post = time.perf_counter() - start
+            copied = _row(scene, name, size, sampling, f"{base}-copy", seed, estimate, known,
+                          seconds)
+            default = _row(scene, name, size, sampling, base, seed, gated, known, seconds + post)
+            rows += [copied, default]
             rows.append(_row(scene, name, size, sampling, f"{base}-clip", seed,
-                             gap_gate(estimate, partial, jump=0.0), known, seconds))
+                             gap_gate(estimate, partial, jump=0.0, edges=edges), known, seconds))
             for jump in jumps:
-                rows.append(_row(scene, name, size, sampling, f"{base}-gate{jump:g}", seed,
-                                 gap_gate(estimate, partial, jump=jump), known, seconds))
-                for max_gap in max_gaps:
-                    for wide, suffix in (("estimate", ""), ("mean", "-mean")):
-                        gated = gap_gate(estimate, partial, jump=jump, max_gap=max_gap,
-                                         edges=edges, wide_gaps=wide)
-                        rows.append(_row(scene, name, size, sampling,
-                                         f"{base}-gate{jump:g}-w{max_gap}{suffix}", seed, gated,
-                                         known, seconds))
-            post = (time.perf_counter() - start) / (1 + len(jumps) * (1 + 2 * len(max_gaps)))
-            if residual:
-                start = time.perf_counter()
-                estimate = residual_synthesis(scene.intensity, partial, seed=seed, **options)
-                rows.append(_row(scene, name, size, sampling, f"{base}-residual", seed,
-                                 estimate, known, time.perf_counter() - start))
+                rows.append(_row(scene, name, size, sampling, f"{base}-jump{jump:g}", seed,
+                                 gap_gate(estimate, partial, jump=jump, edges=edges), known,
+                                 seconds))
             if progress is not None:
-                progress(f"{name} {sampling} {base} seed {seed}: MAR {rows[-1]['mar']:.4g} "
-                         f"({seconds:.1f} s; post-pass {post:.3f} s)")
+                progress(f"{name} {sampling} {base} seed {seed}: MAR {default['mar']:.4g} "
+                         f"(copy {copied['mar']:.4g}; {seconds:.1f} s, gate {post:.3f} s)")
     return rows
+
+
+def _npy(array: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.save(buffer, array)
+    return buffer.getvalue()
 
 
 def format_table(summary: dict, methods: Sequence[str], mar: bool = False) -> str:
@@ -192,11 +180,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--size", default="450x375", help="WxH (default 450x375)")
     parser.add_argument("--samplings", default=",".join(DEFAULT_SAMPLINGS))
     parser.add_argument("--bases", default="np,bp", help="np, bp or np,bp (default)")
-    parser.add_argument("--jumps", default=",".join(f"{j:g}" for j in DEFAULT_JUMPS))
-    parser.add_argument("--max-gaps", default=",".join(map(str, DEFAULT_MAX_GAPS)),
-                        help="max_gap values of the edge rule (default 6)")
+    parser.add_argument("--jumps", default="", help="other jumps of the gate to print")
     parser.add_argument("--seeds", default="0", help="comma-separated seeds (default 0)")
-    parser.add_argument("--residual", action="store_true", help="also run residual_synthesis")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse NP, BP results")
     parser.add_argument("--stored-only", action="store_true",
                         help="with --arrays: skip the runs not stored there")
@@ -214,9 +199,6 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         jumps = [float(j) for j in scenes._list(args.jumps)]
         if any(not j >= 0 for j in jumps):
             raise ValueError("--jumps must list numbers >= 0")
-        max_gaps = [int(m) for m in scenes._list(args.max_gaps)]
-        if any(m < 0 for m in max_gaps):
-            raise ValueError("--max-gaps must list integers >= 0")
         seeds = [int(s) for s in scenes._list(args.seeds)]
         if not seeds or min(seeds) < 0:
             raise ValueError("--seeds must list non-negative integers")
@@ -236,15 +218,13 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     if args.resume and Path(args.json).is_file():
         rows = [r for r in json.loads(Path(args.json).read_text())["runs"] if r["size"] == size]
     have = {(r["scene"], r["size"], r["sampling"], r["method"], r["seed"]) for r in rows}
-    methods = [m for b in bases for m in readings(b, jumps, max_gaps)]
-    methods += [f"{b}-residual" for b in bases] if args.residual else []
+    methods = [m for b in bases for m in readings(b, jumps)]
     methods += ["row-linear", *scenes.CLASSICAL]
     progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     for name, spec in specs:
         for sampling in samplings:
-            rows += run_case(name, spec, size, sampling, bases, seeds, jumps, max_gaps,
-                             args.residual, args.arrays, have, progress,
-                             stored_only=args.stored_only)
+            rows += run_case(name, spec, size, sampling, bases, seeds, jumps, args.arrays, have,
+                             progress, stored_only=args.stored_only)
             if args.json:
                 write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), runs=rows),
                                                    indent=1, allow_nan=True).encode())

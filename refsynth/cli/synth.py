@@ -62,6 +62,7 @@ from refsynth.synthesis.api import synthesize
 from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
 from refsynth.synthesis.bp_model import COMPATIBILITIES
 from refsynth.synthesis.bp_observation import OBSERVATIONS
+from refsynth.synthesis.gap_readings import GAPS
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
 from refsynth.synthesis.readings import DEFAULT_PRESET, PRESETS, Readings, split_options
 
@@ -208,7 +209,7 @@ _METHOD_OPTIONS = {
     "--compatibility": ("compatibility", "bp"), "--offset-tolerance": ("offset_tolerance", "bp"),
 }
 #: Options of both methods that are not Eq. 2's: passed on only when given.
-_BOTH_OPTIONS = ("range_copy",)
+_BOTH_OPTIONS = ("range_copy", "gaps")
 #: Eq. 2's readings, for both methods: passed on only when given.
 _EQ2_OPTIONS = ("channels", "range_weight", "missing_range", "colour")
 _DEFAULT_RADIUS = 10.0
@@ -417,6 +418,11 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                       "MAP label (BP): value, the centre range, as Eq. 5 and Fig. 6 print it "
                       "(default: paper), or offset, that value shifted by the two windows' "
                       "consistent range difference (default: refsynth)")
+    both.add_argument("--gaps", choices=list(GAPS),
+                      help="what becomes of a column scan's gaps after the fill: copy, every "
+                      "pixel as filled (default: paper), or gate, the line across a smooth "
+                      "gap and the fill clipped to its bounds across a depth edge (default: "
+                      "refsynth)")
     np_group = synth.add_argument_group("NP only (--method np)")
     np_group.add_argument("--epsilon", type=real, metavar="E",
                           help="tolerance of Eq. 5 (default 0.1)")

@@ -17,7 +17,8 @@ validates it and returns its canonical form:
   ``distance`` or ``distanceNN`` (Fig. 2's distance-driven columns, 60 % or
   NN % unknown);
 - methods: ``np``, ``np-noedges``, ``np-noisophotes``, ``np-onion``, ``bp``,
-  ``bp-noedges``, ``bp-fig6`` (Fig. 6 as printed), ``bp-obs-np`` (BP's
+  ``bp-noedges``, ``bp-fig6`` (Fig. 6 as printed: ``readings="paper"``), ``np-copy`` and
+  ``bp-copy`` (the default readings but ``gaps="copy"``), ``bp-obs-np`` (BP's
   observations completed by NP's fill, an option), and the baselines of
   :mod:`refsynth.evaluation.baselines` by name (``nearest``, ``linear``,
   ``harmonic``, ``colorization``, ``joint-bilateral``).
@@ -73,11 +74,15 @@ SYNTHESIS_METHODS: dict[str, dict] = {
     "np-onion": {"ordering": "onion"},
     "bp": {"method": "bp"},
     "bp-noedges": {"method": "bp", "use_edges": False},
-    # Fig. 6 as printed: BP's defaults complete the observations and widen the training
-    # disc (departures measured on real data, refsynth.synthesis.bp_observation /
-    # bp_gap_radius)
+    # Fig. 6 as printed, readings="paper": BP's defaults complete the observations, widen
+    # the training disc, shift the copied labels and gate the gaps (departures measured on
+    # real data: refsynth.synthesis.readings lists them)
     "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
-                "range_copy": "value"},
+                "range_copy": "value", "missing_range": "ignore", "tolerance": 0.0,
+                "gaps": "copy"},
+    # refsynth's readings without the gap reading: every pixel as NP or BP filled it
+    "np-copy": {"gaps": "copy"},
+    "bp-copy": {"method": "bp", "gaps": "copy"},
     # BP's observations completed by NP's fill, named: the same as "bp" (BP's default)
     "bp-obs-np": {"method": "bp", "observation": "np"},
     # completed by the colorization fill instead (no random choice)
@@ -125,11 +130,11 @@ def method_names() -> tuple[str, ...]:
 #: The default grid, as blocks of (scenes, size, samplings, methods); ``None``
 #: for the methods means all of them. Block 1 is Tables 1, 3 and 4 on 128×128
 #: scenes; block 2 adds three more rooms at Table 2/3's sampling; block 3 is
-#: Table 4 at the paper's Middlebury size.
+#: Table 4 at the paper's Middlebury size, with Fig. 2's distance sampling.
 DEFAULT_GRID: tuple[tuple[str, str, str, str | None], ...] = (
     ("synthetic,motorcycle", "128", ",".join(DEFAULT_SAMPLINGS), None),
     ("synthetic-1,synthetic-2,synthetic-3", "128", "g5_25", "np,np-noedges,bp,bp-fig6"),
-    ("motorcycle", "450x375", "x63,x78,x85", None),
+    ("motorcycle", "450x375", "x63,x78,x85,distance", None),
 )
 
 #: A grid of seconds, for smoke tests: a 32×32 room.

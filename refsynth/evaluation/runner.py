@@ -177,7 +177,7 @@ def case_cost(case: Case) -> float:
     True
     """
     dims = size_tuple(case.size) or (741, 500)
-    factor = {"bp": 2.0, "bp-noedges": 2.0, "bp-fig6": 2.0, "bp-obs-np": 3.0,
+    factor = {"bp": 2.0, "bp-noedges": 2.0, "bp-fig6": 2.0, "bp-copy": 2.0, "bp-obs-np": 3.0,
               "np-onion": 0.5}.get(case.method, 1.0)
     if case.method not in SYNTHESIS_METHODS:
         factor = 0.2

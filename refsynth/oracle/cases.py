@@ -19,8 +19,10 @@ grid) and by the colorization fill (``observation="colorization"``, the prepared
 (``range_copy="offset"``), and Fig. 6 as printed (``observation="measured"``,
 ``training_radius="fixed"``, ``range_copy="value"``) beside them; ``bp-10x12-k8`` has all
 eight labels (the default ``k``), where numpy's pairwise sum of the confidence's eight
-weights differs from the contract's sum left to right (:mod:`refsynth.oracle.contract`).
-A run's options hold every
+weights differs from the contract's sum left to right (:mod:`refsynth.oracle.contract`);
+the ``*-planes`` cases are a column scan, where the reading ``gaps`` acts: with
+``gaps="copy"`` they check the fill as copied, ``*-planes-gaps`` the default gate after it
+(:func:`refsynth.synthesis.gap_readings.gap_gate`). A run's options hold every
 option the method takes, its default filled in (:data:`NP_DEFAULTS`, :data:`BP_DEFAULTS`), so
 a port reads them all from the case.
 """
@@ -39,21 +41,22 @@ __all__ = ["Case", "CASE_SET_VERSION", "NP_DEFAULTS", "BP_DEFAULTS", "build_case
            "expected_outputs", "select_cases", "with_defaults"]
 
 #: The version of the case set (inputs and options); the format's is in files.py.
-CASE_SET_VERSION = 7
+CASE_SET_VERSION = 8
 
 #: Every option of :func:`refsynth.synthesize` that NP takes, with its default: a NP case's
 #: options are these, updated by the case's own.
 NP_DEFAULTS = dict(neighbourhood=5, radius=10.0, range_weight=1.0, missing_range="mean",
                    colour=True, channels="sum", use_edges=True, epsilon=0.1,
                    use_isophotes=True, ordering="priority", confidence_update="best",
-                   edges_last=True, range_copy="offset")
+                   edges_last=True, range_copy="offset", gaps="gate")
 #: The same for BP; ``offset_tolerance`` follows the observation (``2**-3`` with
 #: ``observation="np"``, else ``2**-7``) unless the case sets it.
 BP_DEFAULTS = dict(neighbourhood=5, radius=10.0, range_weight=1.0, missing_range="mean",
                    colour=True, channels="sum", use_edges=True, candidates=8, sigma_i=0.1,
                    sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
                    edge_rule="silent", proximity=0.0, observation="np",
-                   training_radius="gap", range_copy="offset", offset_tolerance=None)
+                   training_radius="gap", range_copy="offset", offset_tolerance=None,
+                   gaps="gate")
 
 
 def with_defaults(kind: str, options: dict) -> dict:
@@ -218,22 +221,29 @@ def _run_cases(large: bool) -> list[Case]:
                   observation="measured"), 13),
     ]
     # NP and BP on slanted planes, where the offset copy (the default) shifts most values,
-    # and the value copy (Eq. 5, Fig. 6's labels) on the same scene
+    # and the value copy (Eq. 5, Fig. 6's labels) on the same scene: the fill as copied
+    # (gaps="copy"), then the default gap reading on it (a column scan: the gate acts)
     planes = _planes_scene(14, (14, 18))
+    copy = dict(gaps="copy")
     cases += [
         Case("np-14x18-planes", "np", planes,
-             dict(neighbourhood=5, radius=3.0, use_edges=True), 14),
+             dict(neighbourhood=5, radius=3.0, use_edges=True, **copy), 14),
         Case("np-14x18-planes-value-copy", "np", planes,
-             dict(neighbourhood=5, radius=3.0, use_edges=True, range_copy="value"), 14),
+             dict(neighbourhood=5, radius=3.0, use_edges=True, range_copy="value", **copy), 14),
         Case("bp-14x18-planes", "bp", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10,
-                  **COLORIZATION), 14),
+                  **COLORIZATION, **copy), 14),
         Case("bp-14x18-planes-value-copy", "bp", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10,
-                  range_copy="value", **COLORIZATION), 14),
+                  range_copy="value", **COLORIZATION, **copy), 14),
         # BP's default observations: NP's fill (drawing on the case's seed; the case
         # carries NP's random numbers) completes them, the labels shift within 2**-3
         Case("bp-14x18-planes-np-fill", "bp", planes,
+             dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10,
+                  **copy), 14),
+        Case("np-14x18-planes-gaps", "np", planes,
+             dict(neighbourhood=5, radius=3.0, use_edges=True), 14),
+        Case("bp-14x18-planes-gaps", "bp", planes,
              dict(neighbourhood=5, radius=3.0, use_edges=True, candidates=4, iterations=10),
              14),
         Case("bp-16x16-np-fill-tolerance", "bp", sparse,

@@ -20,6 +20,7 @@ import numpy as np
 from refsynth.numeric import quantise_grey, quantise_intensity, quantise_range, window_weights
 from refsynth.synthesis import reference as ref
 from refsynth.synthesis.api import normalise_intensity
+from refsynth.synthesis.gap_readings import gap_gate
 
 __all__ = ["run_outputs", "np_trace", "prepared_arrays", "KEPT_SWEEPS", "ALL_SWEEPS_UP_TO"]
 
@@ -140,12 +141,19 @@ def _bp_run(inputs: dict, options: dict, seed, reference) -> dict:
 def run_outputs(kind: str, inputs: dict, options: dict, seed, *, reference=None) -> dict:
     """Prepared arrays, outputs and trace of a whole run (``kind`` "np" or "bp").
 
-    ``reference`` is the module whose ``np_reference`` / ``bp_reference`` runs (default
+    With ``options["gaps"] == "gate"`` the output ``range`` is the fill's after
+    :func:`~refsynth.synthesis.gap_readings.gap_gate` (the reading ``gaps``, a post-pass with
+    the case's edges); the trace stays the fill's. ``reference`` is the module whose
+    ``np_reference`` / ``bp_reference`` runs (default
     :mod:`refsynth.synthesis.reference`): a Python port written in its image, or a
     deliberately perturbed copy, gets its trace in the oracle's layout this way.
     """
     reference = ref if reference is None else reference
+    options = dict(options)
+    gaps = options.pop("gaps", "copy")
     prepared = prepared_arrays(inputs, options)
-    if kind == "np":
-        return dict(prepared, **_np_run(inputs, options, seed, reference))
-    return dict(prepared, **_bp_run(inputs, options, seed, reference))
+    run = (_np_run if kind == "np" else _bp_run)(inputs, options, seed, reference)
+    if gaps == "gate":  # the reading after the fill: the trace is the fill's
+        edges = inputs["edges"] & bool(options["use_edges"])
+        run["range"] = gap_gate(run["range"], inputs["partial_range"], edges=edges)
+    return dict(prepared, **run)

@@ -50,6 +50,7 @@ from refsynth.synthesis.bp import BPResult, bp_fill
 from refsynth.synthesis.bp_observation import np_observation, observation_fill
 from refsynth.synthesis.bp_proposals import np_proposals
 from refsynth.synthesis.canny import canny
+from refsynth.synthesis.gap_readings import gap_gate
 from refsynth.synthesis.limits import (
     check_canny_sigma,
     check_memory,
@@ -69,6 +70,7 @@ from refsynth.synthesis.options import (
 from refsynth.synthesis.progress import StagedProgress
 from refsynth.synthesis.range_copy import default_offset_tolerance
 from refsynth.synthesis.readings import DEFAULT_PRESET, Readings, resolve_readings
+from refsynth.synthesis.uncertainty import uncertainty_map
 
 __all__ = [
     "SynthesisResult",
@@ -123,6 +125,10 @@ class SynthesisResult:
         BP: the whole model and its solution — candidates, unary terms, pairs,
         ``log Ψ``, the final messages and beliefs (see
         :class:`refsynth.synthesis.bp.BPResult`); None for NP.
+    uncertainty : ndarray of shape (H, W), float64, or None
+        Each pixel's expected absolute error in the range's unit: 0 where
+        measured, finite and > 0 on every synthesized pixel
+        (:func:`refsynth.synthesis.uncertainty.uncertainty_map` of ``range``).
 
     Examples
     --------
@@ -145,6 +151,13 @@ class SynthesisResult:
     iterations: int = 0
     candidate_values: np.ndarray | None = None
     bp: BPResult | None = None
+    uncertainty: np.ndarray | None = None
+
+
+def _gaps(filled: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
+          reading: str) -> np.ndarray:
+    """The reading ``gaps`` after the fill: as filled, or :func:`gap_gate` with the edges."""
+    return filled if reading == "copy" else gap_gate(filled, range_values, edges=edges)
 
 
 def synthesize(
@@ -407,8 +420,10 @@ def synthesize(
             image, range_values, edge_map, rng, **common, **options,
             range_copy=chosen["range_copy"], confidence_update=chosen["confidence_update"],
             edges_last=chosen["edges_last"])
-        return SynthesisResult(range=filled, confidence=confidence, order=order,
-                               edges=edge_map, method=method, params=params)
+        gated = _gaps(filled, range_values, edge_map, chosen["gaps"])
+        return SynthesisResult(range=gated, confidence=confidence, order=order,
+                               edges=edge_map, method=method, params=params,
+                               uncertainty=uncertainty_map(range_values, gated, raw=filled))
     bp_options = dict(k=options["candidates"], iterations=options["iterations"],
                       proximity=proximity, sigma_i=chosen["sigma_i"], sigma_s=chosen["sigma_s"],
                       tolerance=chosen["tolerance"], product=chosen["product"],
@@ -438,7 +453,10 @@ def synthesize(
         bp_options["observation_completed"] = observation.endswith("-completed")
     bp = bp_fill(image, range_values, edge_map, **bp_options,
                  **{**common, "progress": stages.stage(1)})
-    return SynthesisResult(range=bp.range, confidence=bp.confidence, order=bp.order,
+    gated = _gaps(bp.range, range_values, edge_map, chosen["gaps"])
+    return SynthesisResult(range=gated, confidence=bp.confidence, order=bp.order,
                            edges=edge_map, method=method, params=params,
                            iterations=bp.iterations, candidate_values=bp.candidate_values,
-                           bp=bp)
+                           bp=bp, uncertainty=uncertainty_map(
+                               range_values, gated, method="bp", raw=bp.range,
+                               candidate_values=bp.candidate_values))

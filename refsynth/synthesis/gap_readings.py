@@ -1,4 +1,4 @@
-r"""Range synthesis across a row scan's gaps, with the interpolation as its floor (§3.1.1, §3.2).
+r"""The gap reading: a column scan's narrow gaps filled by their line (§3.1.1, §3.2).
 
 A sweeping rangefinder (§3.1.1, Fig. 2) measures whole columns: each row of the partial range
 is a sequence of measured runs and unmeasured *gaps*, each bounded by a measured pixel on the
@@ -7,39 +7,34 @@ of a box, even seen at an angle — the straight line between the two bounding p
 to the truth, and a value copied from elsewhere (Eq. 5, or BP's MAP label, Eq. 8) can only do
 worse: it brings the level, or the staircase, of another place. Where the two bounds differ by
 a depth edge, the line smears the edge across the gap, and the intensity (Eq. 2's matches, BP's
-observations) can say where the edge lies. These functions wrap :func:`refsynth.synthesize` (NP
-or BP, any of its options) with transforms that need nothing inside its kernels:
+observations) can say where the edge lies.
 
-- :func:`row_gaps` (each unknown pixel's gap) and :func:`row_interpolation` (the linear fill
-  along each row between the bounding pixels);
-- :func:`gap_gate`, a post-pass on any dense estimate, and :func:`gated_synthesis`, which runs
-  :func:`refsynth.synthesize` and then the post-pass: in a gap whose bounds differ by more
-  than ``jump`` times the larger bound (a depth edge), the synthesized range clipped to the
-  range of the two bounds (a copy from a surface at another depth is brought back to the
-  nearer bound; a step between them is kept where the intensity put it); in a *smooth* gap,
-  the row interpolation — except in a smooth gap wider than ``max_gap`` holding an intensity
-  edge, where the mean of the synthesis and the line (an object between two columns that
-  agree); a gap open at the border takes its bound's value;
-- :func:`residual_synthesis`: synthesize ``partial − interpolation`` and add the interpolation
-  back. Every source pixel of Eq. 3 (and every label of Fig. 6) then holds a residual of 0,
-  so the result is the interpolation exactly: kept, and tested, as the proof that this
-  reading adds nothing, not as a reading to use.
+The reading ``gaps="gate"`` of :class:`refsynth.synthesis.readings.Readings` (refsynth's
+default; the paper's is ``"copy"``, every unknown pixel as NP or BP filled it) applies
+:func:`gap_gate` to NP's or BP's result, after the fill, the same way for both methods:
 
-The paper's reading is :func:`refsynth.synthesize` itself; :func:`gated_synthesis` is a
-departure, measured against it and against the classical fills of
-:mod:`refsynth.evaluation.baselines` on the Motorcycle and on real indoor frames by
-``benchmarks/bench_gaps.py``.
+1. :func:`complete_slices`: the holes of each scanned column (dropouts of the sensor, a
+   Kinect's missing depth, a stereo pair's occlusions) are filled along the column, by the line
+   between the measured pixels above and below, so that each row's gaps are bounded by the
+   columns next to them and not by a column further away;
+2. in each row gap (:func:`row_gaps`) with bounds ``l`` and ``r``: if the bounds differ by
+   more than :data:`DEFAULT_JUMP` of the larger (a depth edge), the synthesized range clipped to
+   ``[min, max]`` of the bounds (a copy from a surface at another depth is brought back; a step
+   between them stays where the intensity put it); otherwise (a *smooth* gap) the line between
+   the bounds (:func:`row_interpolation`), except in a smooth gap wider than
+   :data:`DEFAULT_MAX_GAP` that holds an intensity edge, which gets the mean of the synthesis and
+   the line (an object between two columns that agree, which NP and BP can see and the line
+   cannot); a gap open at the image's border takes its one bound's value.
 
-Measured (``benchmarks/bench_gaps.py``, Table 4's protocol at 450 × 375, seed 0; ratio of MAR
-to the best of the nearest, linear, colorization and joint-bilateral fills, geometric mean over
-18 cases: the Motorcycle, three NYU Depth v2 frames, a Kinect v2 room and the Middlebury
-Reindeer × x-stripes 63 / 78 % and Fig. 2's distance sampling at 60 %): NP 1.59 → 0.92, BP
-1.46 → 0.90; indoors NP 1.78 → 1.04, BP 1.62 → 1.02, the worst case an NYU frame's distance
-sampling (NP 2.35 → 1.53; the line itself is 1.45 there, the Delaunay fill 1.0: raw Kinect
-holes break the rows). On the Motorcycle's x-stripes (63 / 78 / 85 %) NP 0.303 / 0.463 / 0.624
-→ 0.280 / 0.462 / 0.618 px, BP 0.282 / 0.439 / 0.594 → 0.273 / 0.449 / 0.603. Interpolating
-every smooth gap (``max_gap=None``) won more indoors and lost 6–8 % on the Motorcycle's 11- and
-17-px gaps, where NP sees parts of the machine between columns that agree.
+The gate acts on a *column scan* only (:func:`is_column_scan`: at least half of the unknown
+pixels lie in columns with no measured pixel, as with x-stripes and Fig. 2's slices); on any
+other sampling (the paper's grids of Table 1, scattered pixels) it returns the synthesis
+unchanged.
+
+``python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0,1,2`` prints, per scene
+and sampling, NP and BP with and without the gate beside the nearest, linear, colorization and
+joint-bilateral fills (Table 4's protocol at 450 × 375); docs/distance_sampling.md holds the
+diagnosis and the table.
 
 The test of a jump, ``|R(r) − R(l)| > jump · max(|R(l)|, |R(r)|)``, is relative: the same for
 depth in any unit and for disparity (a relative change of depth is the same relative change of
@@ -54,28 +49,24 @@ Torres-Méndez & Dudek (2008), §3.1.1 (Fig. 2's slices), §3.2.2 (Eqs. 2–5), 
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 from refsynth._checks import check_choice, check_int, is_real
-from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
-from refsynth.synthesis.canny import canny
-from refsynth.synthesis.limits import validate_inputs
 
 __all__ = [
-    "INTERPOLATIONS",
+    "GAPS",
     "OPEN_GAPS",
     "WIDE_GAPS",
     "DEFAULT_JUMP",
     "DEFAULT_MAX_GAP",
     "row_gaps",
     "row_interpolation",
+    "is_column_scan",
+    "complete_slices",
     "gap_gate",
-    "gated_synthesis",
-    "residual_synthesis",
 ]
 
-#: The interpolations :func:`residual_synthesis` accepts.
-INTERPOLATIONS = ("linear", "nearest")
+#: The values of the reading ``gaps``: NP's or BP's range as filled (the paper), or gated.
+GAPS = ("copy", "gate")
 #: What :func:`gap_gate` gives a wide smooth gap holding an intensity edge.
 WIDE_GAPS = ("mean", "estimate")
 #: What :func:`gap_gate` does with a gap open at the image's border (one bound only).
@@ -84,14 +75,6 @@ OPEN_GAPS = ("interpolation", "estimate")
 DEFAULT_JUMP = 0.1
 #: The widest smooth gap :func:`gap_gate` interpolates whatever the intensity edges say.
 DEFAULT_MAX_GAP = 6
-
-
-def _synthesize():
-    """:func:`refsynth.synthesize`, imported when called: the module's post-pass
-    (:func:`gap_gate`) stays importable by :mod:`refsynth.synthesis.api` itself."""
-    from refsynth.synthesis.api import synthesize
-
-    return synthesize
 
 
 def _check_jump(jump) -> float:
@@ -201,78 +184,77 @@ def _along_rows(values: np.ndarray, known: np.ndarray) -> np.ndarray:
     return np.where((left < 0) & (right < 0), np.nan, out)
 
 
-def _interpolate(partial: np.ndarray, interpolation: str) -> np.ndarray:
-    if interpolation == "linear":
-        return row_interpolation(partial)
-    known = np.isfinite(partial)
-    _, (rows, cols) = ndimage.distance_transform_edt(~known, return_indices=True)
-    return partial[rows, cols]
+def _check_partial(partial_range) -> np.ndarray:
+    values = np.asarray(partial_range, dtype=float)
+    if values.ndim != 2:
+        raise ValueError(f"partial_range must be a 2-D array, got shape {values.shape}")
+    return values
 
 
-def residual_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
-                       interpolation: str = "linear", **synth_options) -> np.ndarray:
-    """Synthesize the range's departure from an interpolation, then add the interpolation back.
+def is_column_scan(partial_range: np.ndarray) -> bool:
+    """Whether the unknown range is mostly whole unscanned columns (§3.1.1's slices).
 
-    ``R = T + S(I, P − T)``: ``T`` the interpolation of the partial range ``P``
-    (:func:`row_interpolation`, or the nearest measured value), ``S`` :func:`refsynth.synthesize`
-    (Eqs. 2–5 or Fig. 6) run on the residual, which is 0 at every measured pixel.
+    True when at least half of the unknown pixels lie in columns that hold no measured pixel:
+    x-stripes (Table 4) and Fig. 2's distance-driven slices are, with or without the sensor's
+    holes in the scanned columns; the paper's grids (Table 1), whose every column holds
+    measured rows, are not.
 
-    Parameters
-    ----------
-    intensity : ndarray of shape (H, W) or (H, W, 3)
-        The registered intensity image.
-    partial_range : ndarray of shape (H, W), NaN where unknown
-        The measured range.
-    interpolation : {"linear", "nearest"}
-        The trend ``T``.
-    **synth_options
-        Keywords of :func:`refsynth.synthesize` (``method``, ``seed``, ...).
-
-    Returns
-    -------
-    ndarray of shape (H, W), float64
-        The dense range; measured pixels unchanged.
-
-    Notes
-    -----
-    Every pixel NP or BP can copy from holds a residual of 0 — the measured ones by
-    construction, the synthesized ones because they copied one — so the synthesized
-    residual is 0 everywhere and ``R = T`` exactly (up to the offset copy's rounding on the
-    grid of the residual's span, which is 0): the residual reading is the interpolation,
-    whatever the intensity says (measured by ``benchmarks/bench_gaps.py``: the row
-    interpolation's MAR, bit for bit).
+    Examples
+    --------
+    >>> import numpy as np
+    >>> partial = np.full((4, 6), np.nan); partial[:, ::3] = 1.0
+    >>> is_column_scan(partial), is_column_scan(partial.T)
+    (True, False)
     """
-    check_choice("interpolation", interpolation, INTERPOLATIONS)
-    _, values = validate_inputs(intensity, partial_range)
-    trend = _interpolate(values, interpolation)
-    known = np.isfinite(values)
-    residual = np.where(known, values - trend, np.nan)
-    synthesized = _synthesize()(intensity, residual, **synth_options).range
-    return np.where(known, values, trend + synthesized)
+    known = np.isfinite(_check_partial(partial_range))
+    unknown = int((~known).sum())
+    in_empty_columns = int((~known[:, ~known.any(axis=0)]).sum())
+    return unknown > 0 and 2 * in_empty_columns >= unknown
 
 
-def _canny_edges(image: np.ndarray, canny_sigma: float) -> np.ndarray:
-    """Canny edges as :func:`refsynth.synthesize` detects them: the grey level brought to [0, 1]."""
-    levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
-    return canny(levels, sigma=canny_sigma)
+def complete_slices(partial_range: np.ndarray) -> np.ndarray:
+    """The partial range with each scanned column's holes filled along the column.
+
+    A column with at least one measured pixel is a scanned slice; its unknown pixels (the
+    sensor's dropouts) get the line between the measured pixels above and below them in the
+    column, or the nearest one's value beyond the first and the last
+    (:func:`row_interpolation` along the columns). Columns with no measured pixel stay unknown;
+    measured pixels are returned unchanged, bit for bit.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> nan = np.nan
+    >>> complete_slices(np.array([[1.0, nan], [nan, nan], [3.0, nan]])).tolist()
+    [[1.0, nan], [2.0, nan], [3.0, nan]]
+    """
+    values = _check_partial(partial_range)
+    scanned = np.isfinite(values).any(axis=0)
+    out = values.copy()
+    if scanned.any():
+        out[:, scanned] = row_interpolation(values[:, scanned].T).T
+    return out
 
 
 def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = DEFAULT_JUMP,
              max_gap: int | None = DEFAULT_MAX_GAP, edges: np.ndarray | None = None,
              wide_gaps: str = "mean", open_gaps: str = "interpolation") -> np.ndarray:
-    """Interpolate the smooth gaps of each row, clip the estimate in the others (a post-pass).
+    """The reading ``gaps="gate"``: a column scan's smooth gaps by their line (a post-pass).
 
-    For an unknown pixel whose row gap (:func:`row_gaps`) has bounds ``l`` and ``r`` on both
-    sides:
+    On a column scan (:func:`is_column_scan`; otherwise ``estimate`` is returned with the
+    measured pixels restored), after :func:`complete_slices`, for each unknown pixel whose row
+    gap (:func:`row_gaps` of the completed range) has bounds ``l`` and ``r`` on both sides:
 
     - a *jump* gap, ``|R(r) − R(l)| > jump · max(|R(l)|, |R(r)|)`` (a depth edge between the
       bounds): ``estimate`` clipped to ``[min(R(l), R(r)), max(R(l), R(r))]``;
     - a *smooth* gap: :func:`row_interpolation`'s value, except in a gap wider than
       ``max_gap`` that holds an intensity edge (a pixel of ``edges`` strictly between the
       bounds in its row), where ``estimate`` is averaged with the line (``wide_gaps="mean"``)
-      or kept as it is (``"estimate"``): an object between two measured columns that agree
-      (a part of the Motorcycle in front of its background) is what NP and BP can see and
-      the line cannot.
+      or kept as it is (``"estimate"``).
+
+    A pixel with a bound on one side only (a gap open at the border) takes that bound's
+    value (``open_gaps="interpolation"``) or keeps the estimate; a hole of a scanned column
+    takes :func:`complete_slices`'s value.
 
     Parameters
     ----------
@@ -287,15 +269,13 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
         The widest smooth gap interpolated whatever ``edges`` say, in pixels; ``None``: every
         smooth gap is interpolated.
     edges : ndarray of shape (H, W), bool, optional
-        The intensity edges (:func:`gated_synthesis` gives :func:`refsynth.synthesize`'s:
-        Canny on the grey level, §3.2); without them every smooth gap is interpolated.
+        The intensity edges (:func:`refsynth.synthesize` gives its own: Canny on the grey
+        level, §3.2); without them every smooth gap is interpolated.
     wide_gaps : {"mean", "estimate"}
         A smooth gap wider than ``max_gap`` with an edge inside: the mean of the estimate and
-        :func:`row_interpolation`'s value, or the estimate.
+        the line, or the estimate.
     open_gaps : {"interpolation", "estimate"}
-        A gap with one bound only (at the border, or beside a row's hole): take the bound's
-        value (:func:`row_interpolation`'s; the default, measured better on the screening
-        scenes of ``benchmarks/bench_gaps.py``) or keep the estimate.
+        A gap with one bound only: the bound's value or the estimate.
 
     Returns
     -------
@@ -314,19 +294,22 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
         max_gap = check_int("max_gap", max_gap, minimum=0)
     check_choice("wide_gaps", wide_gaps, WIDE_GAPS)
     check_choice("open_gaps", open_gaps, OPEN_GAPS)
-    values = np.asarray(partial_range, dtype=float)
+    values = _check_partial(partial_range)
     estimate = np.asarray(estimate, dtype=float)
-    if values.ndim != 2 or estimate.shape != values.shape:
+    if estimate.shape != values.shape:
         raise ValueError(f"estimate must have partial_range's 2-D shape {values.shape}, "
                          f"got {estimate.shape}")
     if edges is not None and (np.shape(edges) != values.shape
                               or np.asarray(edges).dtype != np.bool_):
         raise ValueError(f"edges must be a bool array of partial_range's shape {values.shape}")
     known = np.isfinite(values)
-    left, right, width = row_gaps(values)
+    if not is_column_scan(values):
+        return np.where(known, values, estimate)
+    completed = complete_slices(values)
+    left, right, width = row_gaps(completed)
     rows = np.arange(values.shape[0])[:, None]
-    lv = values[rows, np.maximum(left, 0)]
-    rv = values[rows, np.maximum(right, 0)]
+    lv = completed[rows, np.maximum(left, 0)]
+    rv = completed[rows, np.maximum(right, 0)]
     bounded = width > 0
     with np.errstate(invalid="ignore"):
         edge = np.abs(rv - lv) > jump * np.fmax(np.abs(lv), np.abs(rv))
@@ -338,54 +321,13 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
         inside = counts[rows, np.maximum(right, 0)] - counts[rows, np.maximum(left, 0) + 1]
         wide = smooth & (width > max_gap) & (inside > 0)
         smooth &= ~wide
-    interpolated = row_interpolation(values)
+    line = row_interpolation(completed)
     out = np.where(bounded & edge, np.clip(estimate, np.fmin(lv, rv), np.fmax(lv, rv)),
                    estimate)
-    out = np.where(smooth, interpolated, out)
+    out = np.where(smooth, line, out)
     if wide_gaps == "mean":
-        out = np.where(wide, 0.5 * (estimate + interpolated), out)
+        out = np.where(wide, 0.5 * (estimate + line), out)
     if open_gaps == "interpolation":
-        out = np.where(width < 0, interpolated, out)
+        out = np.where(width < 0, line, out)
+    out = np.where(np.isfinite(completed), completed, out)  # the slices' holes
     return np.where(known, values, out)
-
-
-def gated_synthesis(intensity: np.ndarray, partial_range: np.ndarray, *,
-                    jump: float = DEFAULT_JUMP, max_gap: int | None = DEFAULT_MAX_GAP,
-                    wide_gaps: str = "mean", open_gaps: str = "interpolation",
-                    **synth_options) -> np.ndarray:
-    """:func:`refsynth.synthesize`, then :func:`gap_gate` with the intensity's Canny edges.
-
-    Parameters
-    ----------
-    intensity, partial_range : ndarray
-        As for :func:`refsynth.synthesize`.
-    jump, max_gap, wide_gaps, open_gaps
-        As for :func:`gap_gate` (checked before any work).
-    **synth_options
-        Keywords of :func:`refsynth.synthesize` (``method``, ``seed``, ...); its ``edges``
-        (or the Canny edges at its ``canny_sigma``) are the gate's too.
-
-    Returns
-    -------
-    ndarray of shape (H, W), float64
-        The dense range; measured pixels unchanged.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> partial = np.tile([1.0, np.nan, np.nan, 4.0, np.nan, 5.0], (6, 1))
-    >>> gated_synthesis(np.zeros((6, 6)), partial, jump=10.0)[0].tolist()
-    [1.0, 2.0, 3.0, 4.0, 4.5, 5.0]
-    """
-    _check_jump(jump)
-    if max_gap is not None:
-        check_int("max_gap", max_gap, minimum=0)
-    check_choice("wide_gaps", wide_gaps, WIDE_GAPS)
-    check_choice("open_gaps", open_gaps, OPEN_GAPS)
-    image, values = validate_inputs(intensity, partial_range)
-    synthesized = _synthesize()(intensity, values, **synth_options).range
-    edges = synth_options.get("edges")
-    if edges is None:
-        edges = _canny_edges(image, synth_options.get("canny_sigma", 0.8))
-    return gap_gate(synthesized, values, jump=jump, max_gap=max_gap, edges=edges,
-                    wide_gaps=wide_gaps, open_gaps=open_gaps)

@@ -82,13 +82,20 @@ field                   ``paper``      ``refsynth``   the paper's text; the evid
                                                       %.
 ``proposal_runs``       1              1              The NP fills that propose (with
                                                       ``proposals``).
+``gaps``                ``copy``       ``gate``       §3.1.1's slices leave gaps between scanned
+                                                      columns; the paper keeps what NP or BP
+                                                      copied. The gate (the line across a smooth
+                                                      gap, the copy clipped to the bounds across
+                                                      a depth edge) won on every scene type
+                                                      (``benchmarks/bench_gaps.py``).
 ======================  =============  =============  ============================================
 
 The figures behind each line are on the documentation's departures page and in the docstring
 of the module that implements the departure (:mod:`refsynth.synthesis.similarity`,
 :mod:`refsynth.synthesis.range_copy`, :mod:`refsynth.synthesis.bp_observation`,
 :mod:`refsynth.synthesis.bp_gap_radius`, :mod:`refsynth.synthesis.bp_centres`,
-:mod:`refsynth.synthesis.bp_proposals`), each with the command that prints them.
+:mod:`refsynth.synthesis.bp_proposals`, :mod:`refsynth.synthesis.gap_readings`), each with the
+command that prints them.
 
 References
 ----------
@@ -106,6 +113,7 @@ from refsynth.synthesis.bp_centres import COMPATIBILITIES
 from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
 from refsynth.synthesis.bp_observation import OBSERVATIONS
 from refsynth.synthesis.bp_proposals import PROPOSALS
+from refsynth.synthesis.gap_readings import GAPS
 from refsynth.synthesis.limits import PARAMETER_BOUNDS
 from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
@@ -119,12 +127,12 @@ PRODUCTS = ("max", "sum")
 
 #: The readings NP uses (§3.2.2, §3.2.4).
 NP_READINGS = ("range_weight", "missing_range", "colour", "channels", "range_copy",
-               "confidence_update", "edges_last")
+               "confidence_update", "edges_last", "gaps")
 #: The readings BP uses (§3.2.3, Fig. 6): Eq. 2's ranking shares NP's Eq. 2 readings.
 BP_READINGS = ("range_weight", "missing_range", "colour", "channels", "range_copy",
                "observation", "training_radius", "compatibility", "proximity", "sigma_i",
                "sigma_s", "product", "tolerance", "edge_rule", "offset_tolerance", "proposals",
-               "proposal_runs")
+               "proposal_runs", "gaps")
 
 
 def _bounded(name: str, value) -> float:
@@ -160,6 +168,7 @@ _CHECKS = {
     "offset_tolerance": lambda v: None if v is None else check_offset_tolerance(v),
     "proposals": lambda v: None if v is None else check_choice("proposals", v, PROPOSALS),
     "proposal_runs": _proposal_runs,
+    "gaps": lambda v: check_choice("gaps", v, GAPS),
 }
 
 
@@ -175,7 +184,7 @@ class Readings:
     >>> Readings.paper().range_copy, Readings().range_copy
     ('value', 'offset')
     >>> sorted(Readings().departures())   # refsynth's departures from the paper
-    ['missing_range', 'observation', 'range_copy', 'tolerance', 'training_radius']
+    ['gaps', 'missing_range', 'observation', 'range_copy', 'tolerance', 'training_radius']
     >>> Readings.paper().replace(range_copy="offset").range_copy
     'offset'
     >>> Readings().replace(range_cpy="value")
@@ -184,7 +193,7 @@ class Readings:
     ValueError: Unknown reading `range_cpy`; the readings are: range_weight, missing_range, \
 colour, channels, range_copy, confidence_update, edges_last, observation, training_radius, \
 compatibility, proximity, sigma_i, sigma_s, product, tolerance, edge_rule, offset_tolerance, \
-proposals, proposal_runs
+proposals, proposal_runs, gaps
     """
 
     # Eq. 2 (NP, and BP's ranking)
@@ -211,6 +220,8 @@ proposals, proposal_runs
     offset_tolerance: float | None = None
     proposals: str | None = None
     proposal_runs: int = 1
+    # after the fill (NP and BP): a column scan's gaps (refsynth.synthesis.gap_readings)
+    gaps: str = "gate"
 
     def __post_init__(self) -> None:
         for name, check in _CHECKS.items():
@@ -231,9 +242,10 @@ proposals, proposal_runs
 
     @classmethod
     def paper(cls) -> Readings:
-        """The paper as printed: Eq. 2 as written, Eq. 5's value copy, Fig. 6's BP, 50 sweeps."""
+        """The paper as printed: Eq. 2 as written, Eq. 5's value copy, Fig. 6's BP, 50 sweeps,
+        every gap as filled."""
         return cls(missing_range="ignore", range_copy="value", observation="measured",
-                   training_radius="fixed", tolerance=0.0)
+                   training_radius="fixed", tolerance=0.0, gaps="copy")
 
     @classmethod
     def preset(cls, name: str) -> Readings:

@@ -14,6 +14,16 @@ from refsynth.scenes import motorcycle, synthetic_room
 from refsynth.synthesis import belief_propagation
 
 
+def fill(intensity, partial, **kwargs):
+    """NP's or BP's fill as filled (``gaps="copy"``): each pixel keeps its copy or MAP label.
+
+    These exercises read the fill itself; the default gap reading, after it, is tutorial 2's
+    last section.
+    """
+    readings = {"gaps": "copy", **kwargs.pop("readings", {})}
+    return refsynth.synthesize(intensity, partial, readings=readings, **kwargs)
+
+
 def chain_probabilities(product: str) -> np.ndarray:
     """P(2 m) per pixel on the tutorial's three-pixel chain, once the messages settle."""
     unary = np.log(np.array([[0.9, 0.1], [0.5, 0.5], [0.3, 0.7]]))
@@ -65,7 +75,7 @@ def exercise_2() -> None:
     bike, known, partial = bike_case()
     rows = []
     for k in (4, 8, 16):
-        bp = refsynth.synthesize(bike.intensity, partial, method="bp", candidates=k)
+        bp = fill(bike.intensity, partial, method="bp", candidates=k)
         truth = bike.range[bp.order[:, 0], bp.order[:, 1]]
         scored = np.isfinite(truth)
         ceiling = np.abs(bp.candidate_values[scored] - truth[scored, None]).min(axis=1).mean()
@@ -133,7 +143,7 @@ def exercise_2b() -> None:
     for scene, known, partial in cases:
         scores = {}
         for name, options in READINGS.items():
-            bp = refsynth.synthesize(scene.intensity, partial, method="bp", readings=options)
+            bp = fill(scene.intensity, partial, method="bp", readings=options)
             truth = scene.range[bp.order[:, 0], bp.order[:, 1]]
             scored = np.isfinite(truth)
             errors = np.abs(bp.candidate_values[scored] - truth[scored, None])
@@ -141,7 +151,7 @@ def exercise_2b() -> None:
                             errors[:, 0].mean())
             print(f"2b. {scene.name}, {name}: BP MAR {scores[name][0]:.3f}, candidate ceiling "
                   f"{scores[name][1]:.3f}, first-ranked candidate's error {scores[name][2]:.3f}")
-        np_mar = np.mean([mar(refsynth.synthesize(scene.intensity, partial, seed=s).range,
+        np_mar = np.mean([mar(fill(scene.intensity, partial, seed=s).range,
                               scene.range, known) for s in range(3)])
         print(f"2b. {scene.name}: NP MAR {np_mar:.3f} (3 seeds)")
         fig6, done, gap, offset, both = (scores[name] for name in READINGS)
@@ -180,14 +190,14 @@ def exercise_2c() -> None:
     of NP's time.
     """
     for scene, known, partial in (bike_case(), room_case()):
-        np_mar = np.mean([mar(refsynth.synthesize(scene.intensity, partial, seed=s).range,
+        np_mar = np.mean([mar(fill(scene.intensity, partial, seed=s).range,
                               scene.range, known) for s in range(3)])
         scores = {}
         for name, options, seeds in (("colorization", {"observation": "colorization"}, (0,)),
                                      ("np (the default)", {}, (0, 1, 2))):
             runs = []
             for seed in seeds:
-                bp = refsynth.synthesize(scene.intensity, partial, method="bp", seed=seed,
+                bp = fill(scene.intensity, partial, method="bp", seed=seed,
                                          readings=options)
                 truth = scene.range[bp.order[:, 0], bp.order[:, 1]]
                 scored = np.isfinite(truth)
@@ -229,12 +239,12 @@ def exercise_3() -> None:
     """
     changes, np_changes = {}, {}
     for scene, known, partial in (bike_case(), room_case()):
-        on, off = (mar(refsynth.synthesize(scene.intensity, partial, method="bp",
+        on, off = (mar(fill(scene.intensity, partial, method="bp",
                                            readings={"observation": "colorization"},
                                            use_edges=flag).range, scene.range, known)
                    for flag in (True, False))
         changes[scene.name] = off - on
-        np_on, np_off = (np.mean([mar(refsynth.synthesize(scene.intensity, partial, seed=s,
+        np_on, np_off = (np.mean([mar(fill(scene.intensity, partial, seed=s,
                                                           use_edges=flag).range,
                                       scene.range, known) for s in range(3)])
                          for flag in (True, False))

@@ -1,0 +1,210 @@
+"""The uncertainty map against the true errors: its mean, its ranking (AUSE), its zeros.
+
+Per scene × sampling × method (NP, BP with :func:`refsynth.synthesize`'s defaults, seed 0), on
+the scenes and protocol of ``bench_scenes.py`` (Table 4's centred crop and area resize; the
+unknown pixels with truth are scored):
+
+- ``MAR``: Eq. 13's mean absolute error of the synthesized range;
+- ``mean/MAR``: the mean of :attr:`refsynth.SynthesisResult.uncertainty` over the same
+  pixels, over the MAR (1 is a calibrated scale; the target is 0.7–1.4);
+- ``AUSE``: the area between the sparsification curve of the uncertainty (the MAR of the
+  pixels left after dropping the most uncertain first, against the fraction dropped) and that
+  of the true errors (the oracle), as a fraction of the MAR (0 is a perfect ranking; the
+  target is at most 0.3); beside it the same for a random ranking and for the result's
+  ``confidence`` (least confident dropped first);
+- ``zero``: the share of synthesized pixels whose uncertainty is 0 (must be 0);
+- ``cost``: the map's time over the synthesis's, in the same run (``nan`` when the result
+  came from ``--arrays``).
+
+``--gate`` also scores the map of :func:`~refsynth.synthesis.gap_readings.gap_gate`'s
+post-pass (the method's fill given as ``raw``). ``--fit`` re-fits the weights and scales of
+:data:`refsynth.synthesis.uncertainty.CALIBRATION` on the cases run (a grid search of the
+weights on the mean AUSE, then the geometric mean of ``MAR / mean``) and prints them.
+
+Run::
+
+    python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --arrays /tmp/unccache
+    python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --arrays /tmp/unccache \\
+        --fit
+    python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --size 225x188 \\
+        --scenes motorcycle,kv2_livingroom_raw --samplings x78,x63
+
+``--arrays DIR`` keeps each result as ``DIR/<scene>_<sampling>_<size>_<method>.npz`` (range,
+confidence, BP's candidate values, the synthesis's seconds) and reuses it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+# this checkout's refsynth (not another one installed), and bench_scenes beside this file
+sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parent)]
+
+import bench_scenes as scenes  # noqa: E402
+
+from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
+from refsynth.synthesis.api import synthesize  # noqa: E402
+from refsynth.synthesis.gap_readings import gap_gate  # noqa: E402
+from refsynth.synthesis.uncertainty import (  # noqa: E402
+    CALIBRATION,
+    uncertainty_features,
+    uncertainty_map,
+)
+
+TERMS = ("spread", "labels", "variation", "floor")
+GRID = (0.0, 0.1, 0.25, 0.5, 1.0, 2.0)
+
+
+def sparsification(order: np.ndarray, errors: np.ndarray) -> np.ndarray:
+    """The MAR of the pixels kept after dropping ``order``'s first ``i`` pixels, ``i = 0 … n−1``."""
+    kept = errors[order][::-1]  # least uncertain first
+    means = np.cumsum(kept) / np.arange(1, kept.size + 1)
+    return means[::-1]
+
+
+def ause(score: np.ndarray, errors: np.ndarray) -> float:
+    """AUSE over the MAR: ``score`` high = dropped first (ties: the raster order)."""
+    curve = sparsification(np.argsort(-score, kind="stable"), errors)
+    oracle = sparsification(np.argsort(-errors, kind="stable"), errors)
+    return float(np.mean(curve - oracle) / errors.mean())
+
+
+def load_result(name, spec, size, sampling, method, arrays):
+    """The scene, its mask, and the result's arrays (cached in ``arrays``) with its seconds."""
+    scene = scenes.load(spec, size)
+    known = known_mask(scene, sampling)
+    path = Path(arrays) / f"{name}_{sampling}_{size}_{method}.npz" if arrays else None
+    if path is not None and path.is_file():
+        with np.load(path) as stored:
+            result = {key: stored[key] for key in stored.files}
+        result["seconds"] = math.nan
+        return scene, known, result
+    partial = np.where(known, scene.range, np.nan)
+    start = time.perf_counter()
+    out = synthesize(scene.intensity, partial, method=method, seed=0)
+    seconds = time.perf_counter() - start
+    result = dict(range=out.range, confidence=out.confidence, seconds=seconds)
+    if out.candidate_values is not None:
+        result["candidate_values"] = out.candidate_values
+    if path is not None:
+        Path(arrays).mkdir(parents=True, exist_ok=True)
+        np.savez(path, **result)
+    return scene, known, result
+
+
+def score_case(scene, known, result, method, gate=False) -> dict:
+    """The figures of one case (``gate``: of the gap_gate post-pass's range and map)."""
+    partial = np.where(known, scene.range, np.nan)
+    estimate, raw = result["range"], None
+    if gate:
+        estimate, raw = gap_gate(result["range"], partial), result["range"]
+    start = time.perf_counter()
+    unc = uncertainty_map(partial, estimate, method=method, raw=raw,
+                          candidate_values=result.get("candidate_values"))
+    seconds = time.perf_counter() - start
+    scored = ~known & np.isfinite(scene.range)
+    errors = np.abs(estimate - scene.range)[scored]
+    mar = float(errors.mean())
+    noise = np.random.default_rng(0).permutation(errors.size).astype(float)
+    return dict(mar=mar, mean_ratio=float(unc[scored].mean() / mar),
+                ause=ause(unc[scored], errors), random=ause(noise, errors),
+                confidence=ause(-result["confidence"][scored], errors),
+                zero=float(np.mean(unc[~known] <= 0.0)),
+                finite=bool(np.isfinite(unc).all()),
+                cost=seconds / result["seconds"], units=scene.units)
+
+
+def fit(cases: Sequence[tuple], method: str) -> dict:
+    """Weights minimising the mean AUSE over ``cases`` (a grid), then the scale of the mean."""
+    prepared = []
+    for scene, known, result in cases:
+        partial = np.where(known, scene.range, np.nan)
+        scored = ~known & np.isfinite(scene.range)
+        terms = uncertainty_features(partial, result["range"], method=method,
+                                     candidate_values=result.get("candidate_values"))
+        errors = np.abs(result["range"] - scene.range)[scored]
+        keep = np.random.default_rng(0).permutation(errors.size)[:20000]  # the grid's cost
+        prepared.append((errors[keep], {t: terms[t][scored][keep] for t in TERMS}))
+    used = [t for t in TERMS if method == "bp" or t != "labels"]
+    best = None
+    for weights in itertools.product(GRID, repeat=len(used)):
+        if not any(weights[:-1]):
+            continue
+        total = np.mean([ause(sum(w * f[t] for w, t in zip(weights, used)), errors)
+                         for errors, f in prepared])
+        if best is None or total < best[0]:
+            best = (total, dict(zip(used, weights)))
+    weights = {t: best[1].get(t, 0.0) for t in TERMS}
+    ratios = [errors.mean() / sum(weights[t] * f[t] for t in TERMS).mean()
+              for errors, f in prepared]
+    weights["scale"] = float(np.exp(np.mean(np.log(ratios))))
+    return weights
+
+
+def main(argv: Sequence[str] | None = None, out=None) -> int:
+    out = out or sys.stdout
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("folder", nargs="?", default=None, help="a folder of scene folders")
+    parser.add_argument("--motorcycle", action="store_true", help="add the Motorcycle")
+    parser.add_argument("--scenes", default=None, help="comma-separated scene names to keep")
+    parser.add_argument("--size", default="450x375", help="WxH (default 450x375)")
+    parser.add_argument("--samplings", default="x78", help="comma-separated (default x78)")
+    parser.add_argument("--methods", default="np,bp", help="np, bp or np,bp (default)")
+    parser.add_argument("--arrays", default=None, help="a folder to keep / reuse the results")
+    parser.add_argument("--gate", action="store_true", help="also score gap_gate's post-pass")
+    parser.add_argument("--fit", action="store_true", help="re-fit CALIBRATION and print it")
+    args = parser.parse_args(argv)
+    try:
+        size = parse_size(args.size)
+        samplings = [parse_sampling(s) for s in args.samplings.split(",") if s]
+        methods = [m for m in args.methods.split(",") if m]
+        if not methods or set(methods) - {"np", "bp"}:
+            raise ValueError(f"--methods must be np, bp or np,bp, got {args.methods!r}")
+        names = [n for n in args.scenes.split(",") if n] if args.scenes else None
+        specs = scenes.scene_specs(args.folder, args.motorcycle, names,
+                                   warn=lambda m: print(m, file=sys.stderr))
+    except ValueError as error:
+        print(f"bench_uncertainty: {error}", file=sys.stderr)
+        return 2
+    header = ("| scene | sampling | method | MAR | mean/MAR | AUSE | random | confidence | "
+              "zero | cost |")
+    print(header, file=out)
+    print("|" + "---|" * 10, file=out)
+    collected: dict[str, list] = {m: [] for m in methods}
+    figures: dict[str, list] = {}
+    for (name, spec), sampling, method in itertools.product(specs, samplings, methods):
+        scene, known, result = load_result(name, spec, size, sampling, method, args.arrays)
+        collected[method].append((scene, known, result))
+        for gate in (False, True) if args.gate else (False,):
+            row = score_case(scene, known, result, method, gate)
+            label = f"{method}+gate" if gate else method
+            figures.setdefault(label, []).append(row)
+            print(f"| {name} | {sampling} | {label} | {row['mar']:.4g} {row['units']} | "
+                  f"{row['mean_ratio']:.2f} | {row['ause']:.3f} | {row['random']:.3f} | "
+                  f"{row['confidence']:.3f} | {100 * row['zero']:.1f} % | "
+                  f"{100 * row['cost']:.2f} % |", file=out, flush=True)
+    print("", file=out)
+    for label, rows in figures.items():
+        ratio = np.array([r["mean_ratio"] for r in rows])
+        print(f"{label}: AUSE mean {np.mean([r['ause'] for r in rows]):.3f}, worst "
+              f"{max(r['ause'] for r in rows):.3f}; mean/MAR {ratio.min():.2f}–{ratio.max():.2f}; "
+              f"zero on synthesized pixels {max(r['zero'] for r in rows):.1%}", file=out)
+    if args.fit:
+        print("\nCALIBRATION = {", file=out)
+        for method in methods:
+            print(f"    {method!r}: {fit(collected[method], method)},  # was "
+                  f"{CALIBRATION[method]}", file=out)
+        print("}", file=out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
