@@ -29,6 +29,8 @@ Run::
         --figure docs/images/active_scanning.png --json active.json
     python benchmarks/bench_active.py --motorcycle --size 225x188 --methods bp,linear \\
         --fractions 20,40
+    python benchmarks/bench_active.py --size 225x188 --from-json a.json,b.json \\
+        --figure docs/images/active_scanning.png     # the tables of saved runs
 """
 
 from __future__ import annotations
@@ -232,6 +234,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="write the runs here")
     parser.add_argument("--figure", default=None, metavar="PATH", help="write the curves here")
+    parser.add_argument("--from-json", default=None, metavar="FILE,...",
+                        help="print (and plot) the runs saved by --json instead of running")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
     try:
@@ -248,14 +252,27 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
             raise ValueError("--fractions must be percentages in 1-95")
         if args.step < 1 or any((f - fractions[0]) % args.step for f in fractions):
             raise ValueError("--step must be >= 1 and divide the fractions' distances")
-        specs = bench_scenes.scene_specs(args.folder, args.motorcycle,
-                                         _list(args.scenes) if args.scenes else None,
-                                         warn=lambda m: print(m, file=sys.stderr))
+        if args.from_json:
+            specs = []
+        else:
+            specs = bench_scenes.scene_specs(args.folder, args.motorcycle,
+                                             _list(args.scenes) if args.scenes else None,
+                                             warn=lambda m: print(m, file=sys.stderr))
     except ValueError as error:
         print(f"bench_active.py: {error}", file=sys.stderr)
         return 2
     progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
-    rows, calls = [], {}
+    rows, calls, scenes = [], {}, [name for name, _ in specs]
+    for path in _list(args.from_json or ""):
+        saved = json.loads(Path(path).read_text())
+        rows += saved["rows"]
+        calls.update(saved["next_slices_seconds"])
+        scenes += [s for s in dict.fromkeys(r["scene"] for r in saved["rows"]) if s not in scenes]
+    if args.from_json:
+        wanted = _list(args.scenes) if args.scenes else scenes
+        scenes = [s for s in scenes if s in wanted]
+        rows = [r for r in rows if r["scene"] in scenes and r["method"] in methods
+                and r["strategy"] in strategies and r["fraction"] in fractions]
     for name, spec in specs:
         scene = bench_scenes.load(spec, size)
         found, seconds = run_scene(name, scene, fractions, methods, strategies, args.step,
@@ -266,7 +283,6 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
             write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), rows=rows,
                                                     next_slices_seconds=calls),
                                                indent=1).encode())
-    scenes = [name for name, _ in specs]
     print(f"bench_active: size {size}, seed {args.seed}, {len(scenes)} scenes, active: "
           f"{args.active_method.upper()}'s next_slices, +{args.step} % per call; MAR (Eq. 13)",
           file=out)

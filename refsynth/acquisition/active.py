@@ -30,9 +30,9 @@ its neighbours' errors shrink by ``d_new / d_old`` and their distances
 update — and the gains are computed again. A pick therefore damps the columns
 near it by exactly the gap it splits, so the picks spread rather than bunch.
 
-The expected error of each pixel comes from one function,
-:func:`_expected_error`, so that a better estimate of it replaces only that
-function.
+The expected error of each pixel is the synthesis's own uncertainty map
+(:attr:`refsynth.SynthesisResult.uncertainty`: the expected absolute error in the
+range's unit, 0 on measured pixels, :mod:`refsynth.synthesis.uncertainty`).
 
 References
 ----------
@@ -47,7 +47,6 @@ import numpy as np
 
 from refsynth._checks import check_choice, check_int
 from refsynth.synthesis import SynthesisResult, synthesize, validate_inputs
-from refsynth.synthesis.gap_readings import row_interpolation
 
 __all__ = ["next_slices", "measured_columns", "expected_gain"]
 
@@ -118,25 +117,13 @@ def expected_gain(column_error: np.ndarray, measured: np.ndarray) -> np.ndarray:
     return gain
 
 
-def _expected_error(result: SynthesisResult, partial_range: np.ndarray) -> np.ndarray:
+def _expected_error(result: SynthesisResult) -> np.ndarray:
     """Each pixel's expected absolute error of ``result.range``, 0 on measured pixels.
 
-    A stand-in for a calibrated per-pixel uncertainty: where the synthesis departs
-    from the linear fill between the measured columns bounding each gap
-    (:func:`refsynth.synthesis.gap_readings.row_interpolation`) the two guesses
-    disagree, and one of them is wrong by at least half the difference; where the
-    synthesized range varies across its 3×3 neighbourhood, an error of a pixel's
-    position is an error of that size in range. The sum of the two is returned
-    (deterministic, in the range's unit).
+    The synthesis's own uncertainty map, in the range's unit
+    (:func:`refsynth.synthesis.uncertainty.uncertainty_map`).
     """
-    dense = result.range
-    unknown = ~np.isfinite(partial_range)
-    disagreement = np.abs(dense - row_interpolation(partial_range))
-    padded = np.pad(dense, 1, mode="edge")
-    height, width = dense.shape
-    windows = [padded[i:i + height, j:j + width] for i in range(3) for j in range(3)]
-    variation = np.max(windows, axis=0) - np.min(windows, axis=0)
-    return np.where(unknown, disagreement + 0.5 * variation, 0.0)
+    return result.uncertainty
 
 
 def next_slices(
@@ -151,8 +138,8 @@ def next_slices(
     """The ``n`` unmeasured columns whose measurement is expected to lower the error most (§5).
 
     One call of :func:`refsynth.synthesize` fills the range from what is
-    measured; each pixel's expected error is estimated from it, summed per
-    column, and the columns are picked greedily by the expected error their
+    measured; its uncertainty map (each pixel's expected absolute error) is
+    summed per column, and the columns are picked greedily by the expected error their
     measurement removes from their own column and from the columns of their
     gap (see the module's notes), each pick taken as measured before the next,
     so that the picks spread over the uncertain parts rather than bunch.
@@ -190,8 +177,8 @@ def next_slices(
     Notes
     -----
     1. Synthesize the dense range ``R`` (NP or BP).
-    2. Estimate each pixel's expected absolute error ``e`` (0 where measured) and
-       sum it per column: ``U(c) = Σ_rows e``.
+    2. Take each pixel's expected absolute error ``e`` (``result.uncertainty``, 0
+       where measured) and sum it per column: ``U(c) = Σ_rows e``.
     3. For every unmeasured column ``c`` compute the error its measurement
        removes, ``g(c) = Σ_c' U(c') max(0, 1 − |c − c'| / d(c'))``, ``d(c')`` the
        distance of ``c'`` to the nearest measured column.
@@ -223,7 +210,7 @@ def next_slices(
                          "unmeasured (all NaN), got every column measured")
     n = check_int("n", n, minimum=1, maximum=unmeasured)
     result = synthesize(intensity, partial_range, method=method, seed=seed, **synth_options)
-    column_error = _expected_error(result, values).sum(axis=0)
+    column_error = _expected_error(result).sum(axis=0)
     return _greedy(column_error, measured, n)
 
 
