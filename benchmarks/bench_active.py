@@ -88,10 +88,12 @@ def fixed_mask(scene, strategy: str, fraction: float) -> np.ndarray:
 
 
 def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: int,
-                 progress=None) -> tuple[dict[int, np.ndarray], list[float]]:
-    """``{percent: mask}`` of the active strategy, and the seconds of each next_slices call."""
+                 progress=None, start: int | None = None
+                 ) -> tuple[dict[int, np.ndarray], list[float]]:
+    """``{percent: mask}`` of the active strategy (from ``even`` at ``start`` %, default the
+    first fraction), and the seconds of each next_slices call."""
     width = scene.range.shape[1]
-    start = min(fractions)
+    start = min(fractions) if start is None else start
     columns = set(even_columns(width, start / 100).tolist())
     masks, seconds, percent = {}, [], start
     while True:
@@ -119,11 +121,12 @@ def fill(scene, known: np.ndarray, method: str, seed: int) -> np.ndarray:
 
 
 def run_scene(name: str, scene, fractions, methods, strategies, step, active_method, seed,
-              progress=None) -> tuple[list[dict], list[float]]:
+              progress=None, start: int | None = None) -> tuple[list[dict], list[float]]:
     rows, calls = [], []
     for strategy in strategies:
         if strategy == "active":
-            masks, calls = active_masks(scene, fractions, step, active_method, seed, progress)
+            masks, calls = active_masks(scene, fractions, step, active_method, seed, progress,
+                                        start)
         else:
             masks = {f: fixed_mask(scene, strategy, f / 100) for f in fractions}
         for percent, known in masks.items():
@@ -157,7 +160,8 @@ def target_ratios(rows, scenes, methods, at: int = 40) -> dict[str, float]:
     for scene in scenes:
         best = min((_mar(rows, scene, s, at, m) for s in ("even", "distance") for m in rivals),
                    default=math.nan)
-        ratios[scene] = _mar(rows, scene, "active", at, "bp") / best
+        active = _mar(rows, scene, "active", at, "bp")
+        ratios[scene] = active / best if best > 0 else (math.inf if active > 0 else math.nan)
     return ratios
 
 
@@ -230,6 +234,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                         help="percent of the columns (default 20,30,40,50,60)")
     parser.add_argument("--step", type=int, default=5,
                         help="active: percent of the columns added per next_slices call")
+    parser.add_argument("--active-start", type=int, default=None, metavar="PERCENT",
+                        help="active: the evenly spread columns it starts from (default: the "
+                        "first of --fractions)")
     parser.add_argument("--active-method", default="bp", choices=("np", "bp"))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="write the runs here")
@@ -250,8 +257,11 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         fractions = sorted({int(f) for f in _list(args.fractions)})
         if not fractions or fractions[0] < 1 or fractions[-1] > 95:
             raise ValueError("--fractions must be percentages in 1-95")
-        if args.step < 1 or any((f - fractions[0]) % args.step for f in fractions):
-            raise ValueError("--step must be >= 1 and divide the fractions' distances")
+        start = fractions[0] if args.active_start is None else args.active_start
+        if args.step < 1 or not 1 <= start <= fractions[0] or any(
+                (f - start) % args.step for f in fractions):
+            raise ValueError("--step must be >= 1 and divide the fractions' distances from "
+                             "--active-start (at most the first fraction)")
         if args.from_json:
             specs = []
         else:
@@ -276,7 +286,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     for name, spec in specs:
         scene = bench_scenes.load(spec, size)
         found, seconds = run_scene(name, scene, fractions, methods, strategies, args.step,
-                                   args.active_method, args.seed, progress)
+                                   args.active_method, args.seed, progress, start)
         rows += found
         calls[name] = seconds
         if args.json:
