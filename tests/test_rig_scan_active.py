@@ -159,3 +159,33 @@ def test_cli_active_errors_are_one_line(tmp_path, capsys, arguments, match):
     status = main(["scan", "--simulate", "--out", str(tmp_path / "x"), *arguments])
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1 and match in err.replace("\\", ""), err
+
+
+def test_the_grid_looks_each_direction_up_in_the_nearest_picture():
+    """Picture k is its column index plus 1000·k: a grid column at a picture's own pan index
+    sees that picture's centre column (63.5 of 128), and each column its nearest picture."""
+    from refsynth.acquisition.geometry import IMAGE_HEIGHT, IMAGE_WIDTH, camera_indices
+
+    cols = np.arange(IMAGE_WIDTH, dtype=np.float64)
+    pictures = {int(c): np.tile(cols + 1000.0 * k, (IMAGE_HEIGHT, 1))
+                for k, c in enumerate(camera_indices())}
+    intensity, partial = active_scan.slice_grid({}, pictures, SETTINGS)
+    assert intensity.shape == partial.shape == (10, 500) and np.isnan(partial).all()  # 40 / 4
+    for k, c in enumerate(camera_indices()):
+        assert intensity[:, c] == pytest.approx(1000.0 * k + 63.5, abs=1e-6)
+    assert np.all(intensity[:, 0] // 1000 == 0) and np.all(intensity[:, 499] // 1000 == 9)
+    # within one picture the columns run left to right with the pan (0.36° ≈ 1.9 px)
+    assert np.all(np.diff(intensity[5, 180:220]) > 1.5)
+
+
+def test_a_round_never_rescans_and_fills_up_when_the_grid_runs_out(uninterrupted):
+    folder = uninterrupted[0]
+    records = {i: r for i, (r, _) in read_slice_files(folder)[0].items()}
+    pictures = active_scan.read_pictures(folder)
+    chosen = active_scan.choose_round(records, pictures, SETTINGS, 7)
+    assert len(set(chosen)) == 7 and not set(chosen) & set(records)
+    # every slice but three scanned: the round gets exactly those three
+    everything = dict.fromkeys(range(500), next(iter(records.values())))
+    for index in (3, 250, 498):
+        del everything[index]
+    assert active_scan.choose_round(everything, pictures, SETTINGS, 3) == [3, 250, 498]
