@@ -107,7 +107,7 @@ VARIANTS: dict[str, dict] = {
     "bp-lambda0.5": {"method": "bp", "range_weight": 0.5},
     "bp-lambda1": {"method": "bp", "range_weight": 1.0},
     "bp-lambda16": {"method": "bp", "range_weight": 16.0},
-    "bp-paper-edge-rule": {"method": "bp", "edge_rule": "paper"},
+    "bp-deaf-edges": {"method": "bp", "edge_rule": "deaf"},
     "bp-grey": {"method": "bp", "colour": False},
     # BP's candidate ranking: μ = 0 is the paper's (the observation alone) and the default;
     # μ = 1 was 0.2's; then one step (a factor 2) each side of k = 8, σ_i = 0.1, σ_s = 0.2

@@ -81,9 +81,11 @@ from refsynth.synthesis.priority import FillFront  # noqa: E402
 from refsynth.synthesis.readings import split_options  # noqa: E402
 
 MAX_GAP = 6
-#: NP's readings compared by ``gaps``: label -> synthesize() keywords.
+#: NP's readings compared by ``gaps``: label -> synthesize() keywords. Each runs the fill as
+#: filled (the reading ``gaps="copy"``) unless it names ``gaps``: ``np-gate`` is the default.
 GAP_VARIANTS = {
     "np": {},
+    "np-gate": {"gaps": "gate"},
     "onion": {"ordering": "onion"},
     "value-copy": {"range_copy": "value"},
     "lambda0": {"range_weight": 0.0},
@@ -216,10 +218,10 @@ def traced_np_fill(image, range_values, edges, rng, *, neighbourhood=5, radius=1
 
 def traced_synthesize(intensity, partial, *, seed=0, check=True, override=None,
                       use_edges=True, canny_sigma=0.8, **options) -> Trace:
-    """NP as ``refsynth.synthesize(intensity, partial, seed=seed, **options)``, traced.
+    """NP as ``refsynth.synthesize(intensity, partial, seed=seed, **options)`` fills it, traced.
 
     With ``check`` (and no ``override``) the range is compared bit for bit with
-    ``refsynth.synthesize``'s; a difference raises ``AssertionError``.
+    ``refsynth.synthesize``'s with ``gaps="copy"``; a difference raises ``AssertionError``.
     """
     image, range_values = validate_inputs(intensity, partial)
     levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
@@ -231,7 +233,8 @@ def traced_synthesize(intensity, partial, *, seed=0, check=True, override=None,
     if check and override is None:
         keywords, readings = split_options(options)
         reference = synthesize(intensity, partial, seed=seed, use_edges=use_edges,
-                               canny_sigma=canny_sigma, **keywords, readings=readings).range
+                               canny_sigma=canny_sigma, **keywords,
+                               readings={"gaps": "copy", **readings}).range
         if not np.array_equal(reference, trace.range):
             raise AssertionError("the traced NP differs from refsynth.synthesize: "
                                  "update the trace below to the package's np_fill")
@@ -478,7 +481,8 @@ def command_gaps(args, out) -> dict:
                 if not args.variants or k in args.variants.split(",")}
     fills = {label: (lambda image, partial, options=options: synthesize(
         image, partial, seed=args.seed, **split_options(options)[0],
-        readings=split_options(options)[1]).range) for label, options in variants.items()}
+        readings={"gaps": "copy", **split_options(options)[1]}).range)
+        for label, options in variants.items()}
     fills.update(nearest=nearest_fill, linear=linear_fill)
     for name, scene in _scenes(args):
         known = known_mask(scene, args.sampling)
@@ -516,7 +520,8 @@ def command_prototypes(args, out) -> dict:
             def mar(estimate, truth=scene.range, scored=scored):
                 return float(np.abs(estimate - truth)[scored].mean())
 
-            row = {"np": mar(synthesize(scene.intensity, partial, seed=args.seed).range)}
+            row = {"np": mar(synthesize(scene.intensity, partial, seed=args.seed,
+                                        readings={"gaps": "copy"}).range)}
             for label in PROTOTYPES:
                 row[label] = mar(prototype(label)(scene, known, args.seed))
             row["linear"] = mar(linear_fill(scene.intensity, partial))

@@ -227,7 +227,8 @@ def test_bp_fill_keeps_measurements_and_copies_candidate_centres(scene, product,
     image, truth, known = scene
     partial = np.where(known, truth, np.nan)
     result = refsynth.synthesize(image, partial, method="bp", neighbourhood=3, candidates=3,
-                                 iterations=5, readings={"product": product, "range_copy": copy})
+                                 iterations=5, readings={"product": product, "range_copy": copy,
+                                                         "gaps": "copy"})
     np.testing.assert_array_equal(result.range[known], truth[known])
     assert np.all(np.isfinite(result.range))
     if copy == "value":  # Fig. 6's labels: a measured value
@@ -326,7 +327,7 @@ BP_SMALL = dict(method="bp", candidates=3, neighbourhood=3, radius=4.0)
 BP_SMALL_READINGS = {"sigma_s": 0.05, "observation": "colorization"}
 
 
-@pytest.mark.parametrize("rule", ["silent", "paper"])
+@pytest.mark.parametrize("rule", ["silent", "deaf"])
 @pytest.mark.parametrize("seed", range(3))
 def test_a_measured_node_on_an_edge_constrains_no_neighbour(rule, seed):
     """Edges on measured pixels only: the terms those pixels put on their unknown
@@ -346,27 +347,27 @@ def test_a_measured_node_on_an_edge_constrains_no_neighbour(rule, seed):
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_the_papers_edge_rule_isolates_edge_nodes(seed):
-    """edge_rule="paper": no message crosses an edge. An unknown node on an edge neither
+def test_the_deaf_edge_rule_isolates_edge_nodes(seed):
+    """edge_rule="deaf": no message crosses an edge. An unknown node on an edge neither
     sends nor receives (its belief is its unary term, which holds no measured neighbour's
     term); the other nodes' unary terms are those of the default rule."""
     image, partial = _edge_scene(seed)
     unknown = np.isnan(partial)
     edges = np.random.default_rng(seed + 70).random(partial.shape) < 0.2
-    paper = refsynth.synthesize(image, partial, edges=edges, **BP_SMALL,
-                                readings={**BP_SMALL_READINGS, "edge_rule": "paper"})
+    deaf = refsynth.synthesize(image, partial, edges=edges, **BP_SMALL,
+                               readings={**BP_SMALL_READINGS, "edge_rule": "deaf"})
     silent = refsynth.synthesize(image, partial, edges=edges, **BP_SMALL,
                                  readings={**BP_SMALL_READINGS, "edge_rule": "silent"})
-    node_on_edge = edges[paper.order[:, 0], paper.order[:, 1]]
+    node_on_edge = edges[deaf.order[:, 0], deaf.order[:, 1]]
     assert node_on_edge.any() and (~node_on_edge).any()
-    bp = paper.bp
+    bp = deaf.bp
     np.testing.assert_array_equal(bp.beliefs[node_on_edge], bp.unary[node_on_edge])
     e = len(bp.pairs)
     touching = node_on_edge[bp.pairs[:, 0]] | node_on_edge[bp.pairs[:, 1]]
     np.testing.assert_array_equal(bp.messages[np.concatenate([touching, touching])], 0.0)
     np.testing.assert_array_equal(bp.unary[~node_on_edge], silent.bp.unary[~node_on_edge])
     with_fixed = node_on_edge & _neighbours_of(~unknown & ~edges, partial)[
-        paper.order[:, 0], paper.order[:, 1]]
+        deaf.order[:, 0], deaf.order[:, 1]]
     assert np.any(bp.unary[with_fixed] != silent.bp.unary[with_fixed])
     # the default rule: an edge node still listens
     assert e and np.any(silent.bp.beliefs[node_on_edge] != silent.bp.unary[node_on_edge])

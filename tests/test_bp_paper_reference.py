@@ -77,7 +77,7 @@ def paper_options(draw):
     return dict(iterations=draw(st.integers(0, MAX_ITERATIONS)),
                 radius=draw(st.sampled_from([1.0, 1.5, 2.5, 10.0])),
                 candidates=draw(st.integers(1, 8)), product=draw(st.sampled_from(["max", "sum"])),
-                edge_rule=draw(st.sampled_from(["paper", "silent"])), colour=draw(st.booleans()),
+                edge_rule=draw(st.sampled_from(["deaf", "silent"])), colour=draw(st.booleans()),
                 use_edges=draw(st.booleans()), range_weight=draw(st.sampled_from([1.0, 0.25, 4.0])),
                 sigma_i=draw(st.sampled_from([0.1, 0.03, 1.0])),
                 sigma_s=draw(st.sampled_from([0.2, 0.05, 2.0])),
@@ -179,14 +179,14 @@ def test_hand_built_radius_extremes_agree(radius):
 
 
 def test_paper_edge_rule_leaves_edge_nodes_their_own_evidence():
-    """``edge_rule="paper"``: a node on an edge hears nothing, its belief is log Φ alone;
+    """``edge_rule="deaf"``: a node on an edge hears nothing, its belief is log Φ alone;
     ``"silent"``: it still hears its neighbours, but sends nothing."""
     g = np.random.default_rng(3)
     image, partial = g.random((8, 9)), 1.0 + g.random((8, 9))
     partial[:, 2:7] = np.nan
     edges = np.zeros((8, 9), bool)
     edges[:, 4] = edges[:, 1] = True
-    paper = bp_reference(image, partial, edges=edges, iterations=5, edge_rule="paper")
+    paper = bp_reference(image, partial, edges=edges, iterations=5, edge_rule="deaf")
     silent = bp_reference(image, partial, edges=edges, iterations=5)
     on_edge = edges[paper.order[:, 0], paper.order[:, 1]]
     log_phi = -paper.distances / (2.0 * 0.1 * 0.1)

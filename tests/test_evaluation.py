@@ -149,11 +149,11 @@ def test_default_grid_covers_the_issue():
         for sampling in ("g24_80", "g10_20", "g5_25", "g3_28", "x63", "x78", "x85", "distance"):
             for method in methods:
                 assert (scene, "128x128", sampling, method) in keys
-    for sampling in ("x63", "x78", "x85"):
+    for sampling in ("x63", "x78", "x85", "distance"):
         for method in methods:
             assert ("motorcycle", "450x375", sampling, method) in keys
     assert not {c.method for c in cases} & set(OPTION_METHODS)
-    assert len(cases) == 486   # the README's Results: the default grid's 486 cases
+    assert len(cases) == 630   # the Results page: the default grid's 630 cases
     assert len(cases) == len(set(cases))
     # chosen by name, the options: bp-obs-np (= bp) over seeds, 0.8's BP once
     named = grid_cases([("synthetic", "16", "x20", "bp,bp-obs-np,bp-obs-colorization")],

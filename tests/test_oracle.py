@@ -61,7 +61,7 @@ def test_the_case_set_spans_every_kind_and_size():
     options = [c.options for c in runs]
     for key, value in [("ordering", "onion"), ("missing_range", "ignore"), ("product", "sum"),
                        ("confidence_update", "best"), ("colour", False),
-                       ("edge_rule", "paper"), ("use_isophotes", False)]:
+                       ("edge_rule", "deaf"), ("use_isophotes", False)]:
         assert any(o.get(key) == value for o in options), key
 
 

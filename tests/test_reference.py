@@ -73,7 +73,7 @@ def synthesis_case(draw, method: str):
                        proximity=draw(st.sampled_from([0.0, 1.0])),
                        sigma_i=draw(st.sampled_from([0.1, 0.5])),
                        product=draw(st.sampled_from(["max", "max", "sum"])),
-                       edge_rule=draw(st.sampled_from(["silent", "paper"])),
+                       edge_rule=draw(st.sampled_from(["silent", "deaf"])),
                        observation=draw(st.sampled_from(
                            ["colorization", "measured", "colorization-completed", "np"])),
                        training_radius=draw(st.sampled_from(["gap", "fixed"])),

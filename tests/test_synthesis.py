@@ -110,7 +110,7 @@ NP_ONLY = {"epsilon": 0.2, "use_isophotes": False, "ordering": "onion"}
 BP_ONLY = {"candidates": 4, "iterations": 3}
 NP_READINGS_CHANGED = {"confidence_update": "product", "edges_last": False}
 BP_READINGS_CHANGED = {"proximity": 1.0, "sigma_i": 0.3, "sigma_s": 0.1, "tolerance": 0.0,
-                       "product": "sum", "edge_rule": "paper", "offset_tolerance": 0.25,
+                       "product": "sum", "edge_rule": "deaf", "offset_tolerance": 0.25,
                        "observation": "measured", "training_radius": "fixed",
                        "compatibility": "overlap-centres", "proposals": "np"}
 #: Both methods' readings, changed from the default.

@@ -191,3 +191,13 @@ def test_bad_input_is_refused_naming_the_argument(call, error, words):
     partial = stripes()
     with pytest.raises(error, match=words):
         call(partial, np.full(partial.shape, 2.0))
+
+
+def test_the_benchmarks_ause_is_zero_for_the_true_errors_and_worst_reversed(benchmark_script):
+    bench = benchmark_script("bench_uncertainty")
+    errors = np.random.default_rng(0).exponential(size=500)
+    assert bench.ause(errors, errors) == 0.0
+    noise = np.random.default_rng(1).random(500)
+    assert 0.2 < bench.ause(noise, errors) < bench.ause(-errors, errors)
+    curve = bench.sparsification(np.argsort(-errors), errors)
+    assert curve[0] == pytest.approx(errors.mean()) and np.all(np.diff(curve) <= 1e-12)

@@ -4,7 +4,7 @@ Two forms::
 
     python -m refsynth model DENSE.npy --intensity IMAGE --camera cylindrical --focal 300 \\
         --out room.ply [--confidence CONF.npy] [--partial PARTIAL.npy] \\
-        [--max-jump FRACTION] [--ascii]
+        [--uncertainty UNC.npy [--max-uncertainty U]] [--max-jump FRACTION] [--ascii]
     python -m refsynth model DENSE.npy --camera-file REGISTERED/camera.json --out room.ply
     python -m refsynth model DISP.npy --camera pinhole --focal F --cx CX --cy CY \\
         [--disparity --baseline B --doffs D] --out model.ply
@@ -28,6 +28,12 @@ point is marked synthesized, and a note on stderr says so (a confidence of 1
 is no evidence: BP's belief reaches it at synthesized pixels). Outputs are
 checked before any work (writable, none of the inputs) and written all or
 nothing.
+
+``--uncertainty UNC.npy`` (``synth --uncertainty-out``: each pixel's expected absolute error
+in the range's unit, 0 where measured) gives every vertex an ``uncertainty`` property beside
+its ``confidence``; ``--max-uncertainty U`` drops the points whose uncertainty exceeds ``U``
+(in the range's unit; the range's own unit even with ``--disparity``) and the triangles that
+use them.
 
 The camera file
 ---------------
@@ -273,8 +279,15 @@ def _cmd_build(args) -> int:
         args.camera = args.camera or "cylindrical"
         if args.disparity and args.camera != "pinhole":
             raise ValueError("--disparity needs --camera pinhole (a rectified pair)")
-    inputs = (args.dense, args.intensity, args.confidence, args.partial, args.camera_file)
+    inputs = (args.dense, args.intensity, args.confidence, args.partial, args.camera_file,
+              args.uncertainty)
     out = check_output(args.out, "--out", (".ply",), inputs=inputs)
+    if args.max_uncertainty is not None:
+        if args.uncertainty is None:
+            raise ValueError("--max-uncertainty needs --uncertainty UNC.npy (synth "
+                             "--uncertainty-out)")
+        if not args.max_uncertainty >= 0:
+            raise ValueError(f"--max-uncertainty must be >= 0, got {args.max_uncertainty:g}")
     _check_png_scale(args, [args.dense, args.partial])
     dense = _single(_read_range(args.dense, "range", args), "range")
     if not args.disparity and (args.baseline is not None or args.doffs != 0.0):
@@ -292,6 +305,13 @@ def _cmd_build(args) -> int:
     confidence = _read(args.confidence, "confidence")
     if confidence is not None:
         confidence = _single(confidence, "confidence", dense.shape)
+    uncertainty = _read(args.uncertainty, "uncertainty")
+    if uncertainty is not None:
+        uncertainty = _single(uncertainty, "uncertainty", dense.shape)
+        there = np.isfinite(dense) & (dense > 0)
+        if not (np.isfinite(uncertainty[there]).all() and (uncertainty[there] >= 0).all()):
+            raise ValueError(f"uncertainty {args.uncertainty} must be finite and >= 0 where "
+                             "there is range")
     partial = _read_range(args.partial, "partial range", args)
     if partial is not None:
         partial = _single(partial, "partial range", dense.shape)
@@ -301,7 +321,8 @@ def _cmd_build(args) -> int:
     model = build_model(dense, camera, intensity=intensity, confidence=confidence,
                         measured=measured, max_jump=args.max_jump,
                         min_confidence=args.min_confidence,
-                        wrap=False if args.no_wrap else None)
+                        wrap=False if args.no_wrap else None, uncertainty=uncertainty,
+                        max_uncertainty=args.max_uncertainty)
     write_ply(make_parent(out), model, ascii=args.ascii,
               coordinates="float32" if args.float32 else "float64",
               comments=[f"camera {kind} focal {camera.focal}"])
@@ -389,9 +410,10 @@ def read_poses(path) -> list[np.ndarray]:
 
 
 def _cmd_merge(args) -> int:
-    if args.dense is not None or args.intensity or args.confidence or args.partial:
+    if (args.dense is not None or args.intensity or args.confidence or args.partial
+            or args.uncertainty or args.max_uncertainty is not None):
         raise ValueError("--merge takes PLY files only (no DENSE, --intensity, --confidence, "
-                         "--partial)")
+                         "--partial, --uncertainty, --max-uncertainty)")
     if not args.poses:
         raise ValueError("--merge needs --poses poses.json")
     if args.png_scale is not None or args.allow_nonpositive:
@@ -468,6 +490,10 @@ def add_model_parser(subparsers) -> argparse.ArgumentParser:
                         "mid-grey points)")
     inputs.add_argument("--confidence", metavar="NPY",
                         help="per-pixel confidence in [0, 1] (default: 1 everywhere)")
+    inputs.add_argument("--uncertainty", metavar="NPY",
+                        help="per-pixel expected absolute error in the range's unit (synth "
+                        "--uncertainty-out; 0 = measured): a per-vertex property of the PLY "
+                        "(default: none)")
     inputs.add_argument("--partial", metavar="FILE",
                         help="the partial (measured) range, NaN (0 in an image) where unknown, "
                         "read as DENSE is: marks each point measured or synthesized (default: "
@@ -486,6 +512,9 @@ def add_model_parser(subparsers) -> argparse.ArgumentParser:
                       "FRACTION x the nearer range per pixel (default 0.05; 'off' keeps all)")
     mesh.add_argument("--min-confidence", type=real, default=0.0,
                       help="drop points whose confidence is below this (default 0)")
+    mesh.add_argument("--max-uncertainty", type=real, default=None, metavar="U",
+                      help="drop points whose uncertainty (--uncertainty, in the range's "
+                      "unit) exceeds U, with their triangles (default: none dropped)")
     _add_camera_options(parser.add_argument_group(
         "camera (of DENSE: --camera-file, or --focal and the rest)"))
     _add_disparity_options(parser.add_argument_group(

@@ -3,7 +3,9 @@
 :func:`add_synth_parser` adds the subcommand to the main parser of
 :mod:`refsynth.cli.main`. It reads an intensity image and a partial range,
 optionally masks the range, runs :func:`refsynth.synthesize` (NP or BP) and
-writes the dense range, and optionally its confidence map and a figure.
+writes the dense range, and optionally its confidence map, its uncertainty map (the
+expected absolute error in the range's unit, :attr:`refsynth.SynthesisResult.uncertainty`)
+and a figure.
 
 Units: the dense range comes back in the partial range's unit. The range is
 read by :func:`refsynth.io.read_range`, as ``model`` and ``evaluate`` read
@@ -216,18 +218,26 @@ _DEFAULT_RADIUS = 10.0
 _DEFAULT_NEIGHBOURHOOD = 5
 
 
-def _check_options(args) -> tuple[Path, Path | None, Path | None]:
+#: What ``--uncertainty-out`` writes: float maps in the range's unit.
+UNCERTAINTY_SUFFIXES = (".npy", ".pfm")
+
+
+def _check_options(args) -> tuple[Path, Path | None, Path | None, Path | None]:
     """Everything that does not need the files: outputs, method options, --png-scale."""
     inputs = (args.image, args.range, args.mask)
     out = check_output(args.out, "--out", WRITE_SUFFIXES, inputs=inputs)
     confidence = (None if args.confidence is None
                   else check_output(args.confidence, "--confidence", WRITE_SUFFIXES,
                                     inputs=inputs))
+    uncertainty = (None if args.uncertainty_out is None
+                   else check_output(args.uncertainty_out, "--uncertainty-out",
+                                     UNCERTAINTY_SUFFIXES, inputs=inputs))
     figure = None
     if args.figure is not None:
         kinds = sorted(f".{kind}" for kind in FigureCanvasBase.get_supported_filetypes())
         figure = check_output(args.figure, "--figure", kinds, inputs=inputs)
-    check_distinct({"--out": out, "--confidence": confidence, "--figure": figure})
+    check_distinct({"--out": out, "--confidence": confidence,
+                    "--uncertainty-out": uncertainty, "--figure": figure})
     for option, (name, method) in _METHOD_OPTIONS.items():
         if getattr(args, name) is not None and args.method != method:
             raise ValueError(f"{option} applies to --method {method} only (got --method "
@@ -250,7 +260,7 @@ def _check_options(args) -> tuple[Path, Path | None, Path | None]:
             raise ValueError("--proposal-runs needs --proposals (np or np-completed)")
         if args.proposal_runs < 1:
             raise ValueError(f"--proposal-runs must be >= 1, got {args.proposal_runs}")
-    return out, confidence, figure
+    return out, confidence, uncertainty, figure
 
 
 def _check_limits(args, shape: tuple[int, int]) -> None:
@@ -300,7 +310,7 @@ def _check_png_out(path: Path, partial: np.ndarray, scale: float | None) -> None
 
 
 def _cmd_synth(args) -> int:
-    out, confidence_path, figure_path = _check_options(args)
+    out, confidence_path, uncertainty_path, figure_path = _check_options(args)
     intensity = _read(args.image, "image")
     partial = _read_range(args)
     _check_limits(args, partial.shape)
@@ -336,9 +346,13 @@ def _cmd_synth(args) -> int:
         else:
             write_array(confidence_path, result.confidence)
             print(f"wrote {confidence_path}: confidence in [0, 1]")
+    if uncertainty_path is not None:
+        write_array(make_parent(uncertainty_path), result.uncertainty)
+        print(f"wrote {uncertainty_path}: expected absolute error in {unit} (0 = measured)")
     if figure_path is not None:
         fig = result_figure(intensity, result.edges, partial, result.range, units=unit,
-                            title=f"{Path(args.image).name}: {args.method.upper()}")
+                            title=f"{Path(args.image).name}: {args.method.upper()}",
+                            uncertainty=result.uncertainty)
         save_figure(fig, make_parent(figure_path), dpi=110)
         print(f"wrote {figure_path}")
     return 0
@@ -381,6 +395,9 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
     outputs.add_argument("--confidence", metavar="FILE",
                          help="also write the confidence map (1 = measured): .npy, .pfm or "
                          ".png (16-bit, confidence x 65535)")
+    outputs.add_argument("--uncertainty-out", metavar="FILE",
+                         help="also write the uncertainty map, each pixel's expected absolute "
+                         "error in the range's unit (0 = measured): .npy or .pfm")
     outputs.add_argument("--figure", metavar="FILE",
                          help="also write a figure (.png, .pdf, .svg ...; default none)")
     outputs.add_argument("--png-scale", type=real, metavar="S",

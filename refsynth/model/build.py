@@ -53,6 +53,10 @@ class Model:
         The ``(row, col)`` each vertex came from (not written to PLY).
     source : ndarray of shape (N,), int64, or None
         For a merged model, which input model each vertex came from.
+    uncertainty : ndarray of shape (N,), float64, or None
+        Each vertex's expected absolute range error in the range's unit
+        (:attr:`refsynth.SynthesisResult.uncertainty`; 0 where measured), or None when
+        the model was built without one.
 
     Examples
     --------
@@ -69,11 +73,14 @@ class Model:
     faces: np.ndarray
     pixels: np.ndarray | None = None
     source: np.ndarray | None = None
+    uncertainty: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.vertices)
         shapes = {"vertices": (n, 3), "colours": (n, 3), "confidence": (n,),
                   "synthesized": (n,)}
+        if self.uncertainty is not None:
+            shapes["uncertainty"] = (n,)
         for name, shape in shapes.items():
             if np.shape(getattr(self, name)) != shape:
                 raise ValueError(
@@ -107,6 +114,7 @@ class Model:
             faces=new_index[faces].astype(np.int64),
             pixels=None if self.pixels is None else self.pixels[keep],
             source=None if self.source is None else self.source[keep],
+            uncertainty=None if self.uncertainty is None else self.uncertainty[keep],
         )
 
 
@@ -158,7 +166,8 @@ def _check_shape(name: str, array: np.ndarray, shape) -> np.ndarray:
 
 def build_model(range_image, camera, *, intensity=None, confidence=None, measured=None,
                 max_jump: float | None = DEFAULT_MAX_JUMP, min_confidence: float = 0.0,
-                wrap: bool | None = None) -> Model:
+                wrap: bool | None = None, uncertainty=None,
+                max_uncertainty: float | None = None) -> Model:
     """One scan position's model: coloured points and a mesh that does not bridge depth jumps.
 
     Parameters
@@ -192,6 +201,13 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
     wrap : bool or None, default None
         Join the last column to the first; None: when a cylindrical camera's
         columns cover 360°. True requires that they do.
+    uncertainty : ndarray of shape (H, W), optional
+        Each pixel's expected absolute error in the range's unit
+        (``SynthesisResult.uncertainty``), finite and >= 0 where there is range;
+        carried by the vertices (``Model.uncertainty``). Default: none.
+    max_uncertainty : float, optional
+        Vertices whose uncertainty exceeds this (in the range's unit) are dropped, with
+        their triangles; needs ``uncertainty``. Default: none dropped.
 
     Returns
     -------
@@ -242,6 +258,9 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
     min_confidence = check_real("min_confidence", min_confidence, minimum=0.0, maximum=1.0)
     if min_confidence > 0:
         valid &= conf >= min_confidence
+    unc = _check_uncertainty(uncertainty, max_uncertainty, shape, valid)
+    if max_uncertainty is not None:
+        valid &= unc <= max_uncertainty
     wrap = _check_wrap(wrap, camera, shape[1])
     faces = grid_faces(r, valid=valid, max_jump=max_jump, wrap=wrap)
     flat = np.flatnonzero(valid)
@@ -256,7 +275,26 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
         synthesized=~measured.ravel()[flat],
         faces=vertex_of[faces],
         pixels=np.stack([rows, cols], axis=1),
+        uncertainty=None if unc is None else unc.ravel()[flat],
     )
+
+
+def _check_uncertainty(uncertainty, max_uncertainty, shape, valid) -> np.ndarray | None:
+    """The uncertainty map as float64 (or None), checked with ``max_uncertainty``."""
+    if max_uncertainty is not None:
+        max_uncertainty = check_real("max_uncertainty", max_uncertainty, minimum=0.0)
+        if uncertainty is None:
+            raise ValueError("The parameter `max_uncertainty` needs `uncertainty` (the map "
+                             "of SynthesisResult.uncertainty)")
+    if uncertainty is None:
+        return None
+    unc = check_real_array("uncertainty", np.asarray(uncertainty))
+    unc = _check_shape("uncertainty", unc, shape).astype(np.float64)
+    values = unc[valid]
+    if not (np.all(np.isfinite(values)) and values.min(initial=0) >= 0):
+        raise ValueError("The parameter `uncertainty` must be finite and >= 0 where there is "
+                         "range")
+    return unc
 
 
 def _check_wrap(wrap, camera, width: int) -> bool:

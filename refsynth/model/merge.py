@@ -163,7 +163,7 @@ def transform_model(model: Model, pose) -> Model:
     return Model(vertices=apply_transform(pose_matrix(pose), model.vertices),
                  colours=model.colours, confidence=model.confidence,
                  synthesized=model.synthesized, faces=model.faces, pixels=model.pixels,
-                 source=model.source)
+                 source=model.source, uncertainty=model.uncertainty)
 
 
 def point_spacing(points, samples: int = 2000) -> float:
@@ -254,12 +254,14 @@ def merge_models(models, poses, *, voxel: float | None = None) -> Model:
         keep, faces = _fuse(world, matrices, vertices, source, faces, voxel)
     pixels = (np.concatenate([m.pixels for m in world])
               if all(m.pixels is not None for m in world) else None)
+    uncertainty = (np.concatenate([m.uncertainty for m in world])
+                   if all(m.uncertainty is not None for m in world) else None)
     merged = Model(
         vertices=vertices,
         colours=np.concatenate([m.colours for m in world]),
         confidence=np.concatenate([m.confidence for m in world]),
         synthesized=np.concatenate([m.synthesized for m in world]),
-        faces=faces.astype(np.int64), pixels=pixels, source=source,
+        faces=faces.astype(np.int64), pixels=pixels, source=source, uncertainty=uncertainty,
     )
     return merged.subset(keep)
 

@@ -15,6 +15,7 @@ the data, ASCII or binary. refsynth writes::
     property uchar green
     property uchar blue
     property float confidence
+    property float uncertainty             (when the model carries one)
     property uchar synthesized
     element face M
     property list uchar int vertex_indices
@@ -24,6 +25,9 @@ the data, ASCII or binary. refsynth writes::
   is exactly the model written; ``coordinates="float32"`` halves them.
 - ``confidence`` is a ``float`` (float32): it lies in [0, 1] and seven
   digits are plenty; read back, it is the float32 rounding of the model's.
+- ``uncertainty`` is a ``float`` (float32): each vertex's expected absolute range error in
+  the range's unit (:attr:`refsynth.SynthesisResult.uncertainty`, 0 where measured),
+  written when the model carries one (``Model.uncertainty``).
 - ``synthesized`` is 0 (measured) or 1 (synthesized).
 - Faces are triangles, as ``uchar`` count 3 and three ``int`` (int32) indices.
 - ASCII writes doubles with 17 significant digits and floats with 9, which
@@ -70,10 +74,11 @@ PLY_TYPES = {
 _FORMATS = {"ascii": None, "binary_little_endian": "<", "binary_big_endian": ">"}
 
 
-def _vertex_dtype(coordinates: str) -> np.dtype:
+def _vertex_dtype(coordinates: str, uncertainty: bool = False) -> np.dtype:
     kind = "<f8" if coordinates == "float64" else "<f4"
+    extra = [("uncertainty", "<f4")] if uncertainty else []
     return np.dtype([("x", kind), ("y", kind), ("z", kind), ("red", "u1"), ("green", "u1"),
-                     ("blue", "u1"), ("confidence", "<f4"), ("synthesized", "u1")])
+                     ("blue", "u1"), ("confidence", "<f4"), *extra, ("synthesized", "u1")])
 
 
 def _header(model: Model, ascii: bool, coordinates: str, comments) -> bytes:
@@ -89,7 +94,9 @@ def _header(model: Model, ascii: bool, coordinates: str, comments) -> bytes:
     lines += [f"element vertex {model.n_vertices}",
               *(f"property {kind} {axis}" for axis in "xyz"),
               "property uchar red", "property uchar green", "property uchar blue",
-              "property float confidence", "property uchar synthesized",
+              "property float confidence",
+              *(["property float uncertainty"] if model.uncertainty is not None else []),
+              "property uchar synthesized",
               f"element face {model.n_faces}", "property list uchar int vertex_indices",
               "end_header"]
     return ("\n".join(lines) + "\n").encode("ascii")
@@ -145,12 +152,18 @@ def write_ply(path, model: Model, *, ascii: bool = False, coordinates: str = "fl
     if model.n_faces and model.n_vertices > np.iinfo(np.int32).max:
         raise ValueError("The model has too many vertices for int32 face indices")
     path = Path(path)
-    vertices = np.empty(model.n_vertices, dtype=_vertex_dtype(coordinates))
+    if model.uncertainty is not None and not (np.all(np.isfinite(model.uncertainty))
+                                              and np.all(model.uncertainty >= 0)):
+        raise ValueError("The model's `uncertainty` must be finite and >= 0 to be written")
+    vertices = np.empty(model.n_vertices,
+                        dtype=_vertex_dtype(coordinates, model.uncertainty is not None))
     for axis, name in enumerate("xyz"):
         vertices[name] = model.vertices[:, axis]
     for channel, name in enumerate(("red", "green", "blue")):
         vertices[name] = model.colours[:, channel]
     vertices["confidence"] = model.confidence
+    if model.uncertainty is not None:
+        vertices["uncertainty"] = model.uncertainty
     vertices["synthesized"] = model.synthesized
     faces = np.empty(model.n_faces, dtype=[("n", "u1"), ("v", "<i4", (3,))])
     faces["n"] = 3
@@ -172,7 +185,8 @@ def _write_ascii(stream, vertices: np.ndarray, faces: np.ndarray, coordinates: s
     real = "%.17g" if coordinates == "float64" else "%.9g"
     names = vertices.dtype.names
     table = np.column_stack([vertices[name].astype(np.float64) for name in names])
-    _write_rows(stream, table, " ".join([real] * 3 + ["%d"] * 3 + ["%.9g", "%d"]))
+    floats = ["%.9g"] * (len(names) - 7)  # confidence (and uncertainty)
+    _write_rows(stream, table, " ".join([real] * 3 + ["%d"] * 3 + floats + ["%d"]))
     _write_rows(stream, np.column_stack([faces["n"], faces["v"]]).astype(np.int64),
                 "%d %d %d %d")
 
@@ -348,7 +362,8 @@ def read_ply(path) -> Model:
     Reads ASCII and binary (either byte order) files with a ``vertex``
     element of scalar properties, at least ``x``, ``y``, ``z``, and
     optionally ``red``, ``green``, ``blue`` (else grey 128), ``confidence``
-    (else 1) and ``synthesized`` (else 0), and an optional ``face`` element of
+    (else 1), ``uncertainty`` (else none) and ``synthesized`` (else 0), and an optional
+    ``face`` element of
     triangles. Other properties and elements are refused or ignored as
     stated in the messages.
 
@@ -404,6 +419,12 @@ def read_ply(path) -> Model:
     if not (np.isfinite(confidence).all() and (confidence >= 0).all()
             and (confidence <= 1).all()):
         raise ValueError(f"Cannot read '{path}': the vertices' confidence must lie in [0, 1]")
+    uncertainty = None
+    if "uncertainty" in names:
+        uncertainty = vertex["uncertainty"].astype(np.float64)
+        if not (np.isfinite(uncertainty).all() and (uncertainty >= 0).all()):
+            raise ValueError(f"Cannot read '{path}': the vertices' uncertainty must be finite "
+                             "and >= 0")
     colours = np.full((n, 3), 128, dtype=np.uint8)
     for channel, name in enumerate(("red", "green", "blue")):
         if name in names:
@@ -419,4 +440,5 @@ def read_ply(path) -> Model:
         synthesized=(vertex["synthesized"] != 0 if "synthesized" in names
                      else np.zeros(n, dtype=bool)),
         faces=faces.reshape(-1, 3),
+        uncertainty=uncertainty,
     )

@@ -163,7 +163,7 @@ def _run_cases(large: bool) -> list[Case]:
     plans = [
         ("noise", 1, dict(), dict(), 0.5),
         ("levels", 3, dict(epsilon=0.5, use_isophotes=False),
-         dict(edge_rule="paper"), 0.4),
+         dict(edge_rule="deaf"), 0.4),
         ("ramp", 1, dict(ordering="onion", missing_range="ignore"),
          dict(product="sum", proximity=1.0), 0.3),
     ]

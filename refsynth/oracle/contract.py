@@ -171,7 +171,7 @@ horizontal ones in raster order, then vertical ones; message row ``e`` goes
 6. **The unary term**: ``log Φ``, then each measured neighbour's ``log Ψ`` (the label's
    moved patch against the neighbour's unmoved one) added one at a time, right, left,
    below, above; a neighbour on an edge adds nothing (with ``use_edges``), and with
-   ``edge_rule="paper"`` a node on an edge receives none.
+   ``edge_rule="deaf"`` a node on an edge receives none.
 7. **Eq. 9, synchronous sweeps.** The beliefs of the previous sweep's messages,
    ``b_i = unary_i + ((((0 + M_left) + M_up) + M_right) + M_down)`` (the absent ones left
    out). The message ``i → j`` is **the sender's belief less j's message**,
@@ -179,7 +179,7 @@ horizontal ones in raster order, then vertical ones; message row ``e`` goes
    max-product ``m(x_j) = max_l t``, ``m − max m``; sum-product ``top = max_l t``,
    ``m = log(Σ_l exp(t − top)) + top``, then ``m − (log(Σ exp(m − max m)) + max m)``
    (C7, sums left to right). A node on an edge sends nothing (its rows stay 0); with
-   ``edge_rule="paper"`` it receives nothing either. ``change = max |new − old|`` (0 with
+   ``edge_rule="deaf"`` it receives nothing either. ``change = max |new − old|`` (0 with
    no messages); the run stops after the sweep whose change is ``≤ tolerance``, or after
    ``iterations`` sweeps.
 8. **Eq. 8 and the result.** The labels' centres: the measured value and ``q``; with the

@@ -152,7 +152,8 @@ def run_outputs(kind: str, inputs: dict, options: dict, seed, *, reference=None)
     options = dict(options)
     gaps = options.pop("gaps", "copy")
     prepared = prepared_arrays(inputs, options)
-    run = (_np_run if kind == "np" else _bp_run)(inputs, options, seed, reference)
+    run = (_np_run if kind == "np" else _bp_run)(inputs, dict(options, gaps="copy"), seed,
+                                                 reference)
     if gaps == "gate":  # the reading after the fill: the trace is the fill's
         edges = inputs["edges"] & bool(options["use_edges"])
         run["range"] = gap_gate(run["range"], inputs["partial_range"], edges=edges)

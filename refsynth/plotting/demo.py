@@ -137,11 +137,13 @@ def run_demo(out: Path, size: int = 128, seed: int = 0, *,
     sampling = next(iter(samplings))
     res = full[(sampling, "NP")]
     fig = result_figure(scene.intensity, res.edges, partials[sampling], res.range, scene.range,
-                        units=scene.units, title=f"{scene.name}: NP, {sampling}")
+                        units=scene.units, title=f"{scene.name}: NP, {sampling}",
+                        uncertainty=res.uncertainty)
     save_figure(fig, out / DEMO_FIGURES[0], dpi=110)
     fig = methods_figure(
         scene.range, partials[sampling],
-        {m: (full[(sampling, m)].range, full[(sampling, m)].confidence) for m in ("NP", "BP")},
+        {m: (full[(sampling, m)].range, full[(sampling, m)].confidence,
+             full[(sampling, m)].uncertainty) for m in ("NP", "BP")},
         units=scene.units, title=f"{scene.name}, {sampling}: NP and BP",
     )
     save_figure(fig, out / DEMO_FIGURES[1], dpi=110)

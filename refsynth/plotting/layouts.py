@@ -341,6 +341,7 @@ def result_figure(
     *,
     units: str = "",
     title: str | None = None,
+    uncertainty: np.ndarray | None = None,
 ) -> Figure:
     """The paper's layout: intensity, edges, partial range, result, ground truth, residual.
 
@@ -360,11 +361,14 @@ def result_figure(
         Range unit: the result's colour bar and the residual's MAR (Eq. 13).
     title : str, optional
         Above the panels.
+    uncertainty : ndarray of shape (H, W), optional
+        The expected absolute error (:attr:`refsynth.SynthesisResult.uncertainty`): one
+        more panel, beside the residual, on the residual's colour scale.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Range panels share one colour scale; the residual has its own.
+        Range panels share one colour scale; the residual (and the uncertainty) another.
 
     Examples
     --------
@@ -375,15 +379,17 @@ def result_figure(
     >>> print("; ".join(ax.get_title() for ax in figure.axes[2:6]))
     partial range (38 % unknown); synthesized range; ground truth; |residual|, MAR 0.283 m
     """
-    panels = 6 if truth is not None else 4
+    panels = (6 if truth is not None else 4) + (uncertainty is not None)
     aspect = partial_range.shape[1] / partial_range.shape[0]
     if aspect > 2:  # a panorama: one panel per row
         fig, axes = panel_grid(panels, 1, (9.0, panels * (9.0 / aspect + 0.75)))
         axes = axes.ravel()
     else:
-        cols = 3 if panels == 6 else 2
+        cols = -(-panels // 2)
         fig, axes = panel_grid(2, cols, (3.4 * cols, 3.2 * 2))
         axes = axes.ravel()
+        for spare in axes[panels:]:
+            spare.axis("off")
     scale = range_scale(partial_range, result, truth)
     panel(axes[0], np.clip(intensity, 0, 1) if np.ndim(intensity) == 3 else intensity, "intensity")
     panel(axes[1], edges, "Canny edges (σ = 0.8)")
@@ -391,14 +397,27 @@ def result_figure(
     panel(axes[2], partial_range, f"partial range ({100 * (1 - known.mean()):.0f} % unknown)",
           **scale)
     panel(axes[3], result, "synthesized range", colorbar=unit_label("range", units), **scale)
+    top = None
     if truth is not None:
         panel(axes[4], truth, "ground truth", **scale)
         residual = np.where(known | ~np.isfinite(truth), np.nan, np.abs(result - truth))
         mar = np.nanmean(residual)
+        top = error_top(residual)
         panel(axes[5], residual, f"|residual|, MAR {mar:.3g} {units}".strip(), cmap=ERROR_CMAP,
-              vmin=0, vmax=error_top(residual), measured=known,
-              colorbar=unit_label("|residual|", units))
+              vmin=0, vmax=top, measured=known, colorbar=unit_label("|residual|", units))
+    if uncertainty is not None:
+        _uncertainty_panel(axes[panels - 1], uncertainty, known, units, top)
     return finish_figure(fig, title)
+
+
+def _uncertainty_panel(ax, uncertainty: np.ndarray, known: np.ndarray, units: str,
+                       top: float | None) -> None:
+    """The expected |error| of the synthesized pixels, on the residual's scale ``top``."""
+    shown = np.where(known, np.nan, uncertainty)
+    mean = float(np.nanmean(shown)) if (~known).any() else 0.0
+    panel(ax, shown, f"uncertainty, mean {mean:.3g} {units}".strip(), cmap=ERROR_CMAP, vmin=0,
+          vmax=error_top(shown) if top is None else top, measured=known,
+          colorbar=unit_label("expected |error|", units))
 
 
 def comparison_figure(
@@ -483,8 +502,9 @@ def methods_figure(
         there is none: not scored).
     partial_range : ndarray of shape (H, W), NaN where unknown
         The measured range given to every method.
-    results : mapping of method name to (range, confidence)
-        Each two ndarrays of shape (H, W): the synthesized range and a confidence in [0, 1].
+    results : mapping of method name to (range, confidence) or (range, confidence, uncertainty)
+        Each ndarrays of shape (H, W): the synthesized range, a confidence in [0, 1] and,
+        optionally, the expected absolute error (a fourth column, on the residuals' scale).
     units : str
         Range unit, after each residual's MAR (Eq. 13).
     title : str, optional
@@ -504,13 +524,15 @@ def methods_figure(
     6
     """
     rows = len(results)
-    fig, axes = panel_grid(rows, 3, (3.5 * 3, 3.1 * rows))
+    cols = 4 if any(len(value) > 2 for value in results.values()) else 3
+    fig, axes = panel_grid(rows, cols, (3.5 * cols, 3.1 * rows))
     scale = range_scale(truth, partial_range)
     known = np.isfinite(partial_range)
     unknown = ~known & np.isfinite(truth)
-    residuals = {m: np.where(unknown, np.abs(r - truth), np.nan) for m, (r, _) in results.items()}
+    residuals = {m: np.where(unknown, np.abs(value[0] - truth), np.nan)
+                 for m, value in results.items()}
     top = error_top(*residuals.values())
-    for row, (method, (estimate, confidence)) in enumerate(results.items()):
+    for row, (method, (estimate, confidence, *rest)) in enumerate(results.items()):
         panel(axes[row, 0], estimate, f"{method}: synthesized range",
               colorbar=unit_label("range", units), **scale)
         mar = float(np.nanmean(residuals[method]))
@@ -519,4 +541,8 @@ def methods_figure(
               colorbar=unit_label("|residual|", units))
         panel(axes[row, 2], np.where(known, np.nan, confidence), "confidence", cmap="viridis",
               vmin=0, vmax=1, measured=known, colorbar="confidence (0 to 1)")
+        if rest:
+            _uncertainty_panel(axes[row, 3], rest[0], known, units, top)
+        elif cols == 4:
+            axes[row, 3].axis("off")
     return finish_figure(fig, title)

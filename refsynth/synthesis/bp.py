@@ -39,7 +39,7 @@ The algorithm of Fig. 6, step by step:
    intensity edge send no messages, and evidence does not flow across edges.
    refsynth's default reading, ``edge_rule="silent"``: a node on an edge sends
    nothing, measured nodes included (an unknown one no message, a measured one
-   no Ψ term on its unknown neighbours), but still listens. ``"paper"``: no
+   no Ψ term on its unknown neighbours), but still listens. ``"deaf"``: no
    message crosses an edge at all — a node on an edge neither sends nor
    receives (no message, no term of a measured neighbour), so its belief is
    its own evidence Φ alone.
@@ -162,7 +162,7 @@ _NODE_BLOCK = 1 << 16  # nodes per block of step 6
 _SHIFT_BLOCK = 1 << 12
 
 #: The readings of the edge-constraint rule (see above).
-EDGE_RULES = ("silent", "paper")
+EDGE_RULES = ("silent", "deaf")
 
 #: Candidates whose centre ranges differ by at most this fraction of the known
 #: range's span count as one range hypothesis in the confidence map.
@@ -333,7 +333,7 @@ def bp_fill(
     channels : {"sum", "mean"}, default "sum"
         Eq. 2's intensity term: the sum over the colour channels (the
         paper's) or their mean.
-    edge_rule : {"silent", "paper"}, default "silent"
+    edge_rule : {"silent", "deaf"}, default "silent"
         The reading of the edge-constraint rule (see above).
     progress : callable, optional
         ``progress(done, 1000)``: per mille of the work, each stage — the
@@ -453,7 +453,7 @@ def bp_fill(
     flat = np.flatnonzero(unknown)
     rows, cols = np.divmod(flat, W)
     on_edge = (np.asarray(edges, dtype=bool) & use_edges).ravel()
-    deaf = on_edge[flat] if edge_rule == "paper" else np.zeros(flat.size, dtype=bool)
+    deaf = on_edge[flat] if edge_rule == "deaf" else np.zeros(flat.size, dtype=bool)
     stages = StagedProgress(progress, [share for _, share in BP_STAGES])
 
     # step 2: candidates, and step 3: log Phi
@@ -547,7 +547,7 @@ def bp_fill(
     # step 5: messages; the edge-constraint rule silences (and deafens) edge nodes
     belief, done, messages = belief_propagation(
         unary, pairs, compatibilities, silent=on_edge[flat] if use_edges else None,
-        deaf=deaf if edge_rule == "paper" else None, iterations=iterations,
+        deaf=deaf if edge_rule == "deaf" else None, iterations=iterations,
         tolerance=tolerance, product=product, damping=damping, return_messages=True,
         progress=stages.stage(3),
     )

@@ -134,7 +134,8 @@ def row_gaps(partial_range: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
 def row_interpolation(partial_range: np.ndarray) -> np.ndarray:
     """The linear fill along each row between the measured pixels bounding each gap.
 
-    Within a gap ``R(c) = R(l) + (c − l)(R(r) − R(l)) / (r − l)``, ``l`` and ``r`` the
+    Within a gap ``R(c) = R(l) + t · (R(r) − R(l))`` with ``t = (c − l) / (r − l)`` (in that
+    order of float64 operations: a port must match it bit for bit), ``l`` and ``r`` the
     bounding columns (:func:`row_gaps`); a gap open at the border takes its one bounding
     value; a row with no measured pixel is filled the same way along its column from the
     rows that have one (and so on to the nearest filled row). Measured pixels are returned
@@ -250,7 +251,7 @@ def gap_gate(estimate: np.ndarray, partial_range: np.ndarray, *, jump: float = D
     - a *smooth* gap: :func:`row_interpolation`'s value, except in a gap wider than
       ``max_gap`` that holds an intensity edge (a pixel of ``edges`` strictly between the
       bounds in its row), where ``estimate`` is averaged with the line (``wide_gaps="mean"``)
-      or kept as it is (``"estimate"``).
+      or kept as it is (``"estimate"``), ``0.5 · (estimate + line)``.
 
     A pixel with a bound on one side only (a gap open at the border) takes that bound's
     value (``open_gaps="interpolation"``) or keeps the estimate; a hole of a scanned column

@@ -71,7 +71,7 @@ field                   ``paper``      ``refsynth``   the paper's text; the evid
 ``edge_rule``           ``silent``     ``silent``     §3.2.3: a node sends once it has heard from
                                                       all its other neighbours "except those edge-
                                                       labeled nodes" — edge nodes send nothing
-                                                      (``paper``: they receive nothing either,
+                                                      (``deaf``: they receive nothing either,
                                                       EQUATIONS.md's reading; the two tied).
 ``offset_tolerance``    None           None           BP's agreement for the shifted labels (no
                                                       paper text: ``range_copy="offset"`` only);

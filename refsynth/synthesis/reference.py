@@ -71,6 +71,7 @@ from refsynth.numeric import (
     window_weights,
 )
 from refsynth.synthesis.completion import portable_colorization
+from refsynth.synthesis.gap_readings import gap_gate
 from refsynth.synthesis.similarity import eq2_distance
 
 __all__ = [
@@ -227,7 +228,7 @@ def _onion_schedule(known, rng):
 def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.0, epsilon=0.1,
                  use_edges=True, use_isophotes=True, ordering="priority", range_weight=1.0,
                  missing_range="mean", confidence_update="best", colour=True,
-                 edges_last=True, channels="sum", range_copy="offset",
+                 edges_last=True, channels="sum", range_copy="offset", gaps="gate",
                  trace=False) -> NPReference:
     r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
 
@@ -270,6 +271,9 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
         With ``use_edges``: edge voxels form a second tier (True) or only count in ``E``.
     range_copy : {"value", "offset"}
         The drawn centre's value, or that value shifted (above).
+    gaps : {"copy", "gate"}
+        After the fill (the range only, not the trace's steps): as filled, or
+        :func:`~refsynth.synthesis.gap_readings.gap_gate` with the edges used (a departure).
     trace : bool
         Also record every step (pixel, priority, candidates, distances, Γ', draw, source).
 
@@ -343,7 +347,16 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
             steps.append(dict(pixel=p, terms=terms, candidates=candidates, distances=distances,
                               best=best, members=members, draw=float(draws[step]),
                               source=source, confidence=conf[r, c]))
+    out = _after_fill(out, range_values, edges, use_edges, gaps)
     return NPReference(out, conf, np.array(order, dtype=np.int64).reshape(-1, 2), steps)
+
+
+def _after_fill(out, range_values, edges, use_edges, gaps):
+    """The reading ``gaps`` after the fill (both methods): as filled, or gated with the
+    edges the fill used (:func:`refsynth.synthesis.gap_readings.gap_gate`)."""
+    if gaps == "copy":
+        return out
+    return gap_gate(out, range_values, edges=np.asarray(edges, bool) & bool(use_edges))
 
 
 # -- BP: the algorithm of Fig. 6 (Eqs. 6–9) --------------------------------------------------
@@ -493,7 +506,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=0.0, colour=True, edge_rule="silent", channels="sum",
                  observation="np", training_radius="gap", range_copy="offset",
-                 offset_tolerance=None, rng=None, trace=False) -> BPReference:
+                 offset_tolerance=None, gaps="gate", rng=None, trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
@@ -518,7 +531,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
        maximum (sum-product: log-sum-exp); stop when no message moved by more than
        ``tolerance``. The edge rule (with ``use_edges``): a node on an edge, measured or
        not, sends nothing — an unknown one no message, a measured one no term in step 4
-       (``edge_rule="silent"``); with ``"paper"`` it also receives nothing (no message and
+       (``edge_rule="silent"``); with ``"deaf"`` it also receives nothing (no message and
        no fixed-neighbour term), so that no message crosses an edge.
     6. Eq. 8, ``x_i = argmax b_i`` (the first maximum); its centre range is the result, its
        belief pooled over labels proposing the same range (within 1 % of the span) the
@@ -535,7 +548,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
 
     Parameters are :func:`refsynth.synthesize`'s (``k`` is ``candidates``); ``image``,
     ``range_values``, ``edges`` and ``colour`` as in :func:`np_reference`; ``edge_rule`` is
-    ``"silent"`` or ``"paper"`` (above); ``rng`` (a ``numpy.random.Generator``, used with
+    ``"silent"`` or ``"deaf"`` (above); ``rng`` (a ``numpy.random.Generator``, used with
     ``observation="np"`` only) as in :func:`np_reference`. Returns :class:`BPReference`.
     """
     H, W = range_values.shape
@@ -548,14 +561,14 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
         np_range = np_reference(image, range_values, edges, rng, neighbourhood=neighbourhood,
                                 radius=radius, use_edges=use_edges, range_weight=range_weight,
                                 missing_range=missing_range, colour=colour,
-                                channels=channels).range
+                                channels=channels, gaps="copy").range
     observed = _observed_frame(frame, image, range_values, observation, colour, np_range)
     agreement = offset_tolerance
     if agreement is None:
         agreement = 2.0**-3 if observation == "np" else 2.0**-7
     training = observed if observation == "colorization-completed" else frame
     on_edge = np.asarray(edges, dtype=bool) & use_edges
-    deaf = edge_rule == "paper"
+    deaf = edge_rule == "deaf"
     known = np.isfinite(range_values)
     pad = max(int(math.ceil(radius)), h + 1)
     nodes = [(r, c) for r in range(H) for c in range(W) if not known[r, c]]
@@ -665,6 +678,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                 pooled += weights[label] / z
         confidence[r, c] = min(pooled, 1.0)
     order = np.array(nodes, dtype=np.int64).reshape(-1, 2)
+    out = _after_fill(out, range_values, edges, use_edges, gaps)
     return BPReference(out, confidence, order, labels, cands, values, unary,
                        np.array([p[:2] for p in pairs], np.int64).reshape(-1, 2), log_psi,
                        messages, belief, done, sweeps,

@@ -69,7 +69,7 @@ __all__ = ["BeliefReference", "Patches", "bp_reference", "patches", "eq2",
 
 VALUE_TOLERANCE = 0.01  #: centres this close (a fraction of the span) are one hypothesis
 #: The edge-constraint rule's readings (:func:`bp_reference`) and Eq. 9's products.
-EDGE_RULES = ("paper", "silent")
+EDGE_RULES = ("deaf", "silent")
 PRODUCTS = ("max", "sum")
 
 
@@ -304,9 +304,9 @@ def bp_reference(intensity, partial_range, *, neighbourhood: int = 5, radius: fl
     edges, canny_sigma, use_edges : ndarray of bool (H, W) or None, float, bool
         The intensity edges (None: Canny of σ = ``canny_sigma`` on the grey level brought
         to [0, 1], as :func:`refsynth.synthesize`); ``use_edges=False`` ignores them.
-    edge_rule : {"silent", "paper"}, default "silent"
+    edge_rule : {"silent", "deaf"}, default "silent"
         ``"silent"`` (§3.2.3's rule word for word): a node on an edge sends nothing but
-        still receives. ``"paper"``: a node on an edge neither sends nor receives. Measured
+        still receives. ``"deaf"``: a node on an edge neither sends nor receives. Measured
         neighbours' terms join the unary term in the order right, left, below, above.
 
     Returns
@@ -341,7 +341,7 @@ def bp_reference(intensity, partial_range, *, neighbourhood: int = 5, radius: fl
     node_of = {p: i for i, p in enumerate(nodes)}
     N = len(nodes)
     cands, dists, unary = np.zeros((N, k, 2), np.int64), np.zeros((N, k)), np.zeros((N, k))
-    deaf = edge_rule == "paper"
+    deaf = edge_rule == "deaf"
     for i, (r, c) in enumerate(nodes):
         cand, dist = training_candidates(frame, known, (r, c), k, radius, range_weight)
         cands[i], dists[i] = cand, dist                                   # step 2

@@ -91,6 +91,7 @@ from refsynth.numeric import (
     quantise_range,
     window_weights,
 )
+from refsynth.synthesis.gap_readings import gap_gate
 from refsynth.synthesis.neighbourhood import disc_offsets
 from refsynth.synthesis.similarity import eq2_distance
 
@@ -235,7 +236,7 @@ def np_reference(image: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
                  ordering: str = "priority", range_weight: float = 1.0,
                  missing_range: str = "ignore", confidence_update: str = "best",
                  colour: bool = True, edges_last: bool = True, channels: str = "sum",
-                 range_copy: str = "value") -> NPResult:
+                 range_copy: str = "value", gaps: str = "copy") -> NPResult:
     """NP range synthesis, one voxel at a time (§3.2.2, §3.2.4; the steps above).
 
     Parameters
@@ -254,6 +255,9 @@ def np_reference(image: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
     range_weight, missing_range, confidence_update, colour, edges_last, channels, range_copy
         The readings (:class:`refsynth.synthesis.readings.Readings`); the defaults are the
         paper's.
+    gaps : {"copy", "gate"}
+        The reading after the fill: as filled (the paper's), or refsynth's
+        :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``edges`` (when ``use_edges``).
 
     Returns
     -------
@@ -346,4 +350,6 @@ def np_reference(image: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
         filled[r, c], qr[r, c], out[r, c] = True, value, copied
         conf[r, c] = on_confidence_grid(new)
         order.append(p)
+    if gaps == "gate":  # a departure, after the fill: refsynth.synthesis.gap_readings
+        out = gap_gate(out, range_values, edges=edges & use_edges)
     return NPResult(out, conf, np.array(order, dtype=np.int64).reshape(-1, 2))
