@@ -57,9 +57,9 @@ class FakeLaser:
 RIG = RoomRig(0)
 
 
-def fake_scan(folder, settings=None, *, resume=False, source=None):
+def fake_scan(folder, settings=None, *, resume=False, source=None, progress=None):
     pan = FakePan(RIG, Path(folder) / "images")
     laser = FakeLaser(RIG, pan)
     summary = run_scan(folder, pan, laser, settings, resume=resume,
-                       source=source or {"simulated": True, "seed": 0})
+                       source=source or {"simulated": True, "seed": 0}, progress=progress)
     return summary, laser.slices, pan.pictures

@@ -28,7 +28,8 @@ MISSING = [name for name in DOCS_PACKAGES if importlib.util.find_spec(name) is N
 BUILD_OUTPUTS = ("_build", "_generated", "jupyter_execute")
 #: The pages of the manual (docs/<name>.md or .rst), each in the index's toctrees.
 PAGES = ("getting_started", "own_data", "acquisition", "registration", "model", "course",
-         "paper_map", "departures", "results", "performance", "gallery", "oracle", "citing")
+         "paper_map", "departures", "results", "active_scanning", "performance", "gallery",
+         "oracle", "citing")
 #: Version history and issue numbers, which belong in CHANGELOG.md only (the pattern of
 #: the project's marker count).
 HISTORY = re.compile(r"\b0\.\d+(?:\.\d+)?'s\b|\bissue #\d+|#\d+'s\b|\([Ii]ssue #?\d+\)"

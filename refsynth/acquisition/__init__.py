@@ -32,6 +32,10 @@ fraction of the tables (:func:`unknown_fraction`).
   on the simulator), :func:`load_scan` (spherical samples (r, θ, φ),
   :mod:`~refsynth.acquisition.assembly`).
 
+**Active sensing** (§5): :func:`next_slices` ranks the unmeasured columns by
+the expected error their measurement removes, from one synthesis
+(:mod:`~refsynth.acquisition.active`).
+
 References
 ----------
 L. A. Torres-Méndez and G. Dudek, "Inter-Image Statistics for 3D Environment
@@ -40,6 +44,7 @@ doi:10.1007/s11263-007-0108-2.
 """
 
 from refsynth.acquisition import errors, sampling
+from refsynth.acquisition.active import next_slices
 from refsynth.acquisition.assembly import CameraImage, Scan, load_scan
 from refsynth.acquisition.errors import *  # noqa: F403 (the names of errors.__all__)
 from refsynth.acquisition.faults import Faults
@@ -73,6 +78,8 @@ __all__ = [
     "simulate_scan",
     "load_scan",
     "read_slice",
+    # active sensing (§5)
+    "next_slices",
     # errors: all of refsynth.acquisition.errors
     *errors.__all__,
 ]

@@ -11,7 +11,9 @@ trusts it (:func:`check_manifest`):
   ``0 … 499``; the keys of ``slices`` and ``images`` are such indices);
 - the plan against the settings (:func:`check_plan`): the plan the settings
   give, exactly — for ``"distance"`` it contains the coarse pass and, when
-  the coarse slices are at hand, is the plan their ranges give;
+  the coarse slices are at hand, is the plan their ranges give; for
+  ``"active"`` the ``rounds`` (:func:`check_rounds`): the first pass, then
+  rounds of the settings' sizes, disjoint, and the plan their union;
 - every path: a slice is ``slices/pan-<i>.slice`` and a picture
   ``images/pan-<i>.png``, so nothing outside the scan folder is ever named;
 - the pictures' pan angles and the geometry against the rig's
@@ -52,12 +54,19 @@ from refsynth.acquisition.geometry import (
     pan_angle,
 )
 from refsynth.acquisition.scan_folder import slice_name
-from refsynth.acquisition.slice_plan import ScanSettings, coarse_slices, plan_slices
+from refsynth.acquisition.slice_plan import (
+    ScanSettings,
+    active_first_pass,
+    active_round_sizes,
+    coarse_slices,
+    plan_slices,
+)
 
 __all__ = [
     "FORMAT",
     "new_manifest",
     "check_plan",
+    "check_rounds",
     "check_manifest",
     "read_manifest",
     "saved_manifest",
@@ -107,6 +116,7 @@ def new_manifest(settings: ScanSettings, source: dict) -> dict:
         },
         "plan": None,
         "coarse": None,
+        **({"rounds": []} if settings.strategy == "active" else {}),
         "slices": {},
         "images": {},
         "devices": {},
@@ -204,6 +214,8 @@ def check_plan(plan, coarse, settings: ScanSettings, profile: np.ndarray | None 
     if plan is None:
         return
     _indices(plan, "plan")
+    if settings.strategy == "active":
+        return  # the union of the rounds: check_rounds
     if not distance:
         expected = plan_slices(settings).tolist()
     elif coarse is None:
@@ -221,6 +233,52 @@ def check_plan(plan, coarse, settings: ScanSettings, profile: np.ndarray | None 
             first = next(p for p, e in zip(plan, expected) if p != e)
             detail = f"pan {first} where the settings' plan differs"
         raise ValueError(f"plan is not the plan of the settings ({detail})")
+
+
+def check_rounds(rounds, plan, settings: ScanSettings) -> None:
+    """Check an ``"active"`` manifest's ``rounds`` (and its ``plan``) against its settings (§5).
+
+    Parameters
+    ----------
+    rounds : list of list of int or None
+        The slices each round added, ascending within a round: the first pass
+        (:func:`refsynth.acquisition.slice_plan.active_first_pass`), then what
+        each call of :func:`refsynth.acquisition.next_slices` chose.
+    plan : list of int or None
+        The plan: set once the last round is chosen, the union of the rounds.
+    settings : ScanSettings
+
+    Raises
+    ------
+    ValueError
+        If ``rounds`` is given for another strategy, its first round is not
+        the settings' first pass, a round's size is not the settings' (the
+        last round may not go beyond them), two rounds share a slice, or a
+        plan is set that is not the union of all the rounds.
+    """
+    if settings.strategy != "active":
+        if rounds is not None:
+            raise ValueError(f"rounds is set for the strategy {settings.strategy!r}")
+        return
+    rounds = [] if rounds is None else _need(rounds, list, "rounds")
+    sizes = active_round_sizes(settings)
+    if len(rounds) > len(sizes):
+        raise ValueError(f"rounds has {len(rounds)} rounds where the settings give "
+                         f"{len(sizes)}")
+    seen: set[int] = set()
+    for number, (found, size) in enumerate(zip(rounds, sizes)):
+        found = _indices(found, f"rounds[{number}]")
+        if number == 0 and found != active_first_pass(settings).tolist():
+            raise ValueError("rounds[0] is not the settings' first pass")
+        if len(found) != size:
+            raise ValueError(f"rounds[{number}] has {len(found)} slices where the settings "
+                             f"give {size}")
+        again = seen & set(found)
+        if again:
+            raise ValueError(f"rounds[{number}] scans pan {min(again)} again")
+        seen |= set(found)
+    if plan is not None and (len(rounds) != len(sizes) or plan != sorted(seen)):
+        raise ValueError("plan is not the union of the settings' rounds")
 
 
 def _check_slices(slices) -> None:
@@ -317,6 +375,7 @@ def check_manifest(manifest) -> ScanSettings:
     except (TypeError, ValueError) as error:
         raise ValueError(f"settings: {error}") from None
     check_plan(manifest["plan"], manifest.get("coarse"), settings)
+    check_rounds(manifest.get("rounds"), manifest["plan"], settings)
     _check_slices(manifest["slices"])
     _check_images(manifest["images"])
     if _need(manifest["complete"], bool, "complete") and manifest["plan"] is None:

@@ -150,7 +150,7 @@ def _check_rebuild(folder: Path, settings: ScanSettings | None) -> int:
         raise ValueError(
             f"cannot resume '{folder}' with these settings: {found} were not taken with "
             f"{_describe(_window(settings))}")
-    if settings.strategy != "distance":
+    if settings.strategy not in ("distance", "active"):  # their plan is made while scanning
         off = sorted(set(indices) - set(plan_slices(settings).tolist()))
         if off:
             shown = ", ".join(map(str, off[:5])) + (", ..." if len(off) > 5 else "")

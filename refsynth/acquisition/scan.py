@@ -5,7 +5,11 @@ with the two drivers: in ascending pan order, move (absolute), request the
 slice, confirm the position, save the slice file at once, rewrite the
 manifest (:mod:`refsynth.acquisition.scan_folder`); a picture is taken as the
 pan passes its index. For the distance-driven strategy (Fig. 2) the coarse
-pass comes first and the plan is made from its ranges. A failure beyond the
+pass comes first and the plan is made from its ranges; for the active
+strategy (§5) a sparse first pass, then rounds chosen by
+:func:`refsynth.acquisition.next_slices` on what was measured so far
+(:mod:`refsynth.acquisition.active_scan`), each recorded in the manifest
+before it is acquired. A failure beyond the
 drivers' retries leaves the folder resumable: ``resume=True`` keeps every
 valid slice on disk and acquires only the rest. The complete scan is
 assembled into ``scan.npz`` (:mod:`refsynth.acquisition.assembly`).
@@ -33,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from refsynth.acquisition.active_scan import choose_round, read_pictures
 from refsynth.acquisition.assembly import assemble
 from refsynth.acquisition.errors import RigError
 from refsynth.acquisition.geometry import PAN_SLICES, camera_indices, image_name, pan_angle
@@ -63,6 +68,8 @@ from refsynth.acquisition.scan_folder import (
 from refsynth.acquisition.simulator import RigSimulator
 from refsynth.acquisition.slice_plan import (
     ScanSettings,
+    active_first_pass,
+    active_round_sizes,
     coarse_profile,
     coarse_slices,
     plan_slices,
@@ -214,7 +221,13 @@ def run_scan(
     written but not yet in the manifest is checked and kept, a temporary
     file finished or removed, a symbolic link set aside, never followed.
     The order of events: initialise both devices; for ``"distance"``,
-    acquire the coarse pass and plan from it; then, in ascending pan order,
+    acquire the coarse pass and plan from it; for ``"active"``, acquire the
+    first pass (with every picture), then round after round: choose the
+    round's slices from exactly the slices of the rounds before
+    (:func:`~refsynth.acquisition.active_scan.choose_round`), record them in
+    the manifest's ``rounds``, acquire them; a resumed scan acquires what its
+    recorded rounds lack and chooses the next rounds the same way, so it ends
+    with the slices of an uninterrupted scan. Then, in ascending pan order,
     for each missing slice: move (absolute), request the slice, confirm the
     pan position again, write ``slices/pan-<i>.slice``, rewrite the
     manifest; a picture is taken when the pan passes its index. A slice
@@ -239,6 +252,9 @@ def run_scan(
     folder = Path(folder)
     if settings is not None and not isinstance(settings, ScanSettings):
         raise TypeError(f"The parameter `settings` must be a ScanSettings, got {settings!r}")
+    if settings is not None and settings.strategy == "active" and not camera_dir_is_local:
+        raise ValueError("The strategy `active` needs the pictures in the scan folder "
+                         "(`camera_dir_is_local=True`): its rounds are chosen from them")
     if os.path.lexists(folder) and not folder.is_dir():
         raise ValueError(f"'{folder}' is not a folder: a scan needs a folder of its own")
     try:
@@ -264,7 +280,7 @@ def _session(folder: Path, pan, laser, settings: ScanSettings | None, *, resume:
     stale = finish_temporary(folder)
     decisions = trusted_slices(folder, manifest, settings)
     records = decisions.records
-    if manifest["plan"] is None and settings.strategy != "distance":
+    if manifest["plan"] is None and settings.strategy not in ("distance", "active"):
         manifest["plan"] = plan_slices(settings).tolist()
     session = len(manifest["sessions"]) + 1
     entries = {}
@@ -377,10 +393,39 @@ def _session(folder: Path, pan, laser, settings: ScanSettings | None, *, resume:
                 f"(pan {', '.join(map(str, off[:5]))}) are not in their plan; give the "
                 "settings the scan was taken with")
 
+    def active_rounds() -> None:
+        """The first pass, then the rounds (§5): each chosen from the rounds before it."""
+        sizes = active_round_sizes(settings)
+        rounds = manifest.setdefault("rounds", [])
+        if not rounds:
+            rounds.append(active_first_pass(settings).tolist())
+            write_json(manifest_path, manifest)
+        while True:
+            so_far = sorted(set().union(*rounds))
+            plan_so_far.clear()
+            plan_so_far.update(so_far)
+            summary.planned = sum(sizes)
+            run(np.asarray(so_far), sum(sizes), PAN_SLICES - 1)  # the pictures come first
+            if len(rounds) == len(sizes):
+                break
+            chosen = choose_round({i: records[i] for i in so_far}, read_pictures(folder),
+                                  settings, sizes[len(rounds)])
+            rounds.append(chosen)
+            record_session["rounds_chosen"] = record_session.get("rounds_chosen", 0) + 1
+            write_json(manifest_path, manifest)
+        manifest["plan"] = so_far
+
+    plan_so_far: set[int] = set()
     try:
+        if settings.strategy == "active" and manifest["plan"] is None:
+            if not camera_dir_is_local:
+                raise ValueError("The strategy `active` needs the pictures in the scan folder "
+                                 "(`camera_dir_is_local=True`): its rounds are chosen from them")
+            active_rounds()
+            write_json(manifest_path, manifest)
         if settings.strategy == "distance" and manifest["plan"] is None:
             coarse = coarse_slices(settings)
-            plan_so_far = set(int(i) for i in coarse)
+            plan_so_far.update(int(i) for i in coarse)
             summary.already = len(on_disk & plan_so_far)
             manifest["coarse"] = coarse.tolist()
             run(coarse, len(coarse), int(coarse.max()))
@@ -389,7 +434,8 @@ def _session(folder: Path, pan, laser, settings: ScanSettings | None, *, resume:
             write_json(manifest_path, manifest)
         plan = np.asarray(manifest["plan"], dtype=np.int64)
         check_plan_of_rebuilt(manifest["plan"])
-        plan_so_far = set(plan.tolist())
+        plan_so_far.clear()
+        plan_so_far.update(plan.tolist())
         summary.planned = len(plan)
         summary.already = len(on_disk & plan_so_far)
         run(plan, len(plan), PAN_SLICES - 1)

@@ -11,7 +11,12 @@ strategies on the 500-slice pan axis:
   sized for the requested fraction (:func:`refsynth.acquisition.sampling.x_stripes_for_fraction`);
 - ``"distance"``: a coarse first pass (every ``coarse_step``-th slice,
   :func:`coarse_slices`), then :func:`refsynth.acquisition.sampling.distance_driven`
-  on its per-slice median range, the union sized to the requested fraction.
+  on its per-slice median range, the union sized to the requested fraction;
+- ``"active"`` (§5, active sensing): a sparse first pass of ``first_fraction``
+  evenly spread slices (:func:`active_first_pass`), then rounds of
+  ``per_round`` of the slices, each chosen from what the scan measured so far
+  (:func:`refsynth.acquisition.next_slices` on the registered scan), until the
+  requested fraction (:func:`active_round_sizes`).
 
 :class:`ScanSettings` holds a strategy and the slice request (the GS
 window); :func:`refsynth.acquisition.scan.run_scan` acquires the plan.
@@ -38,10 +43,11 @@ from refsynth.acquisition.geometry import (
 )
 from refsynth.acquisition.sampling import distance_driven, x_stripes_for_fraction
 
-__all__ = ["STRATEGIES", "ScanSettings", "coarse_slices", "coarse_profile", "plan_slices"]
+__all__ = ["STRATEGIES", "ScanSettings", "coarse_slices", "coarse_profile", "plan_slices",
+           "active_first_pass", "active_round_sizes"]
 
 #: The sampling strategies of :func:`plan_slices`.
-STRATEGIES = ("all", "every", "stripes", "distance")
+STRATEGIES = ("all", "every", "stripes", "distance", "active")
 
 # ----------------------------------------------------------------------------- settings
 
@@ -52,10 +58,10 @@ class ScanSettings:
 
     Parameters
     ----------
-    strategy : {"stripes", "every", "distance", "all"}
-        Which slices to scan (§3.3, Fig. 2): stripes of ``stripe_width``
+    strategy : {"stripes", "every", "distance", "active", "all"}
+        Which slices to scan (§3.3, Fig. 2, §5): stripes of ``stripe_width``
         slices, every ``step``-th slice, denser where a coarse pass finds
-        the scene far, or all 500.
+        the scene far, where the synthesis is least sure, or all 500.
     fraction : float, default 0.4
         Fraction of the 500 slices to scan, in (0, 1] (the paper: 0.3–0.5);
         ignored by ``"all"``, and by ``"every"`` when ``step`` is given.
@@ -66,6 +72,12 @@ class ScanSettings:
         ``"stripes"``: consecutive slices per stripe (the ``rw`` of §3.3).
     coarse_step : int, default 10
         ``"distance"``: the first pass scans every ``coarse_step``-th slice.
+    first_fraction : float, default 0.2
+        ``"active"``: the first pass scans this fraction of the 500 slices,
+        evenly spread (at most ``fraction``).
+    per_round : float, default 0.05
+        ``"active"``: each later round scans this fraction of the 500 slices
+        (the last one what is left to reach ``fraction``).
     seq, count, average : int
         The GS window: first encoder position, positions per slice, samples
         averaged (defaults: 379, 243 and 10, see :mod:`refsynth.acquisition.geometry`).
@@ -84,6 +96,8 @@ class ScanSettings:
     step: int | None = None
     stripe_width: int = 4
     coarse_step: int = 10
+    first_fraction: float = 0.2
+    per_round: float = 0.05
     seq: int = SLICE_START
     count: int = SLICE_COUNT
     average: int = SLICE_AVERAGE
@@ -94,6 +108,12 @@ class ScanSettings:
         fraction = check_real("fraction", self.fraction, positive=True, maximum=1.0)
         if not isinstance(self.fraction, (int, float)):  # a numpy scalar: JSON needs a float
             object.__setattr__(self, "fraction", fraction)
+        for name in ("first_fraction", "per_round"):
+            value = check_real(name, getattr(self, name), positive=True, maximum=1.0)
+            if value * PAN_SLICES < 1:
+                raise ValueError(f"The parameter `{name}` must cover at least one of the "
+                                 f"{PAN_SLICES} slices (>= {1 / PAN_SLICES:g}), got {value:g}")
+            object.__setattr__(self, name, float(value))
         # the integers are stored as Python ints (the manifest is JSON)
         for name, low, high in (("stripe_width", 1, PAN_SLICES), ("coarse_step", 2, PAN_SLICES),
                                 ("seq", 0, ENCODER_POSITIONS - 1), ("count", 1, ENCODER_POSITIONS),
@@ -108,6 +128,8 @@ class ScanSettings:
                              f"got {self.seq + self.count}")
         if not isinstance(self.camera, bool):
             raise TypeError(f"The parameter `camera` must be a bool, got {self.camera!r}")
+        if self.strategy == "active" and not self.camera:
+            raise ValueError("The strategy `active` needs the pictures: `camera` must be True")
 
     def as_dict(self) -> dict:
         """The settings as a JSON-ready dict."""
@@ -160,6 +182,42 @@ def coarse_profile(range_mm: dict, indices) -> np.ndarray:
     return profile
 
 
+def active_first_pass(settings: ScanSettings) -> np.ndarray:
+    """The first pass of the ``"active"`` strategy: ``min(first_fraction, fraction) · 500``
+    slices (rounded) evenly spread from 0 to 499, ascending.
+
+    Examples
+    --------
+    >>> active_first_pass(ScanSettings("active", 0.4, first_fraction=0.01)).tolist()
+    [0, 125, 250, 374, 499]
+    """
+    count = max(1, int(round(min(settings.first_fraction, settings.fraction) * PAN_SLICES)))
+    return np.unique(np.round(np.linspace(0, PAN_SLICES - 1, count)).astype(np.int64))
+
+
+def active_round_sizes(settings: ScanSettings) -> list[int]:
+    """The number of slices each round of the ``"active"`` strategy scans (§5).
+
+    The first pass (:func:`active_first_pass`), then ``per_round · 500`` (rounded) per
+    round until ``fraction · 500`` (rounded), the last round what is left.
+
+    Examples
+    --------
+    >>> active_round_sizes(ScanSettings("active", 0.3))
+    [100, 25, 25]
+    >>> active_round_sizes(ScanSettings("active", 0.27, per_round=0.04))
+    [100, 20, 15]
+    """
+    first = len(active_first_pass(settings))
+    target = max(first, int(round(settings.fraction * PAN_SLICES)))
+    step = max(1, int(round(settings.per_round * PAN_SLICES)))
+    sizes, done = [first], first
+    while done < target:
+        sizes.append(min(step, target - done))
+        done += sizes[-1]
+    return sizes
+
+
 def plan_slices(settings: ScanSettings, coarse_range: np.ndarray | None = None) -> np.ndarray:
     """The pan indices a scan acquires, ascending (§3.1.1, Fig. 2).
 
@@ -177,7 +235,9 @@ def plan_slices(settings: ScanSettings, coarse_range: np.ndarray | None = None) 
     ndarray of int
         Sorted, unique pan indices in ``0 … 499``. For ``"distance"`` it
         contains :func:`coarse_slices`, and its size is the one closest to
-        ``fraction · 500`` that the rule reaches.
+        ``fraction · 500`` that the rule reaches. For ``"active"`` it is the
+        first pass (:func:`active_first_pass`): the later rounds depend on what
+        the scan measures (:func:`refsynth.acquisition.scan.run_scan`).
 
     Examples
     --------
@@ -189,6 +249,8 @@ def plan_slices(settings: ScanSettings, coarse_range: np.ndarray | None = None) 
     """
     if not isinstance(settings, ScanSettings):
         raise TypeError(f"The parameter `settings` must be a ScanSettings, got {settings!r}")
+    if settings.strategy == "active":
+        return active_first_pass(settings)
     if settings.strategy == "all" or (settings.strategy != "every" and settings.fraction >= 1.0):
         return np.arange(PAN_SLICES)
     if settings.strategy == "every":

@@ -9,6 +9,7 @@ and exits with status 2).
 Examples::
 
     python -m refsynth scan --simulate --out scan-0 --strategy stripes --fraction 0.4
+    python -m refsynth scan --simulate --out scan-a --strategy active --fraction 0.4
     python -m refsynth scan --simulate --out scan-0 --faults corrupt=0.05,drop=0.02,disconnect=1
     python -m refsynth scan --simulate --out scan-0 --resume
     python -m refsynth scan --simulate --out scan-1 --pose 1.0,0.8,-20
@@ -26,6 +27,13 @@ exits with status 2 (``'OUT' is in use by another scan``). Symbolic links
 are never written through: one in place of a slice, a picture or a
 temporary file is set aside, and a ``manifest.json``, ``slices/``,
 ``images/`` or ``rejected/`` that is a link is refused.
+
+``--strategy active`` (§5, active sensing) scans ``--first-fraction`` of the
+slices evenly spread with every picture, then rounds of ``--per-round`` of the
+slices, each chosen by :func:`refsynth.acquisition.next_slices` where the
+synthesis from what is measured so far is least sure, until ``--fraction``;
+``manifest.json`` records each round's slices (``rounds``) before it is
+scanned, and a resumed scan chooses the rounds it lacks the same way.
 
 ``--pose X,Z,HEADING`` says where the rig stands (metres, metres, degrees):
 refsynth's frame (x right, y up, z forward) with the heading turning the
@@ -141,9 +149,17 @@ def add_scan_parser(subparsers) -> argparse.ArgumentParser:
     what = scan.add_argument_group("sampling (a new scan; default: stripes, 0.4)")
     what.add_argument("--strategy", choices=STRATEGIES, default=None,
                       help="which slices: stripes, every n-th, distance-driven (Fig. 2, "
-                      "after a coarse pass over every 10th slice), all (default: stripes)")
+                      "after a coarse pass over every 10th slice), active (where the synthesis "
+                      "is least sure, in rounds after an evenly spread first pass), all "
+                      "(default: stripes)")
     what.add_argument("--fraction", type=_fraction, default=None,
                       help="fraction of the 500 slices to scan, in (0, 1] (default: 0.4)")
+    what.add_argument("--first-fraction", type=_fraction, default=None, metavar="FRACTION",
+                      help="active: fraction of the 500 slices the evenly spread first pass "
+                      "scans, in (0, 1] (default: 0.2)")
+    what.add_argument("--per-round", type=_fraction, default=None, metavar="FRACTION",
+                      help="active: fraction of the 500 slices each later round scans, in "
+                      "(0, 1] (default: 0.05)")
     what.add_argument("--step", type=_positive(int), default=None,
                       help="every: scan every STEP-th slice (default: 1/fraction, rounded)")
     what.add_argument("--stripe-width", type=_positive(int), default=None, metavar="SLICES",
@@ -208,9 +224,15 @@ def _settings(args, out: Path, saved: dict) -> ScanSettings | None:
     given = {
         "strategy": args.strategy, "fraction": args.fraction, "step": args.step,
         "stripe_width": args.stripe_width, "average": args.average,
+        "first_fraction": args.first_fraction, "per_round": args.per_round,
         "camera": False if args.no_camera else None,
     }
     given = {key: value for key, value in given.items() if value is not None}
+    strategy = given.get("strategy", saved.get("settings", {}).get("strategy"))
+    if strategy != "active" and ({"first_fraction", "per_round"} & set(given)):
+        raise ValueError("--first-fraction and --per-round are for --strategy active")
+    if strategy == "active" and given.get("camera") is False:
+        raise ValueError("--strategy active needs the pictures: it takes no --no-camera")
     if args.resume and not given:
         return None  # the folder's own settings
     if saved:  # only what was given on the command line is compared with the saved scan

@@ -1,0 +1,324 @@
+"""Active scanning (§5) against the fixed strategies: MAR against the fraction of columns scanned.
+
+Every scene goes through Table 4's protocol (§3.3) as ``bench_scenes.py`` loads
+it (the largest centred crop of the target's aspect, an exact area resize; the
+Motorcycle with ``--motorcycle``). A strategy chooses which whole columns are
+measured (the rig's vertical slices, §4), at each fraction of the columns:
+
+``even``
+    columns evenly spread over the width (``round(linspace(0, W − 1, k))``);
+``x-stripes``
+    Table 4's vertical stripes, 3 columns wide (``x_stripes_for_fraction``);
+``distance``
+    Fig. 2's distance-driven columns (``distance_driven`` on the truth's column
+    medians, their inverse for a disparity: the rig's coarse pass);
+``active``
+    ``even`` at the first fraction (20 %), then one call of
+    :func:`refsynth.acquisition.next_slices` (``--active-method``, default BP)
+    per ``--step`` (5 %) of the columns, each on what is measured so far.
+
+Each fill (NP, BP, the classical fills of :mod:`refsynth.evaluation.baselines`)
+is scored with MAR (Eq. 13) over the unknown pixels that have ground truth. The
+target: active BP at 40 % ≤ 0.8× the best of BP and the classical fills on
+``even`` and on ``distance`` at 40 % (the printed ratio, per scene, with its
+geometric mean and largest value).
+
+Run::
+
+    python benchmarks/bench_active.py ../shared/data --motorcycle --size 225x188 \\
+        --figure docs/images/active_scanning.png --json active.json
+    python benchmarks/bench_active.py --motorcycle --size 225x188 --methods bp,linear \\
+        --fractions 20,40
+    python benchmarks/bench_active.py --size 225x188 --from-json a.json,b.json \\
+        --figure docs/images/active_scanning.png     # the tables of saved runs
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # bench_scenes
+import bench_scenes  # noqa: E402  (puts the checkout on the path if refsynth is not installed)
+
+from refsynth._files import write_atomic  # noqa: E402
+from refsynth.acquisition import next_slices, x_stripes_for_fraction  # noqa: E402
+from refsynth.evaluation.baselines import BASELINES  # noqa: E402
+from refsynth.evaluation.cases import known_mask, parse_size  # noqa: E402
+from refsynth.evaluation.metrics import evaluate  # noqa: E402
+from refsynth.synthesis.api import synthesize  # noqa: E402
+
+STRATEGIES = ("even", "x-stripes", "distance", "active")
+CLASSICAL = bench_scenes.CLASSICAL
+DEFAULT_METHODS = ("np", "bp", *CLASSICAL)
+DEFAULT_FRACTIONS = (20, 30, 40, 50, 60)
+
+
+def even_columns(width: int, fraction: float) -> np.ndarray:
+    """``round(fraction · width)`` columns evenly spread, ascending."""
+    count = max(1, int(round(fraction * width)))
+    return np.unique(np.round(np.linspace(0, width - 1, count)).astype(np.int64))
+
+
+def column_mask(shape: tuple[int, int], columns) -> np.ndarray:
+    mask = np.zeros(shape, dtype=bool)
+    mask[:, np.asarray(columns, dtype=np.int64)] = True
+    return mask
+
+
+def fixed_mask(scene, strategy: str, fraction: float) -> np.ndarray:
+    """The known mask of a fixed strategy at a fraction of the columns (pixels with truth)."""
+    shape = scene.range.shape
+    if strategy == "even":
+        mask = column_mask(shape, even_columns(shape[1], fraction))
+    elif strategy == "x-stripes":
+        mask = x_stripes_for_fraction(shape, 1.0 - fraction)
+    else:
+        return known_mask(scene, f"distance{int(round(100 * (1.0 - fraction)))}")
+    return mask & scene.has_truth
+
+
+def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: int,
+                 progress=None, start: int | None = None
+                 ) -> tuple[dict[int, np.ndarray], list[float]]:
+    """``{percent: mask}`` of the active strategy (from ``even`` at ``start`` %, default the
+    first fraction), and the seconds of each next_slices call."""
+    width = scene.range.shape[1]
+    start = min(fractions) if start is None else start
+    columns = set(even_columns(width, start / 100).tolist())
+    masks, seconds, percent = {}, [], start
+    while True:
+        mask = column_mask(scene.range.shape, sorted(columns)) & scene.has_truth
+        if percent in fractions:
+            masks[percent] = mask
+        if percent >= max(fractions):
+            return masks, seconds
+        percent += step
+        wanted = int(round(percent / 100 * width)) - len(columns)
+        partial = np.where(mask, scene.range, np.nan)
+        began = time.perf_counter()
+        picks = next_slices(scene.intensity, partial, max(wanted, 1), method=method, seed=seed)
+        seconds.append(time.perf_counter() - began)
+        columns.update(picks.tolist())
+        if progress:
+            progress(f"  {scene.name}: active {percent} % ({seconds[-1]:.1f} s)")
+
+
+def fill(scene, known: np.ndarray, method: str, seed: int) -> np.ndarray:
+    partial = np.where(known, scene.range, np.nan)
+    if method in BASELINES:
+        return BASELINES[method](scene.intensity, partial)
+    return synthesize(scene.intensity, partial, method=method, seed=seed).range
+
+
+def run_scene(name: str, scene, fractions, methods, strategies, step, active_method, seed,
+              progress=None, start: int | None = None) -> tuple[list[dict], list[float]]:
+    rows, calls = [], []
+    for strategy in strategies:
+        if strategy == "active":
+            masks, calls = active_masks(scene, fractions, step, active_method, seed, progress,
+                                        start)
+        else:
+            masks = {f: fixed_mask(scene, strategy, f / 100) for f in fractions}
+        for percent, known in masks.items():
+            scanned = 100.0 * float(np.mean(np.isfinite(
+                np.where(known, scene.range, np.nan)).any(axis=0)))
+            for method in methods:
+                began = time.perf_counter()
+                estimate = fill(scene, known, method, seed)
+                rows.append(dict(scene=name, units=scene.units, strategy=strategy,
+                                 fraction=percent, columns_percent=scanned, method=method,
+                                 mar=evaluate(estimate, scene.range, known)["mar"],
+                                 seconds=time.perf_counter() - began))
+            if progress:
+                progress(f"  {name}: {strategy} {percent} % done")
+    return rows, calls
+
+
+def _mar(rows, scene, strategy, fraction, method) -> float:
+    for row in rows:
+        if (row["scene"], row["strategy"], row["fraction"], row["method"]) == (
+                scene, strategy, fraction, method):
+            return row["mar"]
+    return math.nan
+
+
+def target_ratios(rows, scenes, methods, at: int = 40) -> dict[str, float]:
+    """Per scene: active BP's MAR over the best of BP and the classical fills on even and
+    distance at ``at`` % (NaN where a run is missing)."""
+    rivals = [m for m in ("bp", *CLASSICAL) if m in methods]
+    ratios = {}
+    for scene in scenes:
+        best = min((_mar(rows, scene, s, at, m) for s in ("even", "distance") for m in rivals),
+                   default=math.nan)
+        active = _mar(rows, scene, "active", at, "bp")
+        ratios[scene] = active / best if best > 0 else (math.inf if active > 0 else math.nan)
+    return ratios
+
+
+def format_tables(rows, scenes, methods, strategies, fractions) -> str:
+    lines = []
+    for scene in scenes:
+        units = next(r["units"] for r in rows if r["scene"] == scene)
+        lines.append(f"\n{scene} (MAR in {units}; columns scanned, %: "
+                     + " ".join(f"{f:>8d}" for f in fractions) + ")")
+        for method in methods:
+            for strategy in strategies:
+                values = " ".join(f"{_mar(rows, scene, strategy, f, method):8.4f}"
+                                  for f in fractions)
+                lines.append(f"  {method:>15s} {strategy:>9s}  {values}")
+    return "\n".join(lines)
+
+
+def figure(rows, scenes, methods, strategies, fractions):
+    """One panel per scene: MAR against the columns scanned, per strategy (colour): BP
+    solid, NP dotted, the best classical fill dashed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    columns = min(len(scenes), 3)
+    rows_n = math.ceil(len(scenes) / columns)
+    fig, axes = plt.subplots(rows_n, columns, figsize=(4.2 * columns, 3.2 * rows_n),
+                             squeeze=False)
+    colours = dict(zip(STRATEGIES, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
+    classical = [m for m in methods if m in CLASSICAL]
+    for ax, scene in zip(axes.ravel(), scenes):
+        for strategy in strategies:
+            for label, style, chosen in (("BP", "-", ["bp"]), ("NP", ":", ["np"]),
+                                         ("best classical", "--", classical)):
+                chosen = [m for m in chosen if m in methods]
+                if not chosen:
+                    continue
+                values = [min(_mar(rows, scene, strategy, f, m) for m in chosen)
+                          for f in fractions]
+                ax.plot(fractions, values, style, color=colours[strategy], marker=".",
+                        label=f"{strategy}, {label}")
+        units = next(r["units"] for r in rows if r["scene"] == scene)
+        ax.set_title(scene, fontsize=9)
+        ax.set_xlabel("columns scanned (%)")
+        ax.set_ylabel(f"MAR ({units})")
+        ax.set_yscale("log")
+    for ax in axes.ravel()[len(scenes):]:
+        ax.axis("off")
+    handles, labels = axes.ravel()[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), fontsize=7)
+    fig.tight_layout(rect=(0, 0.04 * (1 + len(labels) // 4), 1, 1))
+    return fig
+
+
+def _list(text: str) -> list[str]:
+    return [part.strip() for part in text.split(",") if part.strip()]
+
+
+def main(argv: Sequence[str] | None = None, out=None) -> int:
+    out = out or sys.stdout
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("folder", nargs="?", default=None, help="a folder of scene folders")
+    parser.add_argument("--motorcycle", action="store_true", help="add the Motorcycle")
+    parser.add_argument("--scenes", default=None, help="comma-separated scene names to keep")
+    parser.add_argument("--size", default="450x375", help="WxH (default 450x375) or native")
+    parser.add_argument("--methods", default=",".join(DEFAULT_METHODS))
+    parser.add_argument("--strategies", default=",".join(STRATEGIES))
+    parser.add_argument("--fractions", default=",".join(map(str, DEFAULT_FRACTIONS)),
+                        help="percent of the columns (default 20,30,40,50,60)")
+    parser.add_argument("--step", type=int, default=5,
+                        help="active: percent of the columns added per next_slices call")
+    parser.add_argument("--active-start", type=int, default=None, metavar="PERCENT",
+                        help="active: the evenly spread columns it starts from (default: the "
+                        "first of --fractions)")
+    parser.add_argument("--active-method", default="bp", choices=("np", "bp"))
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", default=None, help="write the runs here")
+    parser.add_argument("--figure", default=None, metavar="PATH", help="write the curves here")
+    parser.add_argument("--from-json", default=None, metavar="FILE,...",
+                        help="print (and plot) the runs saved by --json instead of running")
+    parser.add_argument("--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    try:
+        size = parse_size(args.size)
+        methods = _list(args.methods)
+        bad = [m for m in methods if m not in {"np", "bp", *BASELINES}]
+        if bad or not methods:
+            raise ValueError(f"--methods: unknown {bad}")
+        strategies = _list(args.strategies)
+        if not strategies or set(strategies) - set(STRATEGIES):
+            raise ValueError(f"--strategies: choose from {', '.join(STRATEGIES)}")
+        fractions = sorted({int(f) for f in _list(args.fractions)})
+        if not fractions or fractions[0] < 1 or fractions[-1] > 95:
+            raise ValueError("--fractions must be percentages in 1-95")
+        start = fractions[0] if args.active_start is None else args.active_start
+        if args.step < 1 or not 1 <= start <= fractions[0] or any(
+                (f - start) % args.step for f in fractions):
+            raise ValueError("--step must be >= 1 and divide the fractions' distances from "
+                             "--active-start (at most the first fraction)")
+        if args.from_json:
+            specs = []
+        else:
+            specs = bench_scenes.scene_specs(args.folder, args.motorcycle,
+                                             _list(args.scenes) if args.scenes else None,
+                                             warn=lambda m: print(m, file=sys.stderr))
+    except ValueError as error:
+        print(f"bench_active.py: {error}", file=sys.stderr)
+        return 2
+    progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    rows, calls, scenes = [], {}, [name for name, _ in specs]
+    for path in _list(args.from_json or ""):
+        saved = json.loads(Path(path).read_text())
+        rows += saved["rows"]
+        calls.update(saved["next_slices_seconds"])
+        scenes += [s for s in dict.fromkeys(r["scene"] for r in saved["rows"]) if s not in scenes]
+    if args.from_json:
+        wanted = _list(args.scenes) if args.scenes else scenes
+        scenes = [s for s in scenes if s in wanted]
+        rows = [r for r in rows if r["scene"] in scenes and r["method"] in methods
+                and r["strategy"] in strategies and r["fraction"] in fractions]
+    for name, spec in specs:
+        scene = bench_scenes.load(spec, size)
+        found, seconds = run_scene(name, scene, fractions, methods, strategies, args.step,
+                                   args.active_method, args.seed, progress, start)
+        rows += found
+        calls[name] = seconds
+        if args.json:
+            write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), rows=rows,
+                                                    next_slices_seconds=calls),
+                                               indent=1).encode())
+    print(f"bench_active: size {size}, seed {args.seed}, {len(scenes)} scenes, active: "
+          f"{args.active_method.upper()}'s next_slices, +{args.step} % per call; MAR (Eq. 13)",
+          file=out)
+    print(format_tables(rows, scenes, methods, strategies, fractions), file=out)
+    if "active" in strategies and 40 in fractions and "bp" in methods:
+        ratios = target_ratios(rows, scenes, methods)
+        finite = [r for r in ratios.values() if np.isfinite(r)]
+        print("\nactive BP at 40 % / best of BP and the classical fills on even and distance "
+              "at 40 % (target <= 0.8):", file=out)
+        for scene, ratio in ratios.items():
+            print(f"  {scene:>24s}  {ratio:.3f}", file=out)
+        if finite:
+            print(f"  {'geometric mean':>24s}  {math.exp(np.mean(np.log(finite))):.3f}"
+                  f"   largest {max(finite):.3f}", file=out)
+    every = [s for seconds in calls.values() for s in seconds]
+    if every:
+        print(f"\nnext_slices: {len(every)} calls, mean {np.mean(every):.1f} s", file=out)
+    if args.figure:
+        fig = figure(rows, scenes, methods, strategies, fractions)
+        buffer = io.BytesIO()
+        fig.savefig(buffer, format=Path(args.figure).suffix[1:] or "png", dpi=110)
+        write_atomic(args.figure, buffer.getvalue())
+        print(f"wrote {args.figure}", file=out)
+    return 0
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    sys.exit(main())

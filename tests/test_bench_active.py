@@ -1,0 +1,70 @@
+"""A smoke test of ``benchmarks/bench_active.py`` on a tiny scene folder the test writes."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+
+@pytest.fixture(scope="module")
+def bench(benchmark_script):
+    return benchmark_script("bench_active")
+
+
+@pytest.fixture()
+def folder(tmp_path):
+    """A 40 × 48 wall at 3 m (a slope) with a box at 1.5 m on its right, the box brighter."""
+    path = tmp_path / "box"
+    path.mkdir()
+    rows, cols = np.mgrid[0:40, 0:48]
+    box = (rows >= 10) & (rows < 30) & (cols >= 28) & (cols < 42)
+    depth = np.where(box, 1.5, 3.0 + 0.01 * cols)
+    grey = np.where(box, 200, 60).astype(np.uint8)
+    Image.fromarray(np.stack([grey] * 3, axis=-1)).save(path / "rgb.png")
+    Image.fromarray(np.round(depth * 1000).astype(np.uint16)).save(path / "depth.png")
+    (path / "scene.json").write_text(json.dumps(
+        {"image": "rgb.png", "truth": "depth.png", "scale": 1000, "kind": "depth"}))
+    return tmp_path
+
+
+def test_even_columns_are_spread_and_counted(bench):
+    columns = bench.even_columns(48, 0.25)
+    assert len(columns) == 12 and columns[0] == 0 and columns[-1] == 47
+    assert np.all(np.diff(columns) >= 4)
+
+
+def test_active_adds_its_step_per_call_on_the_uncertain_side(bench, folder):
+    scene = bench.bench_scenes.load(str(folder / "box"), "48x40")
+    masks, calls = bench.active_masks(scene, [20, 30], 5, "np", 0)
+    assert len(calls) == 2
+    first, last = (np.flatnonzero(masks[f].any(axis=0)) for f in (20, 30))
+    assert len(first) == 10 and len(last) == 14 and set(first) <= set(last)
+    added = sorted(set(last) - set(first))
+    # mostly by the box's edges (columns 28 and 41), not on the bare wall
+    assert sum(24 <= c <= 45 for c in added) >= 3, added
+
+
+def test_table_ratio_json_and_from_json(bench, folder, tmp_path):
+    out, target = io.StringIO(), tmp_path / "runs.json"
+    argv = [str(folder), "--size", "48x40", "--fractions", "20,40", "--methods",
+            "bp,nearest", "--active-method", "np", "--json", str(target), "--quiet"]
+    assert bench.main(argv, out=out) == 0
+    text = out.getvalue()
+    assert "target <= 0.8" in text and "geometric mean" in text
+    rows = json.loads(target.read_text())["rows"]
+    assert len(rows) == 4 * 2 * 2                      # strategies x fractions x methods
+    again = io.StringIO()
+    assert bench.main(["--size", "48x40", "--fractions", "20,40", "--methods", "bp,nearest",
+                       "--from-json", str(target)], out=again) == 0
+    assert again.getvalue().split("\n", 1)[1] == text.split("\n", 1)[1]
+
+
+@pytest.mark.parametrize("argv", [["--fractions", "20,42"], ["--methods", "magic"],
+                                  ["--strategies", "random"], ["--step", "0"]])
+def test_bad_options_exit_2(bench, folder, argv, capsys):
+    assert bench.main([str(folder), "--quiet", *argv]) == 2
+    assert capsys.readouterr().err.startswith("bench_active.py: ")
