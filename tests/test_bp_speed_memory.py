@@ -1,4 +1,4 @@
-"""BP fast and memory-bounded (issue #15 items 2–3, issue #14 item 8): the same numbers.
+"""BP fast and memory-bounded: the same numbers.
 
 The tile-by-tile candidate search equals the literal one from a PatchTable; the message
 schedule that skips unchanged edges equals plain synchronous sweeps, bit for bit; Ψ

@@ -1,4 +1,4 @@
-"""BP's sends and Ψ, made cheaper (issue #15 item 2): the same numbers, bit for bit.
+"""BP's sends and Ψ, made cheaper: the same numbers, bit for bit.
 
 The max-product send takes the sender's labels one at a time (no (E, k, k) temporary),
 the rows of Ψ are kept in a bounded cache that prefers the edges still changing, and

@@ -178,7 +178,7 @@ def png_files(files):
 
 @pytest.mark.parametrize("name", ["range16.png", "range8.png"])
 def test_synth_reads_a_png_range_as_its_integers_and_keeps_the_unit(png_files, capsys, name):
-    """#14 item 4: a PNG range was divided by 65535 (16-bit) or 255 (8-bit)."""
+    """A PNG range is read as its integers: never divided by 65535 (16-bit) or 255 (8-bit)."""
     from refsynth.io import read_array
 
     stored = read_array(png_files / name, raw=True).astype(np.float64)
@@ -208,7 +208,7 @@ def test_synth_png_scale_divides_on_input_and_multiplies_on_output(png_files, ca
 
 @pytest.mark.parametrize("name", ["dense.pfm", "dense.PFM", "dense.png", "sub/dir/dense.npy"])
 def test_synth_out_writes_the_format_its_suffix_names(files, capsys, name):
-    """#14 item 5: ``--out x.pfm`` wrote x.pfm.npy and printed "wrote x.pfm"."""
+    """``--out x.pfm`` writes x.pfm (not x.pfm.npy) and prints what it wrote."""
     from refsynth.io import read_array
 
     out = files / name
@@ -427,7 +427,7 @@ def test_synth_refuses_an_option_of_the_other_method(files, capsys, no_work, ext
      "--offset-tolerance must be a power of two from 2**-16 to 1 (e.g. 0.125), got 0.1"),
 ])
 def test_synth_refuses_values_beyond_use_before_the_work(files, capsys, no_work, extra, needle):
-    """#14 item 8 (CLI part): radius=1e4 on a small image tried to allocate 149 GiB."""
+    """Unchecked, radius=1e4 on a small image would try to allocate 149 GiB."""
     _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
                  "--out", str(files / "o.npy"), *extra], capsys, needle)
 
@@ -439,7 +439,7 @@ def test_synth_radius_up_to_the_image_diagonal_is_accepted(files, capsys):
 
 
 def test_synth_refuses_a_complex_range(files, capsys, no_work):
-    """#14 item 10: a complex .npy range was accepted with only a ComplexWarning."""
+    """A complex .npy range is refused (unchecked, it passes with only a ComplexWarning)."""
     np.save(files / "complex.npy", np.load(files / "partial.npy") + 0j)
     _fails_with(["synth", str(files / "image.npy"), str(files / "complex.npy"),
                  "--out", str(files / "o.npy")], capsys, "must hold real numbers")
@@ -513,7 +513,7 @@ def test_every_option_says_what_it_means_and_its_default(command):
     ["evaluate", "--grid", "huge"],
 ])
 def test_usage_errors_are_one_line_and_exit_2(capsys, argv):
-    """#14 item 12: argparse printed its usage block before the error."""
+    """One line: no argparse usage block before the error."""
     status, out, err = _run(argv, capsys)
     assert status == 2 and out == "" and len(err) == 1, err
     assert err[0].startswith("python -m refsynth") and ": error: " in err[0]
@@ -562,7 +562,7 @@ class _Stream:
 
 
 def test_progress_writes_a_line_every_few_seconds_with_the_time_left_when_not_a_tty():
-    """#14 item 12: no progress at all when stderr was not a terminal."""
+    """Progress goes to stderr when it is not a terminal too, one line every few seconds."""
     from refsynth.cli.synth import LOG_INTERVAL, pixel_progress
 
     clock, stream = _Clock(), _Stream(tty=False)
@@ -610,7 +610,7 @@ def test_synth_reports_progress_on_stderr_when_it_is_not_a_terminal(files, capsy
 
 
 def test_synth_bp_reports_pixels_worth_of_its_work_with_a_rate(files, capsys, monkeypatch):
-    """#15 item 5: BP's lines came only at its five stages' ends, without a rate."""
+    """BP reports within its stages, with a rate, not only at its five stages' ends."""
     monkeypatch.setattr("refsynth.cli.synth.LOG_INTERVAL", 0.0)
     status, _, err = _run(["synth", str(files / "image.npy"), str(files / "partial.npy"),
                            "--method", "bp", "--out", str(files / "o.npy")], capsys)
@@ -630,7 +630,7 @@ def test_demo_refuses_an_output_file_and_absurd_sizes_before_the_work(files, cap
 
 def test_figures_without_scikit_image_says_what_to_install_before_the_work(
         files, capsys, no_work, monkeypatch):
-    """#14 item 12: figures failed half-way without scikit-image."""
+    """Without scikit-image ``figures`` fails before the work, not half-way."""
     monkeypatch.setitem(sys.modules, "skimage", None)
     line = _fails_with(["figures", "--out", str(files / "figs")], capsys, "needs scikit-image")
     assert 'pip install "refsynth[data]"' in line and 'pip install -e ".[data]"' in line

@@ -97,7 +97,7 @@ def test_story_progress_says_how_long_is_left():
 
 @pytest.mark.slow
 def test_the_story_end_to_end_meets_the_targets(tmp_path, capsys):
-    """The whole default demo (about a minute on two cores): #12's targets hold."""
+    """The whole default demo (about a minute on two cores): the story's targets hold."""
     pytest.importorskip("pty")
     assert main(["demo", "--out", str(tmp_path)]) == 0
     captured = capsys.readouterr()

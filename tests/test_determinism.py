@@ -1,4 +1,4 @@
-"""The numeric contract (issue #11): the same call gives the same bits on any machine.
+"""The numeric contract: the same call gives the same bits on any machine.
 
 Each variant runs NP and BP in a fresh interpreter with another BLAS kernel
 (``OPENBLAS_CORETYPE``), one BLAS/OpenMP thread, numpy's SIMD dispatch cut down to

@@ -1,4 +1,4 @@
-"""NP's fast fill order (issue #15): the queue pops exactly what a fresh selection would."""
+"""NP's fast fill order: the queue pops exactly what a fresh selection would."""
 
 import heapq
 

@@ -1,4 +1,4 @@
-"""NP's per-step paths (issue #15): the queue's keys are Eq. 10 afresh, bit for bit."""
+"""NP's per-step paths: the queue's keys are Eq. 10 afresh, bit for bit."""
 
 import numpy as np
 from hypothesis import given

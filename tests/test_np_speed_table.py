@@ -1,4 +1,4 @@
-"""NP's narrow Eq. 2 table (issue #15): the same distances as PatchTable, bit for bit."""
+"""NP's narrow Eq. 2 table: the same distances as PatchTable, bit for bit."""
 
 import numpy as np
 import pytest

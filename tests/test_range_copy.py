@@ -103,7 +103,7 @@ def test_a_slanted_plane_fills_as_a_plane_with_the_shift_and_as_steps_without():
     image, truth, partial = _ramp()
     unknown = np.isnan(partial)
     span = np.nanmax(partial) - np.nanmin(partial)
-    shifted = refsynth.synthesize(image, partial, seed=0)  # the default since 0.5
+    shifted = refsynth.synthesize(image, partial, seed=0)  # the default
     copied = refsynth.synthesize(image, partial, seed=0, readings={"range_copy": "value"})
     error_shifted = np.abs(shifted.range - truth)[unknown]
     error_copied = np.abs(copied.range - truth)[unknown]
@@ -191,7 +191,7 @@ def test_bps_labels_fill_a_slanted_plane_as_a_plane_with_the_shift_and_as_steps_
     image, truth = 0.3 + 0.02 * rows, 2.0 + 0.05 * cols
     partial = np.where(cols % 9 < 3, truth, np.nan)
     unknown = np.isnan(partial)
-    shifted = refsynth.synthesize(image, partial, method="bp")  # the default since 0.6
+    shifted = refsynth.synthesize(image, partial, method="bp")  # the default
     copied = refsynth.synthesize(image, partial, method="bp", readings={"range_copy": "value"})
     error_shifted = np.abs(shifted.range - truth)[unknown]
     error_copied = np.abs(copied.range - truth)[unknown]
@@ -215,7 +215,7 @@ def test_bps_shift_ignores_an_intensity_offset_and_scales_with_the_range():
     np.testing.assert_allclose(plain.range * 3.7, scaled.range, rtol=1e-12)
 
 
-# -- the agreement BP's shift needs (offset_tolerance, 0.8.4) ---------------------------------
+# -- the agreement BP's shift needs (offset_tolerance) ---------------------------------------
 
 
 @given(windows, st.integers(0, 16), st.sampled_from([0, 40, 600, 5000, 20000]))
@@ -264,7 +264,7 @@ def test_the_tolerance_is_a_power_of_two_from_2_to_the_minus_16_to_1():
     for bad in ("0.125", None, True):
         with pytest.raises(TypeError, match="`offset_tolerance`"):
             check_offset_tolerance(bad)
-    # None: BP's default observation, NP's fill since 0.9
+    # None: BP's default observation, NP's fill
     for observation in ("np", None):
         assert default_offset_tolerance(observation) == NP_OBSERVATION_TOLERANCE == 2.0**-3
     for observation in ("colorization", "measured", "colorization-completed"):

@@ -1,6 +1,6 @@
 """The literal reference (refsynth.synthesis.reference) against the fast code, and its contract.
 
-The fast code gives *exactly* the reference's output (issue #11): range, confidence, order,
+The fast code gives *exactly* the reference's output: range, confidence, order,
 BP's candidates, unary terms, compatibilities, messages and beliefs, on at least 200 random
 small cases per method, with edges (on measured pixels too), fixed neighbours and every option.
 Both follow the numeric contract of :mod:`refsynth.numeric`.
@@ -98,7 +98,7 @@ def run_fast(intensity, partial, edges, options, seed, method):
                                **keywords, readings=readings)
 
 
-# -- fast = reference (the targets of issue #11) --------------------------------------------
+# -- fast = reference -----------------------------------------------------------------------
 
 
 @MANY
@@ -230,7 +230,7 @@ def test_the_window_is_the_rounded_gaussian_of_neighbourhood_py():
                                       np.rint(gaussian_window(n) * 2**ref.WINDOW_BITS))
 
 
-# -- BP's default departures in the reference (issue #10) -----------------------------------
+# -- BP's default departures in the reference ---------------------------------------------
 
 
 @FEW
@@ -283,7 +283,7 @@ def test_the_reference_observations_are_the_fill_on_the_measured_grid():
     # the labels stay measured pixels; the ranking moved
     assert np.all(known[default.candidates[..., 0], default.candidates[..., 1]])
     assert not np.array_equal(measured.unary, default.unary)
-    # the default since 0.9: NP's fill (the reference's, drawing on the same generator) on
+    # the default: NP's fill (the reference's, drawing on the same generator) on
     # the measured grid; without a generator it is refused
     with pytest.raises(TypeError, match="rng"):
         ref.bp_reference(image, partial, edges, neighbourhood=3, radius=2.0, k=2, iterations=2)
