@@ -28,6 +28,9 @@ from refsynth.synthesis.bp_search import candidates, search_candidates, stable_s
 from refsynth.synthesis.messages import belief_propagation
 from refsynth.synthesis.patch_table import PatchTable
 
+#: Tests of a fast kernel's internals (``-m kernel`` selects them).
+pytestmark = pytest.mark.kernel
+
 
 def _bits(a):
     return np.ascontiguousarray(a, dtype=np.float64).view(np.int64)

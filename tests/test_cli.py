@@ -9,7 +9,7 @@ import pytest
 from refsynth.cli.main import main
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.io import write_pfm
-from refsynth.plotting.demo import DEMO_METHODS, run_pipeline_demo
+from refsynth.plotting.demo import DEMO_METHODS
 from refsynth.synthesis.readings import Readings
 
 
@@ -24,18 +24,6 @@ def test_demo_prints_the_table_and_writes_figures(tmp_path, capsys):
     mars = [float(line.split()[-3]) for line in out.splitlines() if line.startswith(("grid", "x-"))]
     assert len(mars) == 2 * (len(DEMO_METHODS) + len(BASELINES))
     assert all(0 <= m < 5 for m in mars)
-
-
-def test_pipeline_demo_acquires_and_registers(tmp_path):
-    """Simulated scan -> registration; synthesis itself is tested elsewhere."""
-    pytest.importorskip("pty")
-    summary = run_pipeline_demo(tmp_path, seed=0, methods=())
-    h, w = summary["panorama"]
-    assert w > 3 * h > 0
-    assert 0.3 < summary["known"] < 0.5
-    assert (tmp_path / "scan" / "scan.npz").is_file()
-    a, b, _, _ = summary["warp"]
-    assert a == pytest.approx(300.0) and b == pytest.approx(-1.0)
 
 
 @pytest.fixture
@@ -103,6 +91,7 @@ def test_synth_is_deterministic(files):
     np.testing.assert_array_equal(np.load(a), np.load(b))
 
 
+@pytest.mark.slow  # python -m refsynth in a subprocess
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
@@ -126,6 +115,7 @@ def test_errors_print_one_line_and_exit_2(files, args, needle):
     assert "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow  # python -m refsynth in a subprocess
 def test_unknown_command_exits_2():
     proc = subprocess.run([sys.executable, "-m", "refsynth", "frobnicate"],
                           capture_output=True, text=True, timeout=60)
@@ -432,10 +422,24 @@ def test_synth_refuses_values_beyond_use_before_the_work(files, capsys, no_work,
                  "--out", str(files / "o.npy"), *extra], capsys, needle)
 
 
-def test_synth_radius_up_to_the_image_diagonal_is_accepted(files, capsys):
-    argv = ["synth", str(files / "image.npy"), str(files / "partial.npy"),
-            "--out", str(files / "o.npy"), "--radius", "30", "--neighbourhood", "47"]
-    assert _run(argv, capsys)[0] == 0  # 24x20: ceil(hypot(19, 23)) = 30, 2 * 24 - 1 = 47
+def test_synth_radius_up_to_the_image_diagonal_is_accepted(tmp_path, capsys):
+    """The largest --radius and --neighbourhood an image can use run; one more is refused.
+
+    A 9x12 image (the bound's arithmetic is the same at any size; the fill's cost is not):
+    ceil(hypot(11, 8)) = 14 reaches every pixel, 2 * 12 - 1 = 23 covers the image.
+    """
+    rng = np.random.default_rng(0)
+    np.save(tmp_path / "image.npy", rng.random((12, 9)))
+    np.save(tmp_path / "partial.npy", np.where(np.arange(9) % 4 == 0, 2.0 + rng.random((12, 9)),
+                                               np.nan))
+    base = ["synth", str(tmp_path / "image.npy"), str(tmp_path / "partial.npy"),
+            "--out", str(tmp_path / "o.npy")]
+    assert _run([*base, "--radius", "14", "--neighbourhood", "23"], capsys)[0] == 0
+    assert np.all(np.isfinite(np.load(tmp_path / "o.npy")))
+    _fails_with([*base, "--radius", "15"], capsys,
+                "--radius 15 is larger than the 9x12 image needs: 14 already reaches")
+    _fails_with([*base, "--neighbourhood", "25"], capsys,
+                "--neighbourhood 25 is larger than the 9x12 image needs: 23 already covers")
 
 
 def test_synth_refuses_a_complex_range(files, capsys, no_work):
@@ -453,6 +457,7 @@ def test_synth_png_out_needs_whole_numbers_or_a_scale(files, capsys, no_work):
     _fails_with([*base, "--png-scale", "1e5"], capsys, "outside a 16-bit PNG's 1..65535")
 
 
+@pytest.mark.slow  # python -m refsynth in a subprocess
 def test_version_and_help(capsys):
     import refsynth
 
@@ -519,6 +524,7 @@ def test_usage_errors_are_one_line_and_exit_2(capsys, argv):
     assert err[0].startswith("python -m refsynth") and ": error: " in err[0]
 
 
+@pytest.mark.slow  # python -m refsynth in a subprocess
 def test_usage_errors_from_the_module_entry_point_are_one_line():
     proc = subprocess.run([sys.executable, "-m", "refsynth", "synth", "--radius", "x"],
                           capture_output=True, text=True, timeout=60)

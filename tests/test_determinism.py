@@ -16,6 +16,9 @@ from pathlib import Path
 
 import pytest
 
+#: Each variant runs in a fresh interpreter (``-m "not slow"`` leaves them out).
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: Runs NP and BP (with Canny's edges, so the grey conversion and Canny count too) on a

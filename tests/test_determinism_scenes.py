@@ -20,6 +20,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+#: Each variant runs in a fresh interpreter (``-m "not slow"`` leaves them out).
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 SCRIPT = r"""

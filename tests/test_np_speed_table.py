@@ -9,6 +9,9 @@ from refsynth.numeric import EQ2_UNIT
 from refsynth.synthesis.filltable import FillTable
 from refsynth.synthesis.patch_table import PatchTable
 
+#: Tests of a fast kernel's internals (``-m kernel`` selects them).
+pytestmark = pytest.mark.kernel
+
 
 @given(
     st.integers(3, 9),

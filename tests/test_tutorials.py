@@ -17,6 +17,9 @@ import sys
 import pytest
 from tutorial_runs import SOLUTIONS, TUTORIALS, TUTORIALS_DIR, run, run_as_python
 
+#: The tutorials execute (``-m "not slow"`` leaves them out).
+pytestmark = pytest.mark.slow
+
 NUMBER = r"(-?[\d.]+)"
 
 
@@ -230,20 +233,17 @@ CLAIMS = {"00": claims_00, "01": claims_01, "02": claims_02, "03": claims_03, "0
           "05": claims_05}
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("path", TUTORIALS, ids=lambda p: p.stem)
 def test_tutorial_writes_its_figures(path):
     assert run(path.name).pngs(), f"{path.name} wrote no figure"
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("path", [p for p in TUTORIALS if p.stem[:2] in CLAIMS],
                          ids=lambda p: p.stem)
 def test_tutorial_claims_hold(path):
     CLAIMS[path.stem[:2]](run(path.name).text)
 
 
-@pytest.mark.slow
 def test_a_tutorial_runs_as_plain_python():
     """The plain-Python path: Agg, figures written to files, the same numbers."""
     plain = run_as_python("02")
@@ -264,7 +264,6 @@ def test_tutorial_states_before_and_after_and_ends_with_exercises(path):
     assert (TUTORIALS_DIR / "solutions" / path.name).is_file(), f"no solutions for {path.name}"
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("path", SOLUTIONS, ids=lambda p: p.stem)
 def test_solutions_run_and_their_answers_hold(path, tmp_path):
     proc = subprocess.run([sys.executable, str(path)], capture_output=True, text=True,
