@@ -31,7 +31,7 @@ from refsynth.cli.notebooks import (
 )
 
 #: The tutorials execute (``-m "not slow"`` leaves them out).
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("tutorial_runs_started")]
 
 needs_course = pytest.mark.skipif(
     not course_installed(), reason='needs the course extra: pip install -e ".[course]"')
