@@ -39,3 +39,14 @@ def benchmark_script():
         return module
 
     return load
+
+
+@pytest.fixture(scope="session")
+def tutorial_runs_started(request):
+    """Start the tutorial runs the session's selected tests need (``tutorial_runs.py``),
+    two at a time, ahead of the tests; at the end, drop those never started."""
+    import tutorial_runs
+
+    tutorial_runs.prefetch(request.session.items)
+    yield
+    tutorial_runs.cancel_pending()

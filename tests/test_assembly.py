@@ -1,4 +1,4 @@
-"""How NP and BP put the equations together, on hand-built cases with known answers (#11).
+"""How NP and BP put the equations together, on hand-built cases with known answers.
 
 The equations are tested one by one elsewhere; these tests pin the loops that combine them:
 NP's search radius (Eq. 3), the Eq. 5 draw, the confidence a synthesized pixel receives

@@ -1,4 +1,4 @@
-"""A smoke test of ``benchmarks/bench_speed.py`` (issue #15 item 6) on tiny sizes."""
+"""A smoke test of ``benchmarks/bench_speed.py`` on tiny sizes."""
 
 import io
 
@@ -66,7 +66,7 @@ def test_memory_mode_prints_each_fill_beside_its_estimate(bench, capsys):
 
 def test_fill_solvers_on_the_room_put_the_default_fill_back(bench):
     """``--fill-solvers --room``: BP with the cascade is BP on the colorization fill's
-    observations (0.4–0.8's default), and the default fill is restored after the
+    observations, and the default fill is restored after the
     Gauss-Seidel run."""
     import io
 

@@ -298,7 +298,7 @@ def test_a_gap_wider_than_r_gets_candidates():
     np.testing.assert_array_equal(result.range, 2.5)
 
 
-# -- the edge-constraint rule (issue #10, item 3) --------------------------------------------
+# -- the edge-constraint rule -----------------------------------------------------------------
 
 
 def _edge_scene(seed):

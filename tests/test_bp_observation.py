@@ -1,4 +1,4 @@
-"""BP's departures for issue #10: observations completed by a fill, Eq. 6 with the centres.
+"""BP's departures: observations completed by a fill, Eq. 6 with the centres.
 
 ``observation="colorization"`` (:mod:`refsynth.synthesis.bp_observation`) and
 ``compatibility="overlap-centres"`` (:mod:`refsynth.synthesis.bp_centres`): hand-built
@@ -295,7 +295,7 @@ def test_synthesize_passes_the_options_to_bp():
                                           "training_radius": "gap"})
     np.testing.assert_array_equal(plain.range, named.range)
     np.testing.assert_array_equal(plain.bp.beliefs, named.bp.beliefs)
-    # the defaults are recorded: a result says which BP made it (NP's fill since 0.9)
+    # the defaults are recorded: a result says which BP made it (NP's fill)
     assert plain.params["observation"] == "np"
     assert plain.params["offset_tolerance"] == 2.0**-3
     assert plain.params["training_radius"] == "gap"
@@ -361,7 +361,7 @@ def test_gap_radius_is_the_search_at_each_nodes_own_radius(seed):
 
 
 def _per_depth_search(levels, rq, rows, cols, radius, pad, n, proximity, **opts):
-    """The gap-radius search as 0.9.2 ran it: search_candidates once per depth."""
+    """The gap-radius search done plainly: search_candidates once per depth."""
     import math
 
     from refsynth.synthesis.bp_gap_radius import gap_depth

@@ -1,4 +1,4 @@
-"""BP's proposals (issue #10 item 4, a departure from Fig. 6): refsynth.synthesis.bp_proposals."""
+"""BP's proposals (a departure from Fig. 6): refsynth.synthesis.bp_proposals."""
 
 import numpy as np
 import pytest

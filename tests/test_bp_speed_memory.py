@@ -1,4 +1,4 @@
-"""BP fast and memory-bounded (issue #15 items 2–3, issue #14 item 8): the same numbers.
+"""BP fast and memory-bounded: the same numbers.
 
 The tile-by-tile candidate search equals the literal one from a PatchTable; the message
 schedule that skips unchanged edges equals plain synchronous sweeps, bit for bit; Ψ
@@ -27,6 +27,9 @@ from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, check_bp_memory, psi_b
 from refsynth.synthesis.bp_search import candidates, search_candidates, stable_smallest
 from refsynth.synthesis.messages import belief_propagation
 from refsynth.synthesis.patch_table import PatchTable
+
+#: Tests of a fast kernel's internals (``-m kernel`` selects them).
+pytestmark = pytest.mark.kernel
 
 
 def _bits(a):

@@ -1,4 +1,4 @@
-"""BP's sends and Ψ, made cheaper (issue #15 item 2): the same numbers, bit for bit.
+"""BP's sends and Ψ, made cheaper: the same numbers, bit for bit.
 
 The max-product send takes the sender's labels one at a time (no (E, k, k) temporary),
 the rows of Ψ are kept in a bounded cache that prefers the edges still changing, and
@@ -12,12 +12,16 @@ from __future__ import annotations
 import pickle
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.synthesis.bp_model import Compatibilities, grid_edges, pair_compatibilities, psi
 from refsynth.synthesis.messages import belief_propagation
+
+#: Tests of a fast kernel's internals (``-m kernel`` selects them).
+pytestmark = pytest.mark.kernel
 
 
 def _bits(a):

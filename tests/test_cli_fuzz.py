@@ -1,4 +1,4 @@
-"""A fuzz of the command line (#14): random argv never gives a traceback.
+"""A fuzz of the command line: random argv never gives a traceback.
 
 Random argv are drawn from each subcommand's own option names, real and junk
 values (tiny files, damaged files, missing files, bad numbers, odd paths) and

@@ -219,7 +219,7 @@ def _large_case(seed: int, height: int = 40, width: int = 52):
 
 @given(small_scene(max_side=2 * COARSEST - 1), st.integers(1, 300))
 def test_one_level_is_gauss_seidel_bit_for_bit(scene, sweeps):
-    """Below 2·COARSEST on a side the cascade has one level: 0.6's fill, bit for bit."""
+    """Below 2·COARSEST on a side the cascade has one level: plain Gauss-Seidel, bit for bit."""
     image, truth, known = scene
     partial = np.where(known, truth, np.nan)
     np.testing.assert_array_equal(

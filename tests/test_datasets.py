@@ -294,7 +294,7 @@ def test_motorcycle_square_and_errors():
 
 
 def test_motorcycle_crop_is_the_pair_cut_then_resized():
-    """Issue #10's protocol: columns 70:670 of the pair, resized by 0.75 along both axes."""
+    """The Motorcycle's protocol: columns 70:670 of the pair, resized by 0.75 along both axes."""
     skimage = pytest.importorskip("skimage")
     from skimage import data
 

@@ -1,7 +1,9 @@
 """``python -m refsynth demo``: the paper's story by default, today's table with ``--quick``."""
 
+import contextlib
 import io
 import json
+from types import SimpleNamespace
 
 import pytest
 
@@ -95,16 +97,38 @@ def test_story_progress_says_how_long_is_left():
                      "demo: 100 % done, 2:00 elapsed, ~0:00 left"]
 
 
-@pytest.mark.slow
-def test_the_story_end_to_end_meets_the_targets(tmp_path, capsys):
-    """The whole default demo (about a minute on two cores): #12's targets hold."""
+@pytest.fixture(scope="module")
+def story(tmp_path_factory):
+    """One run of the whole default demo (about a minute on two cores), shared by the tests
+    below: its folder, what it printed, and what :func:`run_pipeline_demo` returned to it."""
     pytest.importorskip("pty")
-    assert main(["demo", "--out", str(tmp_path)]) == 0
-    captured = capsys.readouterr()
+    out = tmp_path_factory.mktemp("story")
+    returned = []
+
+    def spy(*args, **kwargs):
+        returned.append(real(*args, **kwargs))
+        return returned[-1]
+
+    real = cli_demo.run_pipeline_demo
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with pytest.MonkeyPatch.context() as patch, contextlib.redirect_stdout(stdout), \
+            contextlib.redirect_stderr(stderr):
+        patch.setattr(cli_demo, "run_pipeline_demo", spy)
+        status = main(["demo", "--out", str(out)])
+    assert status == 0, stderr.getvalue()[-4000:]
+    (summary,) = returned
+    return SimpleNamespace(out=out, stdout=stdout.getvalue(), stderr=stderr.getvalue(),
+                           summary=summary)
+
+
+@pytest.mark.slow
+def test_the_story_end_to_end_meets_the_targets(story):
+    """The whole default demo: the story's targets hold."""
+    tmp_path = story.out
     for name in ("scan", "scan-2", *STORY_FILES):
         assert (tmp_path / name).exists(), name
-        assert str(tmp_path / name) in captured.out
-    assert "left" in captured.err
+        assert str(tmp_path / name) in story.stdout
+    assert "left" in story.stderr
     record = json.loads((tmp_path / "story.json").read_text())
     assert {(row["position"], row["method"]) for row in record["rows"]} == {
         (k, m) for k in (1, 2) for m in ("NP", "BP", "nearest", "colorization")}
@@ -116,9 +140,24 @@ def test_the_story_end_to_end_meets_the_targets(tmp_path, capsys):
         assert position["triangles"]["measured"]["bridging"] == 0
     (alignment,) = targets["alignment"]
     assert alignment["refined_cm"] <= 1.0 < alignment["odometry_cm"]
-    # the model command merges the positions' files into the same room.ply
-    again = tmp_path / "again.ply"
-    assert main(["model", "--merge", str(tmp_path / "position-1.ply"),
-                 str(tmp_path / "position-2.ply"), "--poses", str(tmp_path / "poses.json"),
+
+
+@pytest.mark.slow
+def test_the_model_command_merges_the_storys_positions_into_the_same_model(story):
+    again = story.out / "again.ply"
+    assert main(["model", "--merge", str(story.out / "position-1.ply"),
+                 str(story.out / "position-2.ply"), "--poses", str(story.out / "poses.json"),
                  "--out", str(again)]) == 0
-    assert again.read_bytes() == (tmp_path / "room.ply").read_bytes()
+    assert again.read_bytes() == (story.out / "room.ply").read_bytes()
+
+
+@pytest.mark.slow
+def test_the_story_acquires_and_registers(story):
+    """Stage 1 of the same run: the simulated scan and its registration."""
+    summary = story.summary
+    h, w = summary["panorama"]
+    assert w > 3 * h > 0
+    assert 0.3 < summary["known"] < 0.5
+    assert (story.out / "scan" / "scan.npz").is_file()
+    a, b, _, _ = summary["warp"]
+    assert a == pytest.approx(300.0) and b == pytest.approx(-1.0)

@@ -1,4 +1,4 @@
-"""The numeric contract (issue #11): the same call gives the same bits on any machine.
+"""The numeric contract: the same call gives the same bits on any machine.
 
 Each variant runs NP and BP in a fresh interpreter with another BLAS kernel
 (``OPENBLAS_CORETYPE``), one BLAS/OpenMP thread, numpy's SIMD dispatch cut down to
@@ -15,6 +15,9 @@ import sys
 from pathlib import Path
 
 import pytest
+
+#: Each variant runs in a fresh interpreter (``-m "not slow"`` leaves them out).
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,4 +1,4 @@
-"""The scenes give the same bits on any BLAS kernel, thread count and SIMD width (issue #11).
+"""The scenes give the same bits on any BLAS kernel, thread count and SIMD width.
 
 Each scene is computed in a fresh interpreter under an environment variant and hashed:
 ``OPENBLAS_CORETYPE=Prescott`` (OpenBLAS's oldest x86-64 kernels, no FMA),
@@ -19,6 +19,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+#: Each variant runs in a fresh interpreter (``-m "not slow"`` leaves them out).
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -128,7 +128,7 @@ def test_cases_run_np_over_seeds_and_the_rest_once():
     cases = build_cases(["synthetic"], ["32"], ["x78"],
                         ["np", "np-onion", "bp", "bp-fig6", "bp-obs-colorization", "nearest"],
                         seeds=3)
-    # BP draws through NP's fill (its default observations since 0.9): over seeds too
+    # BP draws through NP's fill (its default observations): over seeds too
     assert [(c.method, c.seed) for c in cases] == [
         ("np", 0), ("np", 1), ("np", 2), ("np-onion", 0), ("np-onion", 1), ("np-onion", 2),
         ("bp", 0), ("bp", 1), ("bp", 2), ("bp-fig6", 0), ("bp-obs-colorization", 0),
@@ -155,7 +155,7 @@ def test_default_grid_covers_the_issue():
     assert not {c.method for c in cases} & set(OPTION_METHODS)
     assert len(cases) == 630   # the Results page: the default grid's 630 cases
     assert len(cases) == len(set(cases))
-    # chosen by name, the options: bp-obs-np (= bp) over seeds, 0.8's BP once
+    # chosen by name, the options: bp-obs-np (= bp) over seeds, BP on the colorization fill once
     named = grid_cases([("synthetic", "16", "x20", "bp,bp-obs-np,bp-obs-colorization")],
                        seeds=2)
     assert [(c.method, c.seed) for c in named] == [("bp", 0), ("bp", 1), ("bp-obs-np", 0),
@@ -487,7 +487,7 @@ def test_load_reprints_saved_rows(tmp_path, capsys):
         _evaluate(["--load", str(tmp_path / "rows.json"), "--methods", "np"])
 
 
-# ----------------------------------------------------------------------------- #14: the front door
+# ----------------------------------------------------------------------------- the front door
 
 
 @pytest.mark.parametrize(("parse", "text", "match"), [
@@ -500,7 +500,7 @@ def test_load_reprints_saved_rows(tmp_path, capsys):
     (parse_sampling, "x٧٨", "unknown sampling"),
 ])
 def test_specs_accept_ascii_digits_of_sensible_length_only(parse, text, match):
-    """#14 item 10: ``synthetic-٣`` read as room 3; a huge stripe width overflowed."""
+    """Non-ASCII digits (``synthetic-٣``) and huge stripe widths are refused, in one line."""
     with pytest.raises(ValueError, match=match) as info:
         parse(text)
     assert "\n" not in str(info.value)
@@ -528,7 +528,7 @@ def no_grid(monkeypatch):
     (["--scene", "synthetic", "--json", "a.json/rows.json"], "a.json is not a folder"),
 ])
 def test_cli_refuses_before_any_work(tmp_path, monkeypatch, no_grid, argv, match):
-    """#14 items 5, 8, 10: a traceback, the default grid for "", or a failure after the work."""
+    """One line before any work: no traceback, no default grid for "", no failure after the work."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "a.json").write_text("[]")
     monkeypatch.setattr("refsynth.cli.arguments.physical_memory", lambda: 8 * 2**30)
@@ -554,7 +554,7 @@ def test_cli_memory_estimate_counts_the_jobs(monkeypatch, no_grid):
     ("\xff\xfe", "not UTF-8"),
 ])
 def test_load_refuses_what_it_cannot_print(tmp_path, content, match):
-    """#14 item 10: deeply nested JSON raised RecursionError."""
+    """Deeply nested JSON is refused in one line, not a RecursionError."""
     path = tmp_path / "rows.json"
     path.write_bytes(content.encode("latin-1") if content.startswith("\xff") else
                      content.encode())
@@ -583,7 +583,7 @@ def test_load_checks_the_type_of_every_field(tmp_path, capsys):
 
 
 def test_progress_and_tables_use_one_scene_name_and_the_size_that_ran(capsys):
-    """#14 item 12: a 32x32 run was headed "128×128"; progress said synthetic-0."""
+    """A 32x32 run is headed 32x32 (not "128×128"); progress names the scene as the table does."""
     argv = ["--scene", "synthetic", "--size", "32", "--sampling", "g5_25",
             "--methods", "np,bp", "--seeds", "1"]
     assert _evaluate(argv) == 0
@@ -609,7 +609,7 @@ def test_scene_labels_match_the_loaded_scenes_names(tmp_path):
 
 
 def test_a_complex_npy_disparity_is_refused(tmp_path):
-    """#14 item 10: a complex .npy was cast to real with only a ComplexWarning."""
+    """A complex .npy is refused, not cast to real with only a ComplexWarning."""
     from refsynth.evaluation.cases import load_scene
 
     Image.fromarray(np.zeros((16, 20), np.uint8)).save(tmp_path / "im.png")

@@ -1,6 +1,6 @@
-"""Issue #14 items 7-9: every parameter of ``synthesize`` bounded before the work starts.
+"""Every parameter of ``synthesize`` bounded before the work starts.
 
-Each defect below was reproduced on refsynth 0.2.0 first; the test says what it did then.
+Each test's docstring says what the value did unchecked.
 Validation only refuses: a radius beyond the image runs as the image's reach and gives the
 result the given radius gives, bit for bit.
 """
@@ -53,7 +53,7 @@ def _same(a, b):
 
 @pytest.mark.parametrize("method", ["np", "bp"])
 def test_a_range_whose_span_overflows_is_refused(method):
-    """Was: -1e308..1e308 ran on NaN quantised range (int64 garbage, or an IndexError)."""
+    """Unchecked: -1e308..1e308 ran on NaN quantised range (int64 garbage, or an IndexError)."""
     partial = PARTIAL.copy()
     partial[0, 0], partial[0, 4] = -1e308, 1e308
     with pytest.raises(ValueError, match="`partial_range` spans -1e.308 to 1e.308: max − min"):
@@ -61,7 +61,7 @@ def test_a_range_whose_span_overflows_is_refused(method):
 
 
 def test_an_intensity_whose_span_overflows_is_refused():
-    """Was: accepted; the quantised intensity was garbage (NaN cast to int64)."""
+    """Unchecked: accepted; the quantised intensity was garbage (NaN cast to int64)."""
     image = IMAGE.copy()
     image[0, 0, 0], image[1, 1, 1] = -1e308, 1e308
     with pytest.raises(ValueError, match="`intensity` spans"):
@@ -90,7 +90,7 @@ def test_each_bounded_parameter_runs_at_its_bounds(method, name):
 
 @pytest.mark.parametrize(("method", "name"), BOUNDED)
 def test_each_bounded_parameter_is_refused_beyond_its_bounds_naming_the_range(method, name):
-    """Was: range_weight or proximity 1e308 gave NaN confidence; sigma_i / sigma_s at 1e-200
+    """Unchecked: range_weight or proximity 1e308 gave NaN confidence; sigma_i / sigma_s at 1e-200
     and below NaN confidence; 1e200 was accepted though Eqs. 6-7 are then flat."""
     low, high = PARAMETER_BOUNDS[name]
     for value in (high * 10, 1e308, max(low / 10, -1.0) if low else -1e-300):
@@ -100,7 +100,7 @@ def test_each_bounded_parameter_is_refused_beyond_its_bounds_naming_the_range(me
 
 
 def test_canny_sigma_is_bounded_by_the_image():
-    """Was: canny_sigma=1e300 -> "Maximum allowed size exceeded", 1e10 a MemoryError."""
+    """Unchecked: canny_sigma=1e300 -> "Maximum allowed size exceeded", 1e10 a MemoryError."""
     for value in (1e300, 1e10, 13.0):
         with pytest.raises(ValueError, match=r"`canny_sigma` must be in \[0, 12\]"):
             refsynth.synthesize(IMAGE, PARTIAL, canny_sigma=value)
@@ -112,7 +112,7 @@ def test_canny_sigma_is_bounded_by_the_image():
 
 @pytest.mark.parametrize("radius", [1e4, 1e30, 1e308])
 def test_bp_runs_a_radius_beyond_the_image_as_the_whole_image(radius):
-    """Was: radius=1e4 tried to allocate 149 GiB; 1e30 "Maximum allowed dimension exceeded".
+    """Unchecked: radius=1e4 tried to allocate 149 GiB; 1e30 "Maximum allowed dimension exceeded".
     BP's own search is cut to the image (here on the colorization fill's observations); its
     default observations run NP at that radius first, which is refused as NP's is, naming
     the way out."""
@@ -135,7 +135,7 @@ def test_bp_runs_a_radius_beyond_the_image_as_the_whole_image(radius):
 
 @pytest.mark.parametrize("radius", [1e4, 1e30, 1e308])
 def test_np_refuses_a_radius_whose_frame_does_not_fit_naming_the_reach(radius):
-    """Was: the same allocations; NP keeps its radius (the frame of its tie-break draws)."""
+    """Unchecked: the same allocations; NP keeps its radius (the frame of its tie-break draws)."""
     with pytest.raises(ValueError, match=r"synthesize\(method='np'\) on a 12x12 image with "
                        r"neighbourhood=5, radius=[0-9e+]+ would need about .* of memory, more "
                        r"than this machine's .*; lower `neighbourhood`, `radius` \(radius 16 "
@@ -218,7 +218,7 @@ def test_search_radius_gives_bp_the_same_prior_coefficient(mu, r, h, w):
 
 
 def test_candidates_beyond_memory_are_refused_with_the_memory_needed():
-    """Was: candidates=10**6 tried to allocate 175 TiB (a MemoryError after the search)."""
+    """Unchecked: candidates=10**6 tried to allocate 175 TiB (a MemoryError after the search)."""
     with pytest.raises(ValueError, match=r"k=1000000 candidates .* would need about [0-9.]+ GB, "
                        r"more than the limit"):
         refsynth.synthesize(IMAGE, PARTIAL, method="bp", candidates=10**6)
@@ -235,7 +235,7 @@ def test_bp_is_refused_before_canny_runs(monkeypatch):
 
 
 def test_a_neighbourhood_beyond_memory_is_refused_with_the_memory_needed():
-    """Was: "array is too big" from numpy deep inside the patch table."""
+    """Unchecked: "array is too big" from numpy deep inside the patch table."""
     with pytest.raises(ValueError, match="neighbourhood=1000001, .* would need about"):
         refsynth.synthesize(IMAGE, PARTIAL, neighbourhood=10**6 + 1)
 
@@ -251,7 +251,7 @@ def test_the_memory_limit_is_the_machines_physical_memory(monkeypatch):
 
 
 def test_a_masked_partial_range_counts_the_masked_values_as_unknown():
-    """Was: "nothing to fill (no NaN)" although the mask hid values."""
+    """Unchecked: "nothing to fill (no NaN)" although the mask hid values."""
     masked = np.ma.masked_array(np.where(KNOWN, PARTIAL, 0.0), mask=~KNOWN)
     for method in ("np", "bp"):
         _same(refsynth.synthesize(IMAGE, masked, method=method),
@@ -269,7 +269,7 @@ def test_a_masked_intensity_is_refused_unless_nothing_is_masked():
 
 @pytest.mark.parametrize("value", [np.timedelta64(1, "s"), np.datetime64("2020-01-01")])
 def test_a_time_intensity_is_a_type_error_naming_intensity(value):
-    """Was: timedelta64 -> "Invalid integer data type 'm'" (numpy counts it as an integer)."""
+    """Unchecked: timedelta64 -> "Invalid integer data type 'm'" (numpy counts it as an integer)."""
     with pytest.raises(TypeError, match="`intensity` must have a real numeric dtype"):
         refsynth.synthesize(np.full((12, 12), value), PARTIAL)
 
@@ -336,7 +336,7 @@ def test_extreme_options_are_refused_by_name_or_give_a_sane_result(option, value
         _sane(result, partial)
 
 
-# ----------------------------------------------------------------------------- #15 item 5
+# ----------------------------------------------------------------------------- progress
 
 
 class _Clock:

@@ -1,4 +1,4 @@
-"""Golden hashes: NP and BP on two small scenes, pinned bit for bit (issue #11).
+"""Golden hashes: NP and BP on two small scenes, pinned bit for bit.
 
 Under the numeric contract (:mod:`refsynth.numeric`) these hashes are the same on every
 machine, BLAS and SIMD width. A change that alters any of them — on purpose or not — fails
@@ -52,29 +52,25 @@ def _digest(result) -> str:
 
 GOLDEN = {
     ("steps", "np"): "27f7cd040b1f223cc74298c2",   # 0.5: NP's offset copy
-    ("steps", "bp"): "de888bd52dfba104db0a840b",   # 0.9: BP on NP's fill
+    ("steps", "bp"): "de888bd52dfba104db0a840b",   # BP on NP's fill
     ("texture", "np"): "f2f579904e60b638f8084138",
     ("texture", "bp"): "e4ec2240a65b662ea60ea88a",
 }
-#: BP's observations completed by the colorization fill, the other defaults kept: 0.6–0.8's
-#: default BP, which NP's fill replaced in 0.9; its hashes are those releases'.
+#: BP's observations completed by the colorization fill, the other defaults kept.
 COLORIZATION = dict(observation="colorization")
 GOLDEN_COLORIZATION = {
     ("steps", "bp"): "207c5aede45dc5d1bac3b32c",
     ("texture", "bp"): "d7a8bbc8b58ef66e5f6701ca",
 }
 #: BP as Fig. 6 prints it (the observations' measured range, the fixed training disc, the
-#: labels' centre values): 0.3's default BP, which issue #10's departures replaced; its hashes
-#: are 0.3's.
+#: labels' centre values), without refsynth's departures.
 FIG6 = dict(observation="measured", training_radius="fixed", range_copy="value")
 GOLDEN_FIG6 = {
     ("steps", "bp"): "da696a7a6b4edcc3d5f381ca",
     ("texture", "bp"): "e2699b75d7f964ac7ec9c282",
 }
-#: The centre's value copied (Eq. 5 as printed; Fig. 6's labels), the other defaults kept:
-#: NP's is 0.4's default NP, which the offset copy replaced in 0.5, BP's 0.5's default BP
-#: (on the colorization fill's observations, 0.4–0.8's), which it replaced in 0.6; their
-#: hashes are those releases'.
+#: The centre's value copied (Eq. 5 as printed; Fig. 6's labels), the other defaults kept
+#: (BP on the colorization fill's observations).
 VALUE_COPY = {"np": dict(range_copy="value"),
               "bp": dict(range_copy="value", observation="colorization")}
 GOLDEN_VALUE_COPY = {
@@ -83,13 +79,12 @@ GOLDEN_VALUE_COPY = {
     ("texture", "np"): "2cebdade5732edbd0564aa81",
     ("texture", "bp"): "7b4f1ad4a4db7c38cbcda397",
 }
-#: 0.2's readings (Eq. 2's channel mean; BP's proximity prior μ = 1), which 0.3's defaults
-#: replaced (the README's audit): their hashes are 0.2's defaults' hashes, unchanged by
-#: 0.3's speed work.
-READINGS_02 = {"np": dict(channels="mean", range_copy="value"),
+#: Eq. 2's channel mean with the value copy; BP's proximity prior μ = 1 on Fig. 6's
+#: observations and training disc.
+CHANNEL_MEAN = {"np": dict(channels="mean", range_copy="value"),
                "bp": dict(channels="mean", proximity=1.0, observation="measured",
                           training_radius="fixed", range_copy="value")}
-GOLDEN_02 = {
+GOLDEN_CHANNEL_MEAN = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
     ("steps", "bp"): "d8dab12d04faac1c1f7e756e",
     ("texture", "np"): "4260a959c73bb8eba56b0feb",
@@ -110,7 +105,7 @@ GOLDEN_PAPER = {
 #: Every pinned reading: its name, its readings by method and its hashes.
 PINNED = [
     ("the defaults", {"np": {}, "bp": {}}, GOLDEN),
-    ("0.2's readings", READINGS_02, GOLDEN_02),
+    ("the channel mean", CHANNEL_MEAN, GOLDEN_CHANNEL_MEAN),
     ("Eq. 5's value copy", VALUE_COPY, GOLDEN_VALUE_COPY),
     ("Fig. 6", {"bp": FIG6}, GOLDEN_FIG6),
     ("the colorization fill's observations", {"bp": COLORIZATION}, GOLDEN_COLORIZATION),

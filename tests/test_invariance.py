@@ -1,4 +1,4 @@
-"""Invariances of the whole fill that the numeric contract makes exact (issues #10 and #11).
+"""Invariances of the whole fill that the numeric contract makes exact.
 
 The intensity convention (refsynth.synthesis.api): the intensity is brought to its own span
 before Canny and Eq. 2, so an offset or a positive scale of it — and uint8 against the same

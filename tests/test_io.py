@@ -186,7 +186,7 @@ def test_read_array_errors(tmp_path):
         read_array(tmp_path / "missing.pfm")
 
 
-# ----------------------------------------------------------------------------- strict readers (#14)
+# ----------------------------------------------------------------------------- strict readers
 
 
 @pytest.mark.parametrize(
@@ -294,7 +294,7 @@ def test_write_png16_refuses_values_it_cannot_store(tmp_path):
     assert not (tmp_path / "r.png").exists()
 
 
-# ----------------------------------------------------------------------------- fuzz (#14 item 6)
+# ----------------------------------------------------------------------------- fuzz
 
 
 def _valid_bytes(suffix: str, array: np.ndarray, folder) -> bytes:

@@ -1,4 +1,4 @@
-"""``register`` writes camera.json; ``model --camera-file`` reads it (#12 phase 2, item 4)."""
+"""``register`` writes camera.json; ``model --camera-file`` reads it."""
 
 import json
 import sys

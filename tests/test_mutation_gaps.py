@@ -1,4 +1,4 @@
-"""Tests that kill the mutants of ``benchmarks/mutation_check.py`` nothing else killed (#11).
+"""Tests that kill the mutants of ``benchmarks/mutation_check.py`` nothing else killed.
 
 Each test names the mutant it kills and the assembly step the other tests leave open.
 """

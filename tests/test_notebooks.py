@@ -30,6 +30,9 @@ from refsynth.cli.notebooks import (
     require_course_packages,
 )
 
+#: The tutorials execute (``-m "not slow"`` leaves them out).
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("tutorial_runs_started")]
+
 needs_course = pytest.mark.skipif(
     not course_installed(), reason='needs the course extra: pip install -e ".[course]"')
 
@@ -57,7 +60,6 @@ def test_there_are_tutorials():
 
 
 @needs_course
-@pytest.mark.slow
 @pytest.mark.parametrize("path", TUTORIALS, ids=lambda p: p.stem)
 def test_tutorial_runs_as_a_notebook_with_inline_figures(path):
     source = path.read_text(encoding="utf-8")

@@ -1,4 +1,4 @@
-"""NP's memory estimate (issue #15, item 3): what ``synthesize(method="np")`` allocates.
+"""NP's memory estimate: what ``synthesize(method="np")`` allocates.
 
 ``limits.np_memory`` decides whether NP is refused before any work, so it must not
 undercount what the fill allocates, nor overcount it so far that runs which fit are refused.
@@ -87,8 +87,8 @@ def test_np_memory_bounds_the_traced_peak_with_either_rows(wide, monkeypatch):
 def test_np_frees_its_table_and_front_by_reference_counting(monkeypatch):
     """NP's table (most of its memory) and its fill front are freed when the fill returns,
     with the garbage collector off: no reference cycle holds them. BP's default runs NP
-    first, and a cycle through a step closure (a first draft of 0.9.1's closures held
-    their table) kept the table alive through BP's own stage: BP's peak at 900×750 rose
+    first, and a cycle through a step closure (a closure holding the
+    table) would keep it alive through BP's own stage: BP's peak at 900×750 would rise
     from 820 MB to 1335 MB."""
     import gc
     import importlib

@@ -1,13 +1,17 @@
-"""NP's fast fill order (issue #15): the queue pops exactly what a fresh selection would."""
+"""NP's fast fill order: the queue pops exactly what a fresh selection would."""
 
 import heapq
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from refsynth.synthesis.frontqueue import ABSENT, FrontQueue, encode_keys
 from refsynth.synthesis.priority import FillFront
+
+#: Tests of a fast kernel's internals (``-m kernel`` selects them).
+pytestmark = pytest.mark.kernel
 
 
 @given(st.integers(1, 300), st.integers(0, 2**32 - 1), st.sampled_from([None, 8, 16]),

@@ -1,11 +1,15 @@
-"""NP's per-step paths (issue #15): the queue's keys are Eq. 10 afresh, bit for bit."""
+"""NP's per-step paths: the queue's keys are Eq. 10 afresh, bit for bit."""
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from refsynth.synthesis.frontqueue import ABSENT, encode_keys
 from refsynth.synthesis.priority import FillFront
+
+#: Tests of a fast kernel's internals (``-m kernel`` selects them).
+pytestmark = pytest.mark.kernel
 
 
 @given(

@@ -1,4 +1,4 @@
-"""NP's narrow Eq. 2 table (issue #15): the same distances as PatchTable, bit for bit."""
+"""NP's narrow Eq. 2 table: the same distances as PatchTable, bit for bit."""
 
 import numpy as np
 import pytest
@@ -8,6 +8,9 @@ from hypothesis import strategies as st
 from refsynth.numeric import EQ2_UNIT
 from refsynth.synthesis.filltable import FillTable
 from refsynth.synthesis.patch_table import PatchTable
+
+#: Tests of a fast kernel's internals (``-m kernel`` selects them).
+pytestmark = pytest.mark.kernel
 
 
 @given(

@@ -187,7 +187,7 @@ def test_incremental_front_matches_full_recomputation(h, w, n, use_edges, use_is
     np.testing.assert_allclose(got[sel], want[sel], atol=1e-9)
 
 
-# -- symmetry: mirroring the input mirrors the order (issue #10, item 3) ----------------------
+# -- symmetry: mirroring the input mirrors the order ---------------------------------------
 
 
 class _GivenTies:
@@ -252,7 +252,7 @@ def test_mirrored_input_gives_the_mirrored_order(h, w, n, use_edges, edges_last,
 
 
 def test_a_lone_range_pair_weighs_the_same_on_both_sides():
-    """The case of the issue: one filled pair, (3, 4)–(3, 5), straddles the right border of
+    """One filled pair, (3, 4)–(3, 5), straddles the right border of
     the 5×5 window of (3, 2). Pairs count only when both voxels lie in N_p, so that window
     sees no gradient — as the mirror window, whose border the mirror pair straddles on the
     left, never did — and the data term of the mirrored input is the mirrored data term."""

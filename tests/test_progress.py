@@ -1,4 +1,4 @@
-"""Progress over the stages of a fill (issue #15 item 5): BP reports as it goes, bits unchanged."""
+"""Progress over the stages of a fill: BP reports as it goes, bits unchanged."""
 
 from __future__ import annotations
 
@@ -98,7 +98,7 @@ def _bp_reports(**readings):
 
 
 def test_bp_reports_within_the_fill_the_search_and_the_messages():
-    """0.4's BP: reports inside each long stage's share, not only at the stage's ends."""
+    """BP reports inside each long stage's share, not only at the stage's ends."""
     values = _bp_reports()
     rest = sum(share for _, share in BP_STAGES)
     bounds = np.concatenate([[0.0, OBSERVATION_SHARE], OBSERVATION_SHARE + (

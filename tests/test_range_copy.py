@@ -218,7 +218,7 @@ def test_bps_shift_ignores_an_intensity_offset_and_scales_with_the_range():
     np.testing.assert_allclose(plain.range * 3.7, scaled.range, rtol=1e-12)
 
 
-# -- the agreement BP's shift needs (offset_tolerance, 0.8.4) ---------------------------------
+# -- the agreement BP's shift needs (offset_tolerance) ---------------------------------------
 
 
 @given(windows, st.integers(0, 16), st.sampled_from([0, 40, 600, 5000, 20000]))
@@ -267,7 +267,7 @@ def test_the_tolerance_is_a_power_of_two_from_2_to_the_minus_16_to_1():
     for bad in ("0.125", None, True):
         with pytest.raises(TypeError, match="`offset_tolerance`"):
             check_offset_tolerance(bad)
-    # None: BP's default observation, NP's fill since 0.9
+    # None: BP's default observation, NP's fill
     for observation in ("np", None):
         assert default_offset_tolerance(observation) == NP_OBSERVATION_TOLERANCE == 2.0**-3
     for observation in ("colorization", "measured", "colorization-completed"):

@@ -1,6 +1,6 @@
 """The literal reference (refsynth.synthesis.reference) against the fast code, and its contract.
 
-The fast code gives *exactly* the reference's output (issue #11): range, confidence, order,
+The fast code gives *exactly* the reference's output: range, confidence, order,
 BP's candidates, unary terms, compatibilities, messages and beliefs, on at least 200 random
 small cases per method, with edges (on measured pixels too), fixed neighbours and every option.
 Both follow the numeric contract of :mod:`refsynth.numeric`.
@@ -98,7 +98,7 @@ def run_fast(intensity, partial, edges, options, seed, method):
                                **keywords, readings=readings)
 
 
-# -- fast = reference (the targets of issue #11) --------------------------------------------
+# -- fast = reference -----------------------------------------------------------------------
 
 
 @MANY
@@ -112,22 +112,23 @@ def test_np_fast_equals_reference(case):
 
 @MANY
 @given(synthesis_case("bp"))
-def test_bp_fast_equals_reference(case):
+def test_bp_fast_equals_reference_with_its_messages_and_beliefs(case):
+    """The result, and every intermediate of BP: candidates, terms, messages, beliefs.
+
+    The same run also checks the reference's own invariants
+    (:func:`bp_reference_messages_are_normalised_and_range_is_a_candidate_centre`), so each
+    case runs the reference once.
+    """
     fast, slow = run_fast(*case, "bp"), run_reference(*case, "bp")
     np.testing.assert_array_equal(fast.range, slow.range)
     np.testing.assert_array_equal(fast.order, slow.order)
     np.testing.assert_array_equal(fast.candidate_values, slow.candidate_values)
     np.testing.assert_array_equal(fast.confidence, slow.confidence)
     assert fast.iterations == slow.iterations
-
-
-@FEW
-@given(synthesis_case("bp"))
-def test_bp_fast_messages_and_beliefs_equal_reference(case):
-    fast, slow = run_fast(*case, "bp"), run_reference(*case, "bp")
     for name in ("labels", "candidates", "candidate_values", "unary", "pairs", "log_psi",
                  "messages", "beliefs"):
         np.testing.assert_array_equal(getattr(fast.bp, name), getattr(slow, name), err_msg=name)
+    bp_reference_messages_are_normalised_and_range_is_a_candidate_centre(slow, case)
 
 
 # -- the reference itself ---------------------------------------------------------------------
@@ -150,10 +151,9 @@ def test_np_reference_keeps_measurements_and_copies_known_values(case, rule):
     np.testing.assert_array_equal(grid, np.rint(grid))
 
 
-@FEW
-@given(synthesis_case("bp"))
-def test_bp_reference_messages_are_normalised_and_range_is_a_candidate_centre(case):
-    out = run_reference(*case, "bp")
+def bp_reference_messages_are_normalised_and_range_is_a_candidate_centre(out, case):
+    """Max-product messages peak at 0; each pixel's range is its label's centre value, and
+    its label the belief's argmax (checked on every case of the agreement test above)."""
     if out.messages.size and case[3]["product"] == "max":
         np.testing.assert_array_equal(out.messages.max(axis=1)[np.any(out.messages, axis=1)], 0)
     rows, cols = out.order[:, 0], out.order[:, 1]
@@ -230,7 +230,7 @@ def test_the_window_is_the_rounded_gaussian_of_neighbourhood_py():
                                       np.rint(gaussian_window(n) * 2**ref.WINDOW_BITS))
 
 
-# -- BP's default departures in the reference (issue #10) -----------------------------------
+# -- BP's default departures in the reference ---------------------------------------------
 
 
 @FEW
@@ -283,7 +283,7 @@ def test_the_reference_observations_are_the_fill_on_the_measured_grid():
     # the labels stay measured pixels; the ranking moved
     assert np.all(known[default.candidates[..., 0], default.candidates[..., 1]])
     assert not np.array_equal(measured.unary, default.unary)
-    # the default since 0.9: NP's fill (the reference's, drawing on the same generator) on
+    # the default: NP's fill (the reference's, drawing on the same generator) on
     # the measured grid; without a generator it is refused
     with pytest.raises(TypeError, match="rng"):
         ref.bp_reference(image, partial, edges, neighbourhood=3, radius=2.0, k=2, iterations=2)

@@ -1,4 +1,4 @@
-"""The simulated rig scans from a pose (#12 phase 2): the room seen from there, consistently."""
+"""The simulated rig scans from a pose: the room seen from there, consistently."""
 
 import json
 import math

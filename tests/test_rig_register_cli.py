@@ -1,6 +1,6 @@
 """``register --scan`` on a scan folder: the pan angles and focal length from its manifest.json,
-a registration that does not converge is an error, damaged files give one line (issue #14,
-items 3 and 11); ``scan`` and ``register`` document every option's meaning and default."""
+a registration that does not converge is an error, damaged files give one line;
+``scan`` and ``register`` document every option's meaning and default."""
 
 import argparse
 import shutil
@@ -61,7 +61,7 @@ def test_register_maps_the_given_pictures_to_their_manifest_angles(
 
 
 def test_register_fails_when_it_does_not_converge(scan_folder, tmp_path, capsys):
-    """The issue's --start 0: "edge misalignment nan -> nan px" and exit 0 before."""
+    """--start 0 does not converge: an error, not "edge misalignment nan -> nan px" and exit 0."""
     status, out, err = run(capsys, "--scan", str(scan_folder), "--start", "0",
                            "--out", str(tmp_path / "out"))
     lines = err.splitlines()

@@ -24,6 +24,9 @@ from rig_fakes import fake_scan
 
 from refsynth.acquisition import ScanSettings
 
+#: Scan processes started and killed (``-m "not slow"`` leaves them out).
+pytestmark = pytest.mark.slow
+
 #: The kills, bounded: about one per 3 slices of the 50 planned (and the pictures).
 MAX_KILLS = 18
 

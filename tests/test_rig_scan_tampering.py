@@ -1,6 +1,6 @@
 """Scans that never lose a slice: resume and load_scan against damaged and tampered folders.
 
-Issue #14, items 1-3: a folder whose manifest.json is gone, manifests of the wrong
+A folder whose manifest.json is gone, manifests of the wrong
 shape or contradicting their settings, slice files copied over one another,
 truncated pictures, paths out of the folder, a damaged scan.npz. Every test
 snapshots the slice files, tampers, resumes or loads, and checks that every
@@ -151,7 +151,7 @@ def test_distance_resume_without_a_manifest_checks_the_plan_it_makes(pristine, t
 
 
 def test_cli_resume_without_a_manifest(ptys, tmp_path, capsys):
-    """The issue's repro: --average 5 --strategy every --step 50, manifest and scan.npz gone."""
+    """--average 5 --strategy every --step 50, manifest and scan.npz gone."""
     out = tmp_path / "D"
     arguments = ["scan", "--simulate", "--out", str(out), "--quiet", "--timeout", "2"]
     assert scan_main([*arguments, "--average", "5", "--strategy", "every", "--step", "50"]) == 0

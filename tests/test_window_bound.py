@@ -22,6 +22,9 @@ from refsynth.synthesis.window_bound import (
     pinwheel_parts,
 )
 
+#: Tests of a fast kernel's internals (``-m kernel`` selects them).
+pytestmark = pytest.mark.kernel
+
 
 @pytest.mark.parametrize("n", [1, 3, 5, 7, 9])
 def test_the_pinwheel_cuts_the_window_into_five_parts_once(n):
