@@ -1,0 +1,361 @@
+"""What each piece of NP's and BP's speed machinery buys, measured by taking it out.
+
+The Motorcycle (scikit-image's copy) at ``--size`` (450×375 by default), x-stripes at 78 %
+unknown, as ``bench_speed.py`` builds it. Each piece of machinery is switched off by
+replacing it, for the measurement, with the simple array code it accelerates (the
+replacements are below, each beside the piece it replaces; each gives the same output, bit
+for bit, which the table checks). Every run is a fresh subprocess (this script with
+``--child``), so that its peak memory is its own: the high-water mark of its resident
+memory (``VmHWM``, reset before the fill where Linux allows it) less the resident memory
+with the scene built, before the fill. The
+runs are interleaved: each round runs the whole machinery and every variant once, in an
+order rotated from round to round, so that a burst of load on this shared machine hits
+them alike. The table gives, per piece, the median wall seconds with and without it over
+the rounds, their spread (min–max), the ratio of the medians (without / with: above 1.10,
+the piece buys more than 10 % of the method's time), the median CPU-seconds ratio, the
+peak memory with and without, and whether the output is the same bits.
+
+Run::
+
+    python benchmarks/bench_machinery.py                       # NP and BP, 3 rounds (~30 min)
+    python benchmarks/bench_machinery.py --methods np --rounds 5
+    python benchmarks/bench_machinery.py --pieces frontqueue,window_bound --size 225x188
+
+Needs scikit-image (the Motorcycle).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import heapq
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_speed import _case, _size  # noqa: E402
+
+# ---------------------------------------------------------------------------------------
+# The simple replacements, one per piece: each a function that patches the package in this
+# (child) process.
+
+
+def _table_hook(after):
+    """Run ``after(table)`` at the end of every FillTable's construction."""
+    from refsynth.synthesis import filltable
+
+    init = filltable.FillTable.__init__
+
+    def patched(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        after(self)
+
+    filltable.FillTable.__init__ = patched
+
+
+def no_window_bound() -> None:
+    """The shortlist without window_bound's lower bounds: every candidate's intensity term
+    by one product (the path the shortlist takes beside float32 intensity rows)."""
+    def after(table):
+        table.bound_rows = None
+        table.shortlist_step = table._shortlister()
+
+    _table_hook(after)
+
+
+def no_shortlist() -> None:
+    """No shortlist at all (so no window_bound either): Eq. 2 of every candidate of the
+    disc, every step (``FillTable.distances``)."""
+    def after(table):
+        table.bound_rows = None
+        step = table._shortlister()
+        table.shortlist_step = lambda p, candidates, scale: step(p, candidates, scale, True)
+
+    _table_hook(after)
+
+
+def plain_matmul() -> None:
+    """``@`` (BLAS, maybe threaded) for FillTable's products instead of ``numpy.matvec``."""
+    from refsynth.synthesis import filltable
+
+    filltable._matvec = np.matmul
+
+
+def plain_set_range() -> None:
+    """FillTable.set_range by fancy indexing of the 2 n² entries instead of one strided
+    view."""
+    from refsynth.numeric import RANGE_BITS
+    from refsynth.synthesis import filltable
+
+    def set_range(self, p, value):
+        if not hasattr(self, "_plain"):
+            n, h, wp = self.n, self.n // 2, self.shape[1]
+            k = np.arange(self.nn)
+            a, b = np.divmod(k, n)
+            self._plain = ((a - h) * wp + (b - h), self.r0 + k, self.v0 + k)
+        offsets, r_cols, v_cols = self._plain
+        rows = p - offsets
+        self.ranges[rows, r_cols] = float(round(value * 2.0**RANGE_BITS))
+        self.ranges[rows, v_cols] = 1.0
+
+    filltable.FillTable.set_range = set_range
+
+
+class HeapQueue:
+    """FrontQueue's interface on ``heapq`` with stale entries: the largest key first, ties
+    to the smallest slot (``tie``), as FrontQueue pops."""
+
+    def __init__(self, tie, block=None):
+        from refsynth.synthesis.frontqueue import ABSENT
+
+        self.absent = int(ABSENT)
+        self.rank = np.asarray(tie, dtype=np.int64).ravel()
+        self.pixel_at = np.empty_like(self.rank)
+        self.pixel_at[self.rank] = np.arange(self.rank.size)
+        self.keys = [self.absent] * self.rank.size  # by slot
+        self.pixels = self.pixel_at.tolist()
+        self.heap: list[tuple[int, int]] = []
+        self.shift = 0  # set_in_blocks's blocks are the slots
+
+    def set(self, pixels, keys):
+        self.set_slots(self.rank[pixels], keys)
+
+    def set_slots(self, slots, keys):
+        heap, own, absent = self.heap, self.keys, self.absent
+        for slot, key in zip(np.ravel(slots).tolist(), np.ravel(keys).tolist()):
+            if own[slot] != key:
+                own[slot] = key
+                if key != absent:
+                    heapq.heappush(heap, (-key, slot))
+
+    def set_in_blocks(self, slots, blocks, keys):
+        self.set_slots(slots, keys)
+
+    def pop(self):
+        heap, own = self.heap, self.keys
+        while heap:
+            key, slot = heapq.heappop(heap)
+            if own[slot] == -key:
+                own[slot] = self.absent
+                return self.pixels[slot]
+        return -1
+
+
+def heap_queue() -> None:
+    """NP's fill order by a binary heap with stale entries instead of FrontQueue."""
+    from refsynth.synthesis import priority
+
+    priority.FrontQueue = HeapQueue
+
+
+class _Blocks:
+    """``view[at]``: the ``side × side`` block of a frame whose top-left pixel is ``at``
+    (flat), by slicing; ``transpose(0, 3, 1, 2)`` gives the blocks field-major."""
+
+    def __init__(self, array, side, fields_first=False):
+        self.array, self.side, self.width = array, side, array.shape[1]
+        self.fields_first = fields_first
+
+    def transpose(self, *axes):
+        return _Blocks(self.array, self.side, True)
+
+    def __getitem__(self, at):
+        r, c = divmod(int(at), self.width)
+        block = self.array[r : r + self.side, c : c + self.side]
+        return block.transpose(2, 0, 1) if self.fields_first else block
+
+
+def no_strided() -> None:
+    """FillFront without strided.py: ``reshape`` for flat_view, slicing for block_views."""
+    from refsynth.synthesis import priority
+
+    def flat_view(array):
+        return array.reshape((array.shape[0] * array.shape[1],) + array.shape[2:])
+
+    def block_views(array, side):
+        return (side // 2) * (array.shape[1] + 1), _Blocks(array, side)
+
+    priority.flat_view, priority.block_views = flat_view, block_views
+
+
+def plain_ranking() -> None:
+    """BP's candidate ranking by ``np.argsort(kind="stable")`` instead of bp_ranking's
+    partitions."""
+    from refsynth.synthesis import bp_search
+
+    def stable_smallest(values, count):
+        return np.argsort(values, axis=1, kind="stable")[:, :count]
+
+    def smallest_measured(values, bi, mi, b, m, count):
+        d = np.full((b, m), np.inf)
+        d[bi, mi] = values
+        best = np.argsort(d, axis=1, kind="stable")[:, :count]
+        return best, np.take_along_axis(d, best, axis=1)
+
+    bp_search.stable_smallest, bp_search.smallest_measured = stable_smallest, smallest_measured
+
+
+class _EveryEdge:
+    """numpy, except that ``flatnonzero`` names every entry: belief_propagation's next
+    sweep's nodes and edges are then all of them (plain synchronous sweeps). (Its other
+    user, the bounded Ψ cache, is not used where every edge's Ψ fits, as at 450×375.)"""
+
+    def __getattr__(self, name):
+        return getattr(np, name)
+
+    @staticmethod
+    def flatnonzero(x):
+        return np.arange(np.size(x))
+
+
+def every_edge() -> None:
+    """Every message sent at every sweep, instead of only those whose inputs changed."""
+    from refsynth.synthesis import messages
+
+    messages.np = _EveryEdge()
+
+
+def plain_max_product() -> None:
+    """Eq. 9's max-product send as one ``max`` over an (m, k, k) sum, and numpy's own row
+    reductions, instead of the label-by-label running maximum in cache-sized blocks."""
+    from refsynth.synthesis import messages
+
+    def max_product(out, h, log_psi, axis):
+        t = log_psi + (h[:, :, None] if axis == 1 else h[:, None, :])
+        np.max(t, axis=axis, out=out)
+        out -= out.max(axis=1, keepdims=True)
+
+    messages._max_product = max_product
+    messages._row_any = lambda x: np.any(x, axis=1)
+    messages._row_max = lambda x: x.max(axis=1, keepdims=True)
+
+
+#: piece -> (method, what the replacement is, the patch). The method's full machinery is the
+#: baseline every piece is compared with.
+PIECES = {
+    "window_bound": ("np", "every candidate's intensity term", no_window_bound),
+    "shortlist": ("np", "Eq. 2 of every candidate (no bound)", no_shortlist),
+    "frontqueue": ("np", "heapq with stale entries", heap_queue),
+    "strided": ("np", "reshape and slicing", no_strided),
+    "set_range view": ("np", "fancy indexing", plain_set_range),
+    "matvec": ("np", "@ (BLAS)", plain_matmul),
+    "bp_ranking": ("bp", "np.argsort(kind='stable')", plain_ranking),
+    "changed-only sends": ("bp", "every edge every sweep", every_edge),
+    "label-wise max": ("bp", "one max over (m, k, k)", plain_max_product),
+}
+
+
+# ---------------------------------------------------------------------------------------
+
+
+def _status_mb(field: str) -> float:
+    with open("/proc/self/status", encoding="ascii") as status:
+        for line in status:
+            if line.startswith(field + ":"):
+                return int(line.split()[1]) / 1024.0
+    raise OSError(f"no {field} in /proc/self/status")
+
+
+def _child(method: str, piece: str, size: tuple[int, int]) -> None:
+    """One run: ``method`` with ``piece`` replaced (``-``: the whole machinery); JSON out."""
+    import refsynth
+
+    image, partial, _ = _case(size)
+    if piece != "-":
+        PIECES[piece][2]()
+    try:  # the high-water mark reset to the resident memory now (Linux)
+        with open("/proc/self/clear_refs", "w", encoding="ascii") as clear:
+            clear.write("5")
+    except OSError:
+        pass
+    before = _status_mb("VmRSS")
+    wall, cpu = time.perf_counter(), time.process_time()
+    if method == "np":
+        out = refsynth.synthesize(image, partial, seed=0)
+    else:
+        out = refsynth.synthesize(image, partial, method="bp", seed=0)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    digest = hashlib.sha256(np.ascontiguousarray(out.range).tobytes()
+                            + np.ascontiguousarray(out.confidence).tobytes()).hexdigest()
+    print(json.dumps({"wall": wall, "cpu": cpu, "peak": _status_mb("VmHWM") - before,
+                      "hash": digest[:16]}))
+
+
+def _run(method: str, piece: str, size: tuple[int, int]) -> dict:
+    cmd = [sys.executable, __file__, "--child", method, piece, f"{size[0]}x{size[1]}"]
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if done.returncode:
+        raise RuntimeError(f"{method} without {piece} failed:\n{done.stderr}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _stats(values):
+    return float(np.median(values)), float(min(values)), float(max(values))
+
+
+def run(methods, pieces, size, rounds: int, out=sys.stdout) -> dict:
+    """Time every method's full machinery and each piece's replacement, interleaved."""
+    runs: dict[tuple[str, str], list[dict]] = {}
+    variants = [(m, "-") for m in methods] + [(PIECES[p][0], p) for p in pieces
+                                               if PIECES[p][0] in methods]
+    for r in range(rounds):
+        shift = r % len(variants)
+        for method, piece in variants[shift:] + variants[:shift]:
+            result = _run(method, piece, size)
+            runs.setdefault((method, piece), []).append(result)
+            print(f"  round {r + 1}: {method} {'(all)' if piece == '-' else 'without ' + piece}:"
+                  f" {result['wall']:.1f} s", file=sys.stderr, flush=True)
+    print(f"\nThe Motorcycle at {size[0]}×{size[1]}, x-stripes 78 % unknown; {rounds} rounds, "
+          "median (min–max) wall seconds; ratios of the medians (without / with)\n", file=out)
+    print("| piece | method | replaced by | with (s) | without (s) | wall ratio | CPU ratio "
+          "| peak MB with / without | same bits |", file=out)
+    print("|---|---|---|---|---|---|---|---|---|", file=out)
+    table = {}
+    for method in methods:
+        base = runs[(method, "-")]
+        bw, bl, bh = _stats([x["wall"] for x in base])
+        bc = float(np.median([x["cpu"] for x in base]))
+        bp = float(np.median([x["peak"] for x in base]))
+        print(f"| (all) | {method} | | {bw:.1f} ({bl:.1f}–{bh:.1f}) | | | | {bp:.0f} | |",
+              file=out)
+        for piece in pieces:
+            if PIECES[piece][0] != method:
+                continue
+            mine = runs[(method, piece)]
+            w, lo, hi = _stats([x["wall"] for x in mine])
+            c = float(np.median([x["cpu"] for x in mine]))
+            peak = float(np.median([x["peak"] for x in mine]))
+            same = {x["hash"] for x in mine} == {x["hash"] for x in base}
+            table[piece] = {"wall_ratio": w / bw, "cpu_ratio": c / bc, "same": same}
+            print(f"| {piece} | {method} | {PIECES[piece][1]} | {bw:.1f} ({bl:.1f}–{bh:.1f}) "
+                  f"| {w:.1f} ({lo:.1f}–{hi:.1f}) | {w / bw:.2f} | {c / bc:.2f} "
+                  f"| {bp:.0f} / {peak:.0f} | {'yes' if same else 'NO'} |", file=out)
+    return table
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--size", type=_size, default=(450, 375))
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--methods", type=lambda t: t.split(","), default=["np", "bp"])
+    parser.add_argument("--pieces", type=lambda t: t.split(","), default=list(PIECES))
+    parser.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        method, piece, size = args.child
+        _child(method, piece, _size(size))
+        return 0
+    unknown = [p for p in args.pieces if p not in PIECES]
+    if unknown:
+        parser.error(f"unknown pieces {unknown}; choose from {list(PIECES)}")
+    run(args.methods, args.pieces, args.size, args.rounds)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
