@@ -19,7 +19,7 @@ Run::
 
     python benchmarks/bench_machinery.py                       # NP and BP, 3 rounds (~30 min)
     python benchmarks/bench_machinery.py --methods np --rounds 5
-    python benchmarks/bench_machinery.py --pieces frontqueue,window_bound --size 225x188
+    python benchmarks/bench_machinery.py --pieces frontqueue,shortlist --size 225x188
 
 Needs scikit-image (the Motorcycle).
 """
@@ -58,21 +58,10 @@ def _table_hook(after):
     filltable.FillTable.__init__ = patched
 
 
-def no_window_bound() -> None:
-    """The shortlist without window_bound's lower bounds: every candidate's intensity term
-    by one product (the path the shortlist takes beside float32 intensity rows)."""
-    def after(table):
-        table.bound_rows = None
-        table.shortlist_step = table._shortlister()
-
-    _table_hook(after)
-
-
 def no_shortlist() -> None:
-    """No shortlist at all (so no window_bound either): Eq. 2 of every candidate of the
-    disc, every step (``FillTable.distances``)."""
+    """No shortlist: Eq. 2 of every candidate of the disc, every step
+    (``FillTable.distances``)."""
     def after(table):
-        table.bound_rows = None
         step = table._shortlister()
         table.shortlist_step = lambda p, candidates, scale: step(p, candidates, scale, True)
 
@@ -238,8 +227,7 @@ def plain_max_product() -> None:
 #: piece -> (method, what the replacement is, the patch). The method's full machinery is the
 #: baseline every piece is compared with.
 PIECES = {
-    "window_bound": ("np", "every candidate's intensity term", no_window_bound),
-    "shortlist": ("np", "Eq. 2 of every candidate (no bound)", no_shortlist),
+    "shortlist": ("np", "Eq. 2 of every candidate", no_shortlist),
     "frontqueue": ("np", "heapq with stale entries", heap_queue),
     "strided": ("np", "reshape and slicing", no_strided),
     "set_range view": ("np", "fancy indexing", plain_set_range),

@@ -51,7 +51,6 @@ RANGE_COPY = "refsynth/synthesis/range_copy.py"
 BP = "refsynth/synthesis/bp.py"
 PRIORITY = "refsynth/synthesis/priority.py"
 FILLTABLE = "refsynth/synthesis/filltable.py"
-WINDOW_BOUND = "refsynth/synthesis/window_bound.py"
 FRONTQUEUE = "refsynth/synthesis/frontqueue.py"
 ONION = "refsynth/synthesis/onion.py"
 BP_SEARCH = "refsynth/synthesis/bp_search.py"
@@ -69,7 +68,7 @@ TESTS = {
            ORACLE_FAST, "tests/test_reference.py", "tests/test_assembly.py",
            "tests/test_np_speed_table.py", "tests/test_np_speed_front.py",
            "tests/test_mutation_gaps.py", "tests/test_range_copy.py",
-           "tests/test_golden_hashes.py", "tests/test_window_bound.py"],
+           "tests/test_golden_hashes.py"],
     "bp": ["tests/test_bp.py", "tests/test_synthesis.py", ORACLE_FAST,
            "tests/test_reference.py", "tests/test_assembly.py", "tests/test_bp_speed_memory.py",
            "tests/test_bp_speed_sends.py", "tests/test_mutation_gaps.py",
@@ -171,18 +170,6 @@ MUTATIONS = [
              "np.multiply(self._vp, row[self.v0 : -1], self._support)).tolist()",
              "np.multiply(self._vp, self._vp, self._support)).tolist()",
              "NP's offset copy: the agreement test over p's support, not the shared one"),
-    Mutation("np-bound-q", "np", FILLTABLE,
-             "+ lower_margin - q_mv[p * m1 + m]",
-             "+ lower_margin - 2 * q_mv[p * m1 + m]",
-             "NP's pruning bound (window_bound): the target's Q_p subtracted twice"),
-    Mutation("np-bound-margin", "np", FILLTABLE,
-             "lower_margin, bound_slack = margin(lower_rows), 1.0 + SLACK",
-             "lower_margin, bound_slack = 0.0, 1.0",
-             "NP's pruning bound: no margin for its rounding"),
-    Mutation("np-bound-divisor", "np", WINDOW_BOUND,
-             "np.divide(EQ2_UNIT, totals * divisor, out=out, where=totals > 0)",
-             "np.divide(EQ2_UNIT, totals, out=out, where=totals > 0)",
-             "NP's pruning bound: not divided by the channels' divisor (too high for their mean)"),
     Mutation("np-offset-draw", "np", NP, "shift = offset_shift(j)",
              "shift = offset_shift(best)",
              "NP's offset copy: the shift of the best match, not of the drawn member"),

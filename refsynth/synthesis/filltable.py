@@ -55,17 +55,14 @@ Per step, :meth:`FillTable.shortlist` gathers the range rows only of the candida
 intensity term alone does not already exceed ``1 + ε`` times one candidate's whole distance
 (Eq. 2's range term is never negative, so the others can be neither Eq. 4's best match nor
 in Eq. 5's set): on the Motorcycle about 12 of 190 candidates, the same decisions and
-distances bit for bit. Beside float64 intensity rows, it gathers the intensity
-rows only of the candidates that a lower bound on their intensity term, from five weighted
-sums of each window (:mod:`refsynth.synthesis.window_bound`: 16 numbers a row for a colour
-image, against 79), does not already rule out by the same test: about one in nine. At 43 %
-of the steps (the Motorcycle at 450×375) only the candidate that set the bound is left: its
-distance, computed for the bound, is returned as it is, and NP takes it without Eq. 5's draw
-(a set of one). The cost is a few numpy calls: the products use ``numpy.matvec`` where numpy
-has it (2.2 and later), whose loop stays in this thread (``@`` hands products this size to
-OpenBLAS's threads, whose hand-offs cost more than the products on a shared machine), and a
-synthesized range is written into the 25 rows that hold it through one strided view
-(:meth:`FillTable.set_range`).
+distances bit for bit. The bound is the whole distance of the candidate with the smallest
+intensity term; where it is the only candidate left, its distance, computed for the bound,
+is returned as it is, and NP takes it without Eq. 5's draw (a set of one). The cost is a
+few numpy calls: the products use ``numpy.matvec`` where numpy has it (2.2 and later),
+whose loop stays in this thread (``@`` hands products this size to OpenBLAS's threads,
+whose hand-offs cost more than the products on a shared machine; ``python
+benchmarks/bench_machinery.py --pieces matvec`` measures it), and a synthesized range is
+written into the 25 rows that hold it through one strided view (:meth:`FillTable.set_range`).
 
 References
 ----------
@@ -90,14 +87,6 @@ from refsynth.numeric import (
 )
 from refsynth.synthesis.neighbourhood import intensity_patches
 from refsynth.synthesis.range_copy import OFFSET_BITS, round_half_even
-from refsynth.synthesis.window_bound import (
-    PARTS,
-    SLACK,
-    bound_rows,
-    bound_weights,
-    margin,
-    part_sums,
-)
 
 __all__ = ["FillTable", "WIDE_TABLE_BYTES", "intensity_dtype"]
 
@@ -237,13 +226,6 @@ class FillTable:
         # candidates' constant 1 (a power-of-two scaling: exact)
         self.self_unit = np.zeros(pixels)
         self_frame = self.self_unit.reshape(self.shape)
-        # window_bound's rows (the part sums and Q), beside float64 intensity rows only:
-        # 5 C + 1 float64 more a pixel (91 MB at 900×750)
-        self.bound_rows = None
-        self.bound_weights = bound_weights(n, C, self.divisor)
-        if self.intensity.dtype == np.float64:
-            self.bound_rows = np.zeros((pixels, PARTS * C + 1))
-            bound_frame = self.bound_rows.reshape(self.shape + (PARTS * C + 1,))
         g = window_weights(n).ravel().astype(np.float64)
         g_int = np.repeat(g, C)  # intensity columns are (offset, channel) raveled
         levels = np.multiply(np.asarray(image, dtype=np.float64), 2.0**INTENSITY_BITS)
@@ -262,9 +244,6 @@ class FillTable:
             s = (ints**2) @ g_int
             self_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = s
             out[:, :, s0:one] = _split(s, 3, self.intensity.dtype)
-            if self.bound_rows is not None:  # the sums exact: integers below 2**53
-                bound_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = bound_rows(
-                    part_sums(ints, n, C), self.bound_weights).reshape(-1, W, PARTS * C + 1)
             out = frame_r[pad + rows.start : pad + rows.stop, pad : pad + W]
             r = rp[rows].reshape(-1, W, nn)
             has = np.isfinite(r)
@@ -407,11 +386,8 @@ class FillTable:
         Eq. 2 is the intensity term plus a range term ``>= 0``, so a candidate whose
         intensity term alone exceeds ``scale`` times some candidate's distance is neither
         the best match nor within ``scale`` of it. The range term is evaluated for the rest
-        only (on the Motorcycle about one candidate in sixteen). With float64 intensity
-        rows, the intensity term too is evaluated only for the candidates whose lower bound
-        (:mod:`~refsynth.synthesis.window_bound`) does not exceed the bound, and the
-        candidate with the smallest lower bound gives the bound; with float32 rows, the
-        candidate with the smallest intensity term.
+        only (on the Motorcycle about one candidate in sixteen). The candidate with the
+        smallest intensity term gives the bound.
 
         Parameters
         ----------
@@ -438,9 +414,7 @@ class FillTable:
         with ``k`` any candidate (the bound's) and ``D_min <= D_k``, every ``q``
         with ``D_q <= fl(scale D_min)`` has ``t_q <= fl(scale D_k)`` and is kept. The
         kept candidates keep their order, so the first minimum among them is the first
-        overall. The lower bound ``L_q <= t_q`` rules out only candidates with ``t_q`` above
-        the bound too (its rounding within the margin it is tested with), and ``k`` itself
-        is never ruled out. :meth:`offset_shift` then reads the kept candidates' rows.
+        overall. :meth:`offset_shift` then reads the kept candidates' rows.
 
         Examples
         --------
@@ -465,7 +439,7 @@ class FillTable:
         ``shortlist_step(p, candidates, scale, every=False)``. A step is some twenty numpy
         calls on small arrays, so the closure reads its operands from local names (methods
         would look each one up on ``self``). It writes ``p``'s weights, picks the bound's
-        candidate (the smallest lower bound, or intensity term), forms its whole distance,
+        candidate (the smallest intensity term), forms its whole distance,
         then that of the candidates the bound keeps; it leaves the rows :meth:`offset_shift`
         reads in ``self._last``. It refers to the table's arrays, never to the table."""
         intensity, ranges = self.intensity, self.ranges
@@ -485,14 +459,6 @@ class FillTable:
         lam, mean = self.lam, self.missing_range == "mean"
         wa_mv = memoryview(wa.reshape(1))  # w_a w_unit, written as a Python float
         multiply, less_equal, divide, float64 = np.multiply, np.less_equal, np.divide, np.float64
-        # window_bound's expanded bound: p's weights [-2 w S(p) | 1], Q_p, the margin
-        lower_rows, bound_lower, divisor_value = self.bound_rows, np.zeros(()), self.divisor
-        if lower_rows is not None:
-            m, m1 = lower_rows.shape[1] - 1, lower_rows.shape[1]
-            lower_weights = np.ones(m1)
-            lower_head, minus_2w = lower_weights[:m], -2.0 * self.bound_weights
-            q_mv = memoryview(lower_rows.reshape(-1))  # Q_x at x m1 + m
-            lower_margin, bound_slack = margin(lower_rows), 1.0 + SLACK
 
         def finish(si: np.ndarray, rows: np.ndarray) -> np.ndarray:
             # Eq. 2 from the intensity terms si and the gathered range rows (in place)
@@ -521,19 +487,13 @@ class FillTable:
             # ΣG 2**32 by Cauchy–Schwarz: every partial sum, in any order, lies within
             # ±2 C ΣG 2**32 < 1.6 2**52, as C <= 3 and ΣG <= 262151 < 1.01 2**18); float32
             # rows are widened by the product
-            if every or lower_rows is None:
-                si = _matvec(intensity.take(candidates, axis=0), w_si)
-                if divisor is not None:
-                    divide(si, divisor, si)
-                if every:  # distances(): every candidate's range term
-                    return candidates, finish(si, ranges.take(candidates, axis=0).astype(float64))
-                k = int(si.argmin())  # the bound's candidate: the smallest intensity term
-                q, t = int(candidates[k]), float(si[k])
-            else:  # the smallest lower bound; its intensity term the same exact sum, alone
-                multiply(lower_rows[p, :m], minus_2w, lower_head)
-                lower = lower_rows.take(candidates, axis=0).dot(lower_weights)  # L_q - Q_p
-                q = int(candidates[int(lower.argmin())])
-                t = float(intensity[q].dot(w_si)) / divisor_value
+            si = _matvec(intensity.take(candidates, axis=0), w_si)
+            if divisor is not None:
+                divide(si, divisor, si)
+            if every:  # distances(): every candidate's range term
+                return candidates, finish(si, ranges.take(candidates, axis=0).astype(float64))
+            k = int(si.argmin())  # the bound's candidate: the smallest intensity term
+            q, t = int(candidates[k]), float(si[k])
             # the bound: the whole Eq. 2 of the candidate q, _combine's operations on Python
             # floats (the same IEEE operations, so the same bits); its range row (float32)
             # stays for offset_shift
@@ -550,13 +510,6 @@ class FillTable:
             else:
                 best = t + sr
             bound[()] = scale * best
-            if lower_rows is not None:  # the intensity terms of the candidates the bounds keep
-                bound_lower[()] = bound_slack * float(bound[()]) + lower_margin - q_mv[p * m1 + m]
-                candidates = candidates.compress(less_equal(lower, bound_lower))
-                if candidates.size > 1:  # (alone, it is q: kept below, t known)
-                    si = _matvec(intensity.take(candidates, axis=0), w_si)
-                    if divisor is not None:
-                        divide(si, divisor, si)
             if candidates.size > 1:
                 keep = less_equal(si, bound)
                 candidates = candidates.compress(keep)
