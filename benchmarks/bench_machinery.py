@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import heapq
+import importlib
 import json
 import subprocess
 import sys
@@ -137,9 +138,14 @@ class HeapQueue:
 
 def heap_queue() -> None:
     """NP's fill order by a binary heap with stale entries instead of FrontQueue."""
-    from refsynth.synthesis import priority
+    priority = _priority_module()
 
     priority.FrontQueue = HeapQueue
+
+
+def _priority_module():
+    """refsynth.synthesis.priority, the module (the package's name is also a function's)."""
+    return importlib.import_module("refsynth.synthesis.priority")
 
 
 class _Blocks:
@@ -161,7 +167,7 @@ class _Blocks:
 
 def no_strided() -> None:
     """FillFront without strided.py: ``reshape`` for flat_view, slicing for block_views."""
-    from refsynth.synthesis import priority
+    priority = _priority_module()
 
     def flat_view(array):
         return array.reshape((array.shape[0] * array.shape[1],) + array.shape[2:])
