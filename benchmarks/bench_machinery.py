@@ -76,26 +76,6 @@ def plain_matmul() -> None:
     filltable._matvec = np.matmul
 
 
-def plain_set_range() -> None:
-    """FillTable.set_range by fancy indexing of the 2 n² entries instead of one strided
-    view."""
-    from refsynth.numeric import RANGE_BITS
-    from refsynth.synthesis import filltable
-
-    def set_range(self, p, value):
-        if not hasattr(self, "_plain"):
-            n, h, wp = self.n, self.n // 2, self.shape[1]
-            k = np.arange(self.nn)
-            a, b = np.divmod(k, n)
-            self._plain = ((a - h) * wp + (b - h), self.r0 + k, self.v0 + k)
-        offsets, r_cols, v_cols = self._plain
-        rows = p - offsets
-        self.ranges[rows, r_cols] = float(round(value * 2.0**RANGE_BITS))
-        self.ranges[rows, v_cols] = 1.0
-
-    filltable.FillTable.set_range = set_range
-
-
 class HeapQueue:
     """FrontQueue's interface on ``heapq`` with stale entries: the largest key first, ties
     to the smallest slot (``tie``), as FrontQueue pops."""
@@ -146,36 +126,6 @@ def heap_queue() -> None:
 def _priority_module():
     """refsynth.synthesis.priority, the module (the package's name is also a function's)."""
     return importlib.import_module("refsynth.synthesis.priority")
-
-
-class _Blocks:
-    """``view[at]``: the ``side × side`` block of a frame whose top-left pixel is ``at``
-    (flat), by slicing; ``transpose(0, 3, 1, 2)`` gives the blocks field-major."""
-
-    def __init__(self, array, side, fields_first=False):
-        self.array, self.side, self.width = array, side, array.shape[1]
-        self.fields_first = fields_first
-
-    def transpose(self, *axes):
-        return _Blocks(self.array, self.side, True)
-
-    def __getitem__(self, at):
-        r, c = divmod(int(at), self.width)
-        block = self.array[r : r + self.side, c : c + self.side]
-        return block.transpose(2, 0, 1) if self.fields_first else block
-
-
-def no_strided() -> None:
-    """FillFront without strided.py: ``reshape`` for flat_view, slicing for block_views."""
-    priority = _priority_module()
-
-    def flat_view(array):
-        return array.reshape((array.shape[0] * array.shape[1],) + array.shape[2:])
-
-    def block_views(array, side):
-        return (side // 2) * (array.shape[1] + 1), _Blocks(array, side)
-
-    priority.flat_view, priority.block_views = flat_view, block_views
 
 
 def plain_ranking() -> None:
@@ -235,8 +185,6 @@ def plain_max_product() -> None:
 PIECES = {
     "shortlist": ("np", "Eq. 2 of every candidate", no_shortlist),
     "frontqueue": ("np", "heapq with stale entries", heap_queue),
-    "strided": ("np", "reshape and slicing", no_strided),
-    "set_range view": ("np", "fancy indexing", plain_set_range),
     "matvec": ("np", "@ (BLAS)", plain_matmul),
     "bp_ranking": ("bp", "np.argsort(kind='stable')", plain_ranking),
     "changed-only sends": ("bp", "every edge every sweep", every_edge),

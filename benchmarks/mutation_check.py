@@ -235,10 +235,9 @@ MUTATIONS = [
              "sr = sr + float(square_weights.dot(r))",
              "Eq. 2's range term with R_q in place of R_q² (a lone candidate's distance)"),
     Mutation("ft-set-offsets", "np", FILLTABLE,
-             "strides = (width * item, nn * item, (n - wp * width) * item, (1 - width) * item)",
-             "strides = (width * item, nn * item, (0 - wp * width) * item, (1 - width) * item)",
-             "a synthesized range written into the window row's first columns (the strided "
-             "view's row step without its n columns)"),
+             "self._window_rows = (a - h) * self.shape[1] + (b - h)",
+             "self._window_rows = (a - h) * self.shape[1] + (h - b)",
+             "a synthesized range written into the rows mirrored left to right"),
     Mutation("np-lone-path", "np", NP, "if candidates.size == 1:  # the best match",
              "if candidates.size <= 2:  # the best match",
              "NP's one-candidate shortcut taken with two candidates (no Eq. 4 between them)"),

@@ -62,7 +62,7 @@ def test_fill_table_matches_patch_table_through_fills(h, w, channels, n, missing
 )
 def test_set_range_writes_the_rows_a_fresh_table_holds(h, w, channels, n, extra_pad, seed,
                                                        dtype):
-    """set_range's strided view: after synthesizing some pixels (border pixels included,
+    """set_range: after synthesizing some pixels (border pixels included,
     whose windows reach into the padding), every row of the image equals, bit for bit, that
     of a table built afresh with those pixels' range known (every column: R and V, and
     nothing else touched; R² is not stored). The padding's rows are never read (they are

@@ -61,8 +61,7 @@ is returned as it is, and NP takes it without Eq. 5's draw (a set of one). The c
 few numpy calls: the products use ``numpy.matvec`` where numpy has it (2.2 and later),
 whose loop stays in this thread (``@`` hands products this size to OpenBLAS's threads,
 whose hand-offs cost more than the products on a shared machine; ``python
-benchmarks/bench_machinery.py --pieces matvec`` measures it), and a synthesized range is
-written into the 25 rows that hold it through one strided view (:meth:`FillTable.set_range`).
+benchmarks/bench_machinery.py --pieces matvec`` measures it).
 
 References
 ----------
@@ -74,7 +73,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided, sliding_window_view
+from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import (
     EQ2_UNIT,
@@ -317,25 +316,12 @@ class FillTable:
         self._single_mv = memoryview(self._single)
         self._bound = np.zeros(())  # the shortlist's bound, written per step
         self._wa = np.zeros(())  # w_a w_unit, written per step
-        # set_range writes p's range into the rows p - o (o an offset of the window, k its
-        # raster index) at the columns R and V + k: with o = (a - h) Wp + (b - h)
-        # for k = a n + b, one strided view per p, shape (2, n, n), whose element (blk, a, b)
-        # is ranges[p - o, r0 + blk nn + k]: its flat index is p width + h (Wp + 1) width + r0
-        # + blk nn + a (n - Wp width) + b (1 - width). self._p0 = h (Wp + 1) is the smallest
-        # p whose window rows all lie in the frame (every pixel of the image, pad > h).
-        wp = self.shape[1]
-        self._p0 = p0 = h * (wp + 1)
-        self.flat = flat = self.ranges.reshape(-1)
-        item = flat.itemsize
-        strides = (width * item, nn * item, (n - wp * width) * item, (1 - width) * item)
-        start = (p0 + h * (wp + 1)) * width + r0  # the element (p0, 0, 0, 0)
-        self._windows = as_strided(flat[start:], shape=(flat.size // width - 2 * p0, 2, n, n),
-                                   strides=strides)
-        self._values = np.ones(2, dtype=np.float32)  # [R, V], broadcast
-        self._value_block = self._values[:, None, None]
-        # single values through memoryviews (cheaper than numpy's scalar indexing); a
-        # float32 item is set by C's conversion, rounding to nearest as numpy's
-        self._values_mv = memoryview(self._values)
+        # set_range writes p's range into the rows p - o (o the window's offset of raster
+        # index k = a n + b: o = (a - h) Wp + (b - h)) at the columns R + k and V + k
+        a, b = np.divmod(np.arange(nn), n)
+        self._window_rows = (a - h) * self.shape[1] + (b - h)
+        self._r_columns, self._v_columns = r0 + np.arange(nn), v0 + np.arange(nn)
+        # single values through memoryviews (cheaper than numpy's scalar indexing)
         self._w_si_mv, self._self_mv = memoryview(self.w_si), memoryview(self.self_unit)
         #: :meth:`shortlist` as ``shortlist_step(p, candidates, scale)``, which NP's loop calls
         self.shortlist_step = self._shortlister()
@@ -598,9 +584,10 @@ class FillTable:
         >>> float(table.ranges[12, table.r0 + 4]) == 2.0**15   # the centre's R column
         True
         """
+        rows = p - self._window_rows
         # np.rint's value (both round half to even), exact in float32 (at most 2**16)
-        self._values_mv[0] = float(round(value * 2.0**RANGE_BITS))
-        self._windows[p - self._p0] = self._value_block
+        self.ranges[rows, self._r_columns] = float(round(value * 2.0**RANGE_BITS))
+        self.ranges[rows, self._v_columns] = 1.0
 
 
 def _split(x: np.ndarray, parts: int, dtype=np.float32) -> np.ndarray:
