@@ -20,6 +20,8 @@ Run::
     python benchmarks/bench_machinery.py                       # NP and BP, 3 rounds (~30 min)
     python benchmarks/bench_machinery.py --methods np --rounds 5
     python benchmarks/bench_machinery.py --pieces frontqueue,shortlist --size 225x188
+    git worktree add /tmp/speed-base main        # then: this checkout against main
+    python benchmarks/bench_machinery.py --against /tmp/speed-base --rounds 3
 
 Needs scikit-image (the Motorcycle).
 """
@@ -31,6 +33,7 @@ import hashlib
 import heapq
 import importlib
 import json
+import os
 import subprocess
 import sys
 import time
@@ -225,12 +228,17 @@ def _child(method: str, piece: str, size: tuple[int, int]) -> None:
     digest = hashlib.sha256(np.ascontiguousarray(out.range).tobytes()
                             + np.ascontiguousarray(out.confidence).tobytes()).hexdigest()
     print(json.dumps({"wall": wall, "cpu": cpu, "peak": _status_mb("VmHWM") - before,
-                      "hash": digest[:16]}))
+                      "hash": digest[:16], "package": str(Path(refsynth.__file__).parents[1])}))
 
 
-def _run(method: str, piece: str, size: tuple[int, int]) -> dict:
+def _run(method: str, piece: str, size: tuple[int, int], package: str | None = None) -> dict:
+    """One child run; ``package``: a folder whose ``refsynth`` the child imports instead."""
     cmd = [sys.executable, __file__, "--child", method, piece, f"{size[0]}x{size[1]}"]
-    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    env = None
+    if package is not None:
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+            [package] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
     if done.returncode:
         raise RuntimeError(f"{method} without {piece} failed:\n{done.stderr}")
     return json.loads(done.stdout.strip().splitlines()[-1])
@@ -280,17 +288,58 @@ def run(methods, pieces, size, rounds: int, out=sys.stdout) -> dict:
     return table
 
 
+def against(methods, package: str, size, rounds: int, out=sys.stdout) -> dict:
+    """Each method with this checkout's refsynth and with the one in ``package`` (a folder
+    holding another checkout), interleaved: the ratio of this one's time to that one's."""
+    here = str(Path(__file__).resolve().parents[1])
+    runs: dict[tuple[str, str], list[dict]] = {}
+    variants = [(m, where) for m in methods for where in (package, here)]
+    for r in range(rounds):
+        shift = r % len(variants)
+        for method, where in variants[shift:] + variants[:shift]:
+            result = _run(method, "-", size, where)
+            if Path(result["package"]) != Path(where):
+                raise RuntimeError(f"the child imported {result['package']}, not {where}")
+            runs.setdefault((method, where), []).append(result)
+            print(f"  round {r + 1}: {method} ({where}): {result['wall']:.1f} s",
+                  file=sys.stderr, flush=True)
+    print(f"\nThe Motorcycle at {size[0]}×{size[1]}, x-stripes 78 % unknown; {rounds} rounds, "
+          f"median (min–max) wall seconds; before: {package}, after: {here}\n", file=out)
+    print("| method | before (s) | after (s) | wall ratio | CPU ratio | peak MB before / after "
+          "| same bits |", file=out)
+    print("|---|---|---|---|---|---|---|", file=out)
+    table = {}
+    for method in methods:
+        before, after = runs[(method, package)], runs[(method, here)]
+        bw, bl, bh = _stats([x["wall"] for x in before])
+        aw, al, ah = _stats([x["wall"] for x in after])
+        bc, ac = (float(np.median([x["cpu"] for x in v])) for v in (before, after))
+        bp, ap = (float(np.median([x["peak"] for x in v])) for v in (before, after))
+        same = {x["hash"] for x in before} == {x["hash"] for x in after}
+        table[method] = {"wall_ratio": aw / bw, "cpu_ratio": ac / bc, "same": same}
+        print(f"| {method} | {bw:.1f} ({bl:.1f}–{bh:.1f}) | {aw:.1f} ({al:.1f}–{ah:.1f}) "
+              f"| {aw / bw:.2f} | {ac / bc:.2f} | {bp:.0f} / {ap:.0f} "
+              f"| {'yes' if same else 'NO'} |", file=out)
+    return table
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--size", type=_size, default=(450, 375))
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--methods", type=lambda t: t.split(","), default=["np", "bp"])
     parser.add_argument("--pieces", type=lambda t: t.split(","), default=list(PIECES))
+    parser.add_argument("--against", metavar="FOLDER",
+                        help="compare the whole methods with another checkout's refsynth "
+                             "(e.g. a git worktree of main) instead of piece by piece")
     parser.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
         method, piece, size = args.child
         _child(method, piece, _size(size))
+        return 0
+    if args.against:
+        against(args.methods, str(Path(args.against).resolve()), args.size, args.rounds)
         return 0
     unknown = [p for p in args.pieces if p not in PIECES]
     if unknown:
