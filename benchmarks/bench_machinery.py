@@ -72,13 +72,6 @@ def no_shortlist() -> None:
     _table_hook(after)
 
 
-def plain_matmul() -> None:
-    """``@`` (BLAS, maybe threaded) for FillTable's products instead of ``numpy.matvec``."""
-    from refsynth.synthesis import filltable
-
-    filltable._matvec = np.matmul
-
-
 class HeapQueue:
     """FrontQueue's interface on ``heapq`` with stale entries: the largest key first, ties
     to the smallest slot (``tie``), as FrontQueue pops."""
@@ -188,7 +181,6 @@ def plain_max_product() -> None:
 PIECES = {
     "shortlist": ("np", "Eq. 2 of every candidate", no_shortlist),
     "frontqueue": ("np", "heapq with stale entries", heap_queue),
-    "matvec": ("np", "@ (BLAS)", plain_matmul),
     "bp_ranking": ("bp", "np.argsort(kind='stable')", plain_ranking),
     "changed-only sends": ("bp", "every edge every sweep", every_edge),
     "label-wise max": ("bp", "one max over (m, k, k)", plain_max_product),

@@ -58,10 +58,7 @@ in Eq. 5's set): on the Motorcycle about 12 of 190 candidates, the same decision
 distances bit for bit. The bound is the whole distance of the candidate with the smallest
 intensity term; where it is the only candidate left, its distance, computed for the bound,
 is returned as it is, and NP takes it without Eq. 5's draw (a set of one). The cost is a
-few numpy calls: the products use ``numpy.matvec`` where numpy has it (2.2 and later),
-whose loop stays in this thread (``@`` hands products this size to OpenBLAS's threads,
-whose hand-offs cost more than the products on a shared machine; ``python
-benchmarks/bench_machinery.py --pieces matvec`` measures it).
+few numpy calls and three small products (``@``) a step.
 
 References
 ----------
@@ -89,10 +86,6 @@ from refsynth.synthesis.range_copy import OFFSET_BITS, round_half_even
 
 __all__ = ["FillTable", "WIDE_TABLE_BYTES", "intensity_dtype"]
 
-#: Matrix times vector: numpy's own loop where it has one (numpy >= 2.2), which unlike ``@``
-#: never hands these small products to BLAS threads; the sums are exact, so either gives
-#: the same bits.
-_matvec = getattr(np, "matvec", np.matmul)
 
 #: The most bytes :class:`FillTable`'s intensity rows may take as float64
 #: (:func:`intensity_dtype`).
@@ -125,14 +118,6 @@ def intensity_dtype(pixels: int, channels: int, n: int) -> type:
     """
     return np.float64 if pixels * (n * n * channels + 4) * 8 <= WIDE_TABLE_BYTES else np.float32
 
-
-def _by_rows(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """``weights @ rows.T``: each row of ``weights`` (``(J, K)``) times the rows ``(M, K)``,
-    shape ``(J, M)``; one matrix-vector product per weight row, by :data:`_matvec`'s loop
-    where numpy has it. The sums are exact, so the same bits either way."""
-    if _matvec is np.matmul:
-        return np.matmul(weights, rows.T)
-    return _matvec(rows, weights)
 
 
 #: Pixels of the frame built at a time, in whole rows: the float64 temporaries (about 2 MB)
@@ -317,10 +302,14 @@ class FillTable:
         self._bound = np.zeros(())  # the shortlist's bound, written per step
         self._wa = np.zeros(())  # w_a w_unit, written per step
         # set_range writes p's range into the rows p - o (o the window's offset of raster
-        # index k = a n + b: o = (a - h) Wp + (b - h)) at the columns R + k and V + k
-        a, b = np.divmod(np.arange(nn), n)
-        self._window_rows = (a - h) * self.shape[1] + (b - h)
-        self._r_columns, self._v_columns = r0 + np.arange(nn), v0 + np.arange(nn)
+        # index k = a n + b: o = (a - h) Wp + (b - h)) at the columns R + k and V + k: the
+        # entries p width + e of the flat range rows, e = -o width + (R or V) + k
+        k = np.arange(nn)
+        a, b = np.divmod(k, n)
+        rows = -((a - h) * self.shape[1] + (b - h)) * width
+        self._window_entries = np.concatenate([rows + r0 + k, rows + v0 + k])
+        self._window_values = np.ones(2 * nn, dtype=np.float32)  # [R ... | 1 ...]
+        self._flat_ranges = self.ranges.reshape(-1)  # a view
         # single values through memoryviews (cheaper than numpy's scalar indexing)
         self._w_si_mv, self._self_mv = memoryview(self.w_si), memoryview(self.self_unit)
         #: :meth:`shortlist` as ``shortlist_step(p, candidates, scale)``, which NP's loop calls
@@ -448,10 +437,10 @@ class FillTable:
 
         def finish(si: np.ndarray, rows: np.ndarray) -> np.ndarray:
             # Eq. 2 from the intensity terms si and the gathered range rows (in place)
-            sums = _by_rows(range_weights, rows)  # [s_r u; w_s w; b w], exact
+            sums = range_weights @ rows.T  # [s_r u; w_s w; b w], exact
             r = rows[:, :nn]
             sr, ws, _ = sums
-            np.add(sr, _matvec(np.multiply(r, r), square_weights), sr)  # + Σ G V_p R_q² u
+            np.add(sr, np.multiply(r, r) @ square_weights, sr)  # + Σ G V_p R_q² u
             last[0], last[1] = rows, sums[1:]  # the offset copy's rows, a and b (w_s is a)
             if not mean:
                 return _combine(si, sr, None, None, 1, lam, missing, scalars)
@@ -473,7 +462,7 @@ class FillTable:
             # ΣG 2**32 by Cauchy–Schwarz: every partial sum, in any order, lies within
             # ±2 C ΣG 2**32 < 1.6 2**52, as C <= 3 and ΣG <= 262151 < 1.01 2**18); float32
             # rows are widened by the product
-            si = _matvec(intensity.take(candidates, axis=0), w_si)
+            si = intensity.take(candidates, axis=0) @ w_si
             if divisor is not None:
                 divide(si, divisor, si)
             if every:  # distances(): every candidate's range term
@@ -584,10 +573,9 @@ class FillTable:
         >>> float(table.ranges[12, table.r0 + 4]) == 2.0**15   # the centre's R column
         True
         """
-        rows = p - self._window_rows
         # np.rint's value (both round half to even), exact in float32 (at most 2**16)
-        self.ranges[rows, self._r_columns] = float(round(value * 2.0**RANGE_BITS))
-        self.ranges[rows, self._v_columns] = 1.0
+        self._window_values[: self.nn] = float(round(value * 2.0**RANGE_BITS))
+        self._flat_ranges.put(self._window_entries + p * self.range_width, self._window_values)
 
 
 def _split(x: np.ndarray, parts: int, dtype=np.float32) -> np.ndarray:
