@@ -125,9 +125,9 @@ def _priority_module():
 
 
 def plain_ranking() -> None:
-    """BP's candidate ranking by ``np.argsort(kind="stable")`` instead of bp_ranking's
-    partitions."""
-    from refsynth.synthesis import bp_search
+    """BP's candidate ranking by ``np.argsort(kind="stable")`` instead of
+    belief/ranking.py's partitions."""
+    from refsynth.synthesis.belief import search as bp_search
 
     def stable_smallest(values, count):
         return np.argsort(values, axis=1, kind="stable")[:, :count]
@@ -156,7 +156,7 @@ class _EveryEdge:
 
 def every_edge() -> None:
     """Every message sent at every sweep, instead of only those whose inputs changed."""
-    from refsynth.synthesis import messages
+    from refsynth.synthesis.belief import messages
 
     messages.np = _EveryEdge()
 
@@ -164,7 +164,7 @@ def every_edge() -> None:
 def plain_max_product() -> None:
     """Eq. 9's max-product send as one ``max`` over an (m, k, k) sum, and numpy's own row
     reductions, instead of the label-by-label running maximum in cache-sized blocks."""
-    from refsynth.synthesis import messages
+    from refsynth.synthesis.belief import messages
 
     def max_product(out, h, log_psi, axis):
         t = log_psi + (h[:, :, None] if axis == 1 else h[:, None, :])

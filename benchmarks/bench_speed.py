@@ -186,7 +186,7 @@ def _peak_rss_mb(method: str, size: tuple[int, int]) -> tuple[float, str]:
 
 def memory_at(size: tuple[int, int], methods=MEMORY_METHODS) -> None:
     """Item 3: each fill at ``size`` in a fresh subprocess, beside its memory estimate."""
-    from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate
+    from refsynth.synthesis.belief.memory import BP_MEMORY_LIMIT, bp_memory_estimate
     from refsynth.synthesis.limits import np_memory
 
     image, partial, percent = _case(size)
@@ -295,8 +295,8 @@ def bp_stages(sizes, out=sys.stdout, observation: str = "colorization") -> dict:
     the colorization fill) or ``"np"`` (BP's default since 0.9: NP's fill first). BP reports
     per mille of its work, each stage within its share (the observations' fill's,
     :data:`refsynth.synthesis.api.OBSERVATION_SHARE` or ``NP_OBSERVATION_SHARE``, then
-    :data:`refsynth.synthesis.bp.BP_STAGES`); a stage ends at the first report at or past the
-    end of its share (the first stage's time includes what comes before the fill: the
+    :data:`refsynth.synthesis.belief.fill.BP_STAGES`); a stage ends at the first report at or
+    past the end of its share (the first stage's time includes what comes before the fill: the
     checks, the quantisation and Canny). Beside each stage's CPU time: µs per unknown pixel,
     its measured share of the whole and the share assumed; with ``"colorization"``, the
     sweeps of the colorization fill on the same input (``portable_colorization``, the
@@ -316,7 +316,7 @@ def bp_stages(sizes, out=sys.stdout, observation: str = "colorization") -> dict:
     import refsynth
     from refsynth.evaluation.baselines import colorization_fill
     from refsynth.synthesis.api import NP_OBSERVATION_SHARE, OBSERVATION_SHARE
-    from refsynth.synthesis.bp import BP_STAGES
+    from refsynth.synthesis.belief.fill import BP_STAGES
     from refsynth.synthesis.completion import portable_colorization
 
     if observation not in BP_STAGE_OBSERVATIONS:

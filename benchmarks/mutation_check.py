@@ -1,8 +1,9 @@
 """Mutation check: do the tests catch wrong assembly of the equations? (issue #11)
 
 Applies single-line mutations to the code that puts the paper's equations together — NP
-(refsynth/synthesis/nonparametric/fill.py, its Eq. 2 table filltable.py), BP (bp.py, its candidate
-search bp_search.py, Eq. 6 in bp_model.py, Eq. 9 in messages.py), the fill order (priority.py,
+(refsynth/synthesis/nonparametric/fill.py, its Eq. 2 table filltable.py), BP
+(refsynth/synthesis/belief/: fill.py, its candidate search search.py, Eq. 6 in model.py, Eq. 9 in
+messages.py), the fill order (priority.py,
 its queue frontqueue.py, the onion order onion.py) and registration
 (refsynth/registration/*.py): operators, indices, dropped terms, swapped arguments, among them
 the seven of issue #11 — one at a time, in a *copy* of the project
@@ -48,15 +49,15 @@ ROOT = Path(__file__).resolve().parents[1]
 NP = "refsynth/synthesis/nonparametric/fill.py"
 NP_REFERENCE = "refsynth/synthesis/nonparametric/reference.py"
 RANGE_COPY = "refsynth/synthesis/range_copy.py"
-BP = "refsynth/synthesis/bp.py"
+BP = "refsynth/synthesis/belief/fill.py"
 PRIORITY = "refsynth/synthesis/priority.py"
 FILLTABLE = "refsynth/synthesis/filltable.py"
 FRONTQUEUE = "refsynth/synthesis/frontqueue.py"
 ONION = "refsynth/synthesis/onion.py"
-BP_SEARCH = "refsynth/synthesis/bp_search.py"
-BP_RANKING = "refsynth/synthesis/bp_ranking.py"
-BP_MODEL = "refsynth/synthesis/bp_model.py"
-MESSAGES = "refsynth/synthesis/messages.py"
+BP_SEARCH = "refsynth/synthesis/belief/search.py"
+BP_RANKING = "refsynth/synthesis/belief/ranking.py"
+BP_MODEL = "refsynth/synthesis/belief/model.py"
+MESSAGES = "refsynth/synthesis/belief/messages.py"
 COMPLETION = "refsynth/synthesis/completion.py"
 BELIEF_REF = "refsynth/synthesis/belief/reference.py"   # BP as printed (Fig. 6)
 ORACLE_REFERENCE = "refsynth/synthesis/reference.py"   # the oracle's literal reference

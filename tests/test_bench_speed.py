@@ -76,7 +76,7 @@ def test_fill_solvers_on_the_room_put_the_default_fill_back(bench):
     from refsynth.acquisition.sampling import stripes
     from refsynth.evaluation.metrics import mar
     from refsynth.scenes import synthetic_room
-    from refsynth.synthesis import bp_observation
+    from refsynth.synthesis.belief import observation as bp_observation
     from refsynth.synthesis.completion import portable_colorization
 
     out = io.StringIO()

@@ -74,8 +74,8 @@ SYNTHESIS_METHODS: dict[str, dict] = {
     "bp": {"method": "bp"},
     "bp-noedges": {"method": "bp", "use_edges": False},
     # Fig. 6 as printed: BP's defaults complete the observations and widen the training
-    # disc (departures measured on real data, refsynth.synthesis.bp_observation /
-    # bp_gap_radius)
+    # disc (departures measured on real data, refsynth.synthesis.belief.observation /
+    # gap_radius)
     "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
                 "range_copy": "value"},
     # BP's observations completed by NP's fill, named: the same as "bp" (BP's default)

@@ -46,9 +46,9 @@ import numpy as np
 
 from refsynth._checks import check_bool, check_choice, check_real
 from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
-from refsynth.synthesis.bp import BPResult, bp_fill
-from refsynth.synthesis.bp_observation import np_observation, observation_fill
-from refsynth.synthesis.bp_proposals import np_proposals
+from refsynth.synthesis.belief.fill import BPResult, bp_fill
+from refsynth.synthesis.belief.observation import np_observation, observation_fill
+from refsynth.synthesis.belief.proposals import np_proposals
 from refsynth.synthesis.canny import canny
 from refsynth.synthesis.limits import (
     check_canny_sigma,

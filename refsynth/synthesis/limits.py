@@ -33,7 +33,7 @@ limit apply to the parameters:
    level, at a cost that grows with σ.
 3. **Memory** (:func:`check_memory`): NP's estimate of its largest arrays
    (:func:`np_memory`) against the machine's physical memory, BP's
-   (:func:`refsynth.synthesis.bp_memory.check_bp_memory`) against its limit
+   (:func:`refsynth.synthesis.belief.memory.check_bp_memory`) against its limit
    (4 GiB by default), refused before the work with the amount it would
    need.
 
@@ -50,7 +50,7 @@ from types import MappingProxyType
 import numpy as np
 
 from refsynth._checks import check_in_range, check_memory_need, to_float
-from refsynth.synthesis.bp_memory import check_bp_memory
+from refsynth.synthesis.belief.memory import check_bp_memory
 from refsynth.synthesis.filltable import intensity_dtype
 
 __all__ = [
@@ -414,8 +414,8 @@ def check_memory(method: str, image: np.ndarray, range_values: np.ndarray, *,
     """Refuse, before any work, a run that would need more memory than it may use.
 
     NP: :func:`np_memory` against the machine's physical memory; BP: its own
-    estimate and limit (:func:`refsynth.synthesis.bp_memory.check_bp_memory`,
-    which :func:`~refsynth.synthesis.bp.bp_fill` checks again).
+    estimate and limit (:func:`refsynth.synthesis.belief.memory.check_bp_memory`,
+    which :func:`~refsynth.synthesis.belief.fill.bp_fill` checks again).
 
     Parameters
     ----------

@@ -101,11 +101,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 from refsynth._checks import check_bool, check_choice, check_in_range, check_int, check_real
-from refsynth.synthesis.bp import EDGE_RULES
-from refsynth.synthesis.bp_centres import COMPATIBILITIES
-from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
-from refsynth.synthesis.bp_observation import OBSERVATIONS
-from refsynth.synthesis.bp_proposals import PROPOSALS
+from refsynth.synthesis.belief.centres import COMPATIBILITIES
+from refsynth.synthesis.belief.fill import EDGE_RULES
+from refsynth.synthesis.belief.gap_radius import TRAINING_RADII
+from refsynth.synthesis.belief.observation import OBSERVATIONS
+from refsynth.synthesis.belief.proposals import PROPOSALS
 from refsynth.synthesis.limits import PARAMETER_BOUNDS
 from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
