@@ -123,13 +123,13 @@ VARIANTS: dict[str, dict] = {
     "bp-sigma-s0.4": {"method": "bp", "sigma_s": 0.4},
     # Eq. 2's channel mean for BP (0.2's reading)
     "bp-channel-mean": {"method": "bp", "channels": "mean"},
-    # issue #10 item 4 (a departure, refsynth.synthesis.bp_proposals): NP's fill proposes a
+    # issue #10 item 4 (a departure, refsynth.synthesis.belief.proposals): NP's fill proposes a
     # label per pixel beside the k training patches; "-completed": the training patches'
     # unknown range from NP too; "x3": three NP fills propose
     "bp-proposals-np": {"method": "bp", "proposals": "np"},
     "bp-proposals-np-completed": {"method": "bp", "proposals": "np-completed"},
     "bp-proposals-np-x3": {"method": "bp", "proposals": "np", "proposal_runs": 3},
-    # issue #10's BP targets (departures, refsynth.synthesis.bp_observation / bp_centres): the
+    # issue #10's BP targets (departures, refsynth.synthesis.belief.observation / centres): the
     # observations' range completed by the colorization fill for Eq. 2's ranking ("-completed":
     # the training patches' too); Eq. 6 with the centres as one more shared pixel; and both
     "bp-obs-colorization": {"method": "bp", "observation": "colorization"},
@@ -145,14 +145,14 @@ VARIANTS: dict[str, dict] = {
     "bp-obs-colorization-completed-centres-sigma-s0.1": {
         "method": "bp", "observation": "colorization-completed",
         "compatibility": "overlap-centres", "sigma_s": 0.1},
-    # the training disc widened by the node's depth in its gap (bp_gap_radius)
+    # the training disc widened by the node's depth in its gap (belief.gap_radius)
     "bp-gap-radius": {"method": "bp", "training_radius": "gap"},
     "bp-obs-colorization-gap-radius": {"method": "bp", "observation": "colorization",
                                        "training_radius": "gap"},
     "bp-obs-colorization-completed-centres-sigma-s0.1-gap-radius": {
         "method": "bp", "observation": "colorization-completed",
         "compatibility": "overlap-centres", "sigma_s": 0.1, "training_radius": "gap"},
-    # the same with NP's proposals (bp_proposals): random, 3 seeds
+    # the same with NP's proposals (belief.proposals): random, 3 seeds
     "bp-obs-colorization-centres-sigma-s0.1-proposals-np": {
         "method": "bp", "observation": "colorization", "compatibility": "overlap-centres",
         "sigma_s": 0.1, "proposals": "np"},
@@ -215,7 +215,7 @@ def _fill_solver(solver: str | None):
     if solver is None:
         yield
         return
-    from refsynth.synthesis import bp_observation
+    from refsynth.synthesis.belief import observation as bp_observation
     from refsynth.synthesis.completion import portable_colorization
 
     bp_observation.portable_colorization = functools.partial(portable_colorization,

@@ -27,7 +27,7 @@ Prints, as Markdown tables:
    against the other 50 %.
 
 3. ``--proposals``: BP's proposals (issue #10 item 4, a departure,
-   :mod:`refsynth.synthesis.bp_proposals`) on the Motorcycle's x-stripes
+   :mod:`refsynth.synthesis.belief.proposals`) on the Motorcycle's x-stripes
    63/78/85 % at a stripe phase (1: the choosing split of
    ``audit_departures.py``; 0: its report split), over seeds: each variant's
    MAR (mean ± sd), its candidate ceiling, the MAR of its first-ranked labels
@@ -242,7 +242,7 @@ def _ratio_case(size):
 def _big_case(size):
     """BP on a large Motorcycle: its memory estimate, time and peak memory."""
     import refsynth
-    from refsynth.synthesis.bp_memory import bp_memory_estimate
+    from refsynth.synthesis.belief.memory import bp_memory_estimate
 
     scene = _scene("motorcycle", size)
     known = _sampling(scene.range.shape, "x78") & scene.has_truth

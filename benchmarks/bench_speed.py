@@ -186,7 +186,7 @@ def _peak_rss_mb(method: str, size: tuple[int, int]) -> tuple[float, str]:
 
 def memory_at(size: tuple[int, int], methods=MEMORY_METHODS) -> None:
     """Item 3: each fill at ``size`` in a fresh subprocess, beside its memory estimate."""
-    from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate
+    from refsynth.synthesis.belief.memory import BP_MEMORY_LIMIT, bp_memory_estimate
     from refsynth.synthesis.limits import np_memory
 
     image, partial, percent = _case(size)
@@ -295,8 +295,8 @@ def bp_stages(sizes, out=sys.stdout, observation: str = "colorization") -> dict:
     the colorization fill) or ``"np"`` (BP's default since 0.9: NP's fill first). BP reports
     per mille of its work, each stage within its share (the observations' fill's,
     :data:`refsynth.synthesis.api.OBSERVATION_SHARE` or ``NP_OBSERVATION_SHARE``, then
-    :data:`refsynth.synthesis.bp.BP_STAGES`); a stage ends at the first report at or past the
-    end of its share (the first stage's time includes what comes before the fill: the
+    :data:`refsynth.synthesis.belief.fill.BP_STAGES`); a stage ends at the first report at or
+    past the end of its share (the first stage's time includes what comes before the fill: the
     checks, the quantisation and Canny). Beside each stage's CPU time: µs per unknown pixel,
     its measured share of the whole and the share assumed; with ``"colorization"``, the
     sweeps of the colorization fill on the same input (``portable_colorization``, the
@@ -316,7 +316,7 @@ def bp_stages(sizes, out=sys.stdout, observation: str = "colorization") -> dict:
     import refsynth
     from refsynth.evaluation.baselines import colorization_fill
     from refsynth.synthesis.api import NP_OBSERVATION_SHARE, OBSERVATION_SHARE
-    from refsynth.synthesis.bp import BP_STAGES
+    from refsynth.synthesis.belief.fill import BP_STAGES
     from refsynth.synthesis.completion import portable_colorization
 
     if observation not in BP_STAGE_OBSERVATIONS:
@@ -398,10 +398,7 @@ def np_steps(sizes, out=sys.stdout) -> dict:
     NP's step costs more when more of Eq. 3's candidates survive the shortlist's bound
     (:attr:`refsynth.synthesis.filltable.FillTable.shortlist_step`: their range term is then
     evaluated and Eq. 5 draws among them) and less when only the candidate that set the
-    bound survives (no second gather, no draw). Before that, with float64 intensity rows,
-    :mod:`refsynth.synthesis.window_bound`'s lower bound rules candidates out before their
-    intensity rows are gathered: its survivors are counted by the same rule, on the same
-    rows and the bound the step has just set. Counted on NP's default fill (the same
+    bound survives (no second gather, no draw). Counted on NP's default fill (the same
     bits as ``synthesize``: the counting wraps the method and changes nothing it
     returns), beside the CPU µs per unknown pixel of a separate run without the counting.
 
@@ -409,23 +406,19 @@ def np_steps(sizes, out=sys.stdout) -> dict:
     -------
     dict
         ``{(width, height): {"unknown", "steps", "candidates", "kept", "single", "many",
-        "survivors", "median_survivors", "lone", "cpu"}}``: the steps counted, the mean
+        "cpu"}}``: the steps counted, the mean
         number of candidates and of kept candidates per step, the share of steps that keep
-        one, the mean kept where more than one is, the lower bound's survivors (mean and
-        median per step, the share of steps where only the bound's candidate survives;
-        NaN without the bound's rows), and the CPU seconds of the uncounted run.
+        one, the mean kept where more than one is, and the CPU seconds of the uncounted run.
     """
     import refsynth
     from refsynth.synthesis.filltable import FillTable
-    from refsynth.synthesis.window_bound import SLACK, expanded_lower_bounds, margin
 
     print("NP's steps on the Motorcycle, x-stripes 78 % unknown: the candidates of Eq. 3 "
           "within r, those the shortlist keeps for Eq. 2's range term, and the steps that "
           "keep one\n", file=out)
-    print("| size | unknown pixels | candidates per step | the bound's survivors per step "
-          "(median) | steps where one survives it | kept per step | steps keeping one "
+    print("| size | unknown pixels | candidates per step | kept per step | steps keeping one "
           "| kept per step where more than one | CPU µs per unknown pixel |", file=out)
-    print("|---|---|---|---|---|---|---|---|---|", file=out)
+    print("|---|---|---|---|---|---|---|", file=out)
     init = FillTable.__init__
     results = {}
     for size in sizes:
@@ -439,17 +432,10 @@ def np_steps(sizes, out=sys.stdout) -> dict:
         def counting(self, *args, counts=counts, **kwargs):
             init(self, *args, **kwargs)
             shortlist = self.shortlist_step  # what NP's loop calls, wrapped on this table
-            rows, weights = self.bound_rows, self.bound_weights
-            slack = None if rows is None else margin(rows)
 
             def counted(p, candidates, scale, every=False):
                 kept, distances = shortlist(p, candidates, scale, every)
-                survivors = np.nan
-                if rows is not None and not every:  # the shortlist's rule, on its bound
-                    lower = expanded_lower_bounds(rows[p], rows[candidates], weights)
-                    threshold = (1.0 + SLACK) * float(self._bound) + slack - rows[p, -1]
-                    survivors = int(np.count_nonzero(lower <= threshold))
-                counts.append((candidates.size, kept.size, survivors))
+                counts.append((candidates.size, kept.size))
                 return kept, distances
 
             self.shortlist_step = counted
@@ -459,17 +445,13 @@ def np_steps(sizes, out=sys.stdout) -> dict:
             refsynth.synthesize(image, partial, method="np")
         finally:
             FillTable.__init__ = init
-        steps = np.array(counts, dtype=np.float64).reshape(-1, 3)
+        steps = np.array(counts, dtype=np.float64).reshape(-1, 2)
         many = steps[steps[:, 1] > 1, 1]
         row = dict(unknown=unknown, steps=len(counts), candidates=float(steps[:, 0].mean()),
                    kept=float(steps[:, 1].mean()), single=float(np.mean(steps[:, 1] == 1)),
-                   many=float(many.mean()) if many.size else 1.0,
-                   survivors=float(steps[:, 2].mean()),
-                   median_survivors=float(np.median(steps[:, 2])),
-                   lone=float(np.mean(steps[:, 2] == 1)), cpu=cpu)
+                   many=float(many.mean()) if many.size else 1.0, cpu=cpu)
         results[size] = row
         print(f"| {size[0]}×{size[1]} | {unknown} | {row['candidates']:.1f} | "
-              f"{row['survivors']:.1f} ({row['median_survivors']:.0f}) | {row['lone']:.0%} | "
               f"{row['kept']:.1f} | {row['single']:.0%} | {row['many']:.1f} | "
               f"{1e6 * cpu / unknown:.1f} |", file=out, flush=True)
     return results

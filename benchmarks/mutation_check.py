@@ -1,8 +1,9 @@
 """Mutation check: do the tests catch wrong assembly of the equations? (issue #11)
 
 Applies single-line mutations to the code that puts the paper's equations together — NP
-(refsynth/synthesis/nonparametric/fill.py, its Eq. 2 table filltable.py), BP (bp.py, its candidate
-search bp_search.py, Eq. 6 in bp_model.py, Eq. 9 in messages.py), the fill order (priority.py,
+(refsynth/synthesis/nonparametric/fill.py, its Eq. 2 table filltable.py), BP
+(refsynth/synthesis/belief/: fill.py, its candidate search search.py, Eq. 6 in model.py, Eq. 9 in
+messages.py), the fill order (priority.py,
 its queue frontqueue.py, the onion order onion.py) and registration
 (refsynth/registration/*.py): operators, indices, dropped terms, swapped arguments, among them
 the seven of issue #11 — one at a time, in a *copy* of the project
@@ -48,16 +49,15 @@ ROOT = Path(__file__).resolve().parents[1]
 NP = "refsynth/synthesis/nonparametric/fill.py"
 NP_REFERENCE = "refsynth/synthesis/nonparametric/reference.py"
 RANGE_COPY = "refsynth/synthesis/range_copy.py"
-BP = "refsynth/synthesis/bp.py"
+BP = "refsynth/synthesis/belief/fill.py"
 PRIORITY = "refsynth/synthesis/priority.py"
 FILLTABLE = "refsynth/synthesis/filltable.py"
-WINDOW_BOUND = "refsynth/synthesis/window_bound.py"
 FRONTQUEUE = "refsynth/synthesis/frontqueue.py"
 ONION = "refsynth/synthesis/onion.py"
-BP_SEARCH = "refsynth/synthesis/bp_search.py"
-BP_RANKING = "refsynth/synthesis/bp_ranking.py"
-BP_MODEL = "refsynth/synthesis/bp_model.py"
-MESSAGES = "refsynth/synthesis/messages.py"
+BP_SEARCH = "refsynth/synthesis/belief/search.py"
+BP_RANKING = "refsynth/synthesis/belief/ranking.py"
+BP_MODEL = "refsynth/synthesis/belief/model.py"
+MESSAGES = "refsynth/synthesis/belief/messages.py"
 COMPLETION = "refsynth/synthesis/completion.py"
 BELIEF_REF = "refsynth/synthesis/belief/reference.py"   # BP as printed (Fig. 6)
 ORACLE_REFERENCE = "refsynth/synthesis/reference.py"   # the oracle's literal reference
@@ -69,7 +69,7 @@ TESTS = {
            ORACLE_FAST, "tests/test_reference.py", "tests/test_assembly.py",
            "tests/test_np_speed_table.py", "tests/test_np_speed_front.py",
            "tests/test_mutation_gaps.py", "tests/test_range_copy.py",
-           "tests/test_golden_hashes.py", "tests/test_window_bound.py"],
+           "tests/test_golden_hashes.py"],
     "bp": ["tests/test_bp.py", "tests/test_synthesis.py", ORACLE_FAST,
            "tests/test_reference.py", "tests/test_assembly.py", "tests/test_bp_speed_memory.py",
            "tests/test_bp_speed_sends.py", "tests/test_mutation_gaps.py",
@@ -171,18 +171,6 @@ MUTATIONS = [
              "np.multiply(self._vp, row[self.v0 : -1], self._support)).tolist()",
              "np.multiply(self._vp, self._vp, self._support)).tolist()",
              "NP's offset copy: the agreement test over p's support, not the shared one"),
-    Mutation("np-bound-q", "np", FILLTABLE,
-             "+ lower_margin - q_mv[p * m1 + m]",
-             "+ lower_margin - 2 * q_mv[p * m1 + m]",
-             "NP's pruning bound (window_bound): the target's Q_p subtracted twice"),
-    Mutation("np-bound-margin", "np", FILLTABLE,
-             "lower_margin, bound_slack = margin(lower_rows), 1.0 + SLACK",
-             "lower_margin, bound_slack = 0.0, 1.0",
-             "NP's pruning bound: no margin for its rounding"),
-    Mutation("np-bound-divisor", "np", WINDOW_BOUND,
-             "np.divide(EQ2_UNIT, totals * divisor, out=out, where=totals > 0)",
-             "np.divide(EQ2_UNIT, totals, out=out, where=totals > 0)",
-             "NP's pruning bound: not divided by the channels' divisor (too high for their mean)"),
     Mutation("np-offset-draw", "np", NP, "shift = offset_shift(j)",
              "shift = offset_shift(best)",
              "NP's offset copy: the shift of the best match, not of the drawn member"),
@@ -240,18 +228,17 @@ MUTATIONS = [
              "w_si_mv[one] = 0.0",
              "Eq. 2's expanded square without the target's self term s_p"),
     Mutation("ft-square-kept", "np", FILLTABLE,
-             "np.add(sr, _matvec(np.multiply(r, r), square_weights), sr)",
-             "np.add(sr, _matvec(r, square_weights), sr)",
+             "np.add(sr, np.multiply(r, r) @ square_weights, sr)",
+             "np.add(sr, r @ square_weights, sr)",
              "Eq. 2's range term with R_q in place of R_q² (the shortlist's kept candidates)"),
     Mutation("ft-square-one", "np", FILLTABLE,
              "sr = sr + float(multiply(square_weights, r, square).dot(r))",
              "sr = sr + float(square_weights.dot(r))",
              "Eq. 2's range term with R_q in place of R_q² (a lone candidate's distance)"),
     Mutation("ft-set-offsets", "np", FILLTABLE,
-             "strides = (width * item, nn * item, (n - wp * width) * item, (1 - width) * item)",
-             "strides = (width * item, nn * item, (0 - wp * width) * item, (1 - width) * item)",
-             "a synthesized range written into the window row's first columns (the strided "
-             "view's row step without its n columns)"),
+             "rows = -((a - h) * self.shape[1] + (b - h)) * width",
+             "rows = -((a - h) * self.shape[1] + (h - b)) * width",
+             "a synthesized range written into the rows mirrored left to right"),
     Mutation("np-lone-path", "np", NP, "if candidates.size == 1:  # the best match",
              "if candidates.size <= 2:  # the best match",
              "NP's one-candidate shortcut taken with two candidates (no Eq. 4 between them)"),

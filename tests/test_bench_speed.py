@@ -76,7 +76,7 @@ def test_fill_solvers_on_the_room_put_the_default_fill_back(bench):
     from refsynth.acquisition.sampling import stripes
     from refsynth.evaluation.metrics import mar
     from refsynth.scenes import synthetic_room
-    from refsynth.synthesis import bp_observation
+    from refsynth.synthesis.belief import observation as bp_observation
     from refsynth.synthesis.completion import portable_colorization
 
     out = io.StringIO()
@@ -109,9 +109,6 @@ def test_np_steps_counts_every_step_and_leaves_the_fill_as_it_was(bench):
     assert row["unknown"] > 0 and row["steps"] == row["unknown"] and row["cpu"] > 0
     assert 1 <= row["kept"] <= row["candidates"] and 0 <= row["single"] <= 1
     assert row["many"] > 1 or row["single"] == 1
-    # the lower bound's survivors hold every kept candidate, and a lone survivor is kept
-    assert row["kept"] <= row["survivors"] <= row["candidates"]
-    assert 0 <= row["lone"] <= row["single"]
     image, partial, _ = bench._case((32, 27))
     assert int(np.isnan(partial).sum()) == row["unknown"]
     assert "| 32×27 |" in out.getvalue()

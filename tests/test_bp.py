@@ -12,7 +12,7 @@ from strategies import small_scene
 import refsynth
 from refsynth.scenes import synthetic_room
 from refsynth.synthesis import reference as ref
-from refsynth.synthesis.bp import (
+from refsynth.synthesis.belief.fill import (
     belief_propagation,
     fixed_neighbour_terms,
     grid_edges,
@@ -377,7 +377,7 @@ def test_the_deaf_edge_rule_isolates_edge_nodes(seed):
 def test_the_labels_shifts_do_not_depend_on_their_block_size(scene, block):
     """_label_shifts works in blocks of about bp._SHIFT_BLOCK labels (cache-sized
     temporaries): any block size gives the same shifts, so the same fill, bit for bit."""
-    import refsynth.synthesis.bp as bp
+    import refsynth.synthesis.belief.fill as bp
 
     image, truth, known = scene
     partial = np.where(known, truth, np.nan)

@@ -1,7 +1,7 @@
 """BP's departures: observations completed by a fill, Eq. 6 with the centres.
 
-``observation="colorization"`` (:mod:`refsynth.synthesis.bp_observation`) and
-``compatibility="overlap-centres"`` (:mod:`refsynth.synthesis.bp_centres`): hand-built
+``observation="colorization"`` (:mod:`refsynth.synthesis.belief.observation`) and
+``compatibility="overlap-centres"`` (:mod:`refsynth.synthesis.belief.centres`): hand-built
 cases, a brute-force Eq. 6 under hypothesis, and the front door's checks. The
 default path is covered bit for bit by ``tests/test_golden_hashes.py``.
 """
@@ -15,16 +15,16 @@ from hypothesis import strategies as st
 
 import refsynth
 from refsynth.numeric import quantise_intensity, quantise_range
-from refsynth.synthesis.bp import bp_fill
-from refsynth.synthesis.bp_model import (
+from refsynth.synthesis.belief.fill import bp_fill
+from refsynth.synthesis.belief.model import (
     Compatibilities,
     _overlap_mean_square,
     fixed_neighbour_terms,
     pair_compatibilities,
     psi,
 )
-from refsynth.synthesis.bp_observation import observation_fill, observed_ranges
-from refsynth.synthesis.bp_search import search_candidates
+from refsynth.synthesis.belief.observation import observation_fill, observed_ranges
+from refsynth.synthesis.belief.search import search_candidates
 
 U = 2.0**-32  # one squared step of the 2**-16 grid
 
@@ -96,7 +96,8 @@ def test_the_observation_option_never_reaches_the_evaluation_package():
     import ast
     import inspect
 
-    from refsynth.synthesis import bp_observation, completion
+    from refsynth.synthesis import completion
+    from refsynth.synthesis.belief import observation as bp_observation
 
     for module in (bp_observation, completion):
         for node in ast.walk(ast.parse(inspect.getsource(module))):
@@ -326,7 +327,7 @@ def test_synthesize_passes_the_options_to_bp():
 
 
 def test_gap_depth_is_the_floored_distance_to_the_nearest_measured_pixel():
-    from refsynth.synthesis.bp_gap_radius import gap_depth
+    from refsynth.synthesis.belief.gap_radius import gap_depth
 
     rq = np.full((5, 7), -1)
     rq[0, 0] = 3
@@ -339,7 +340,7 @@ def test_gap_depth_is_the_floored_distance_to_the_nearest_measured_pixel():
 @settings(deadline=None, max_examples=15)
 @given(st.integers(0, 2**31 - 1))
 def test_gap_radius_is_the_search_at_each_nodes_own_radius(seed):
-    from refsynth.synthesis.bp_gap_radius import gap_depth, gap_radius_candidates
+    from refsynth.synthesis.belief.gap_radius import gap_depth, gap_radius_candidates
 
     rng = np.random.default_rng(seed)
     H, W = 9, 14
@@ -364,7 +365,7 @@ def _per_depth_search(levels, rq, rows, cols, radius, pad, n, proximity, **opts)
     """The gap-radius search done plainly: search_candidates once per depth."""
     import math
 
-    from refsynth.synthesis.bp_gap_radius import gap_depth
+    from refsynth.synthesis.belief.gap_radius import gap_depth
     from refsynth.synthesis.limits import search_radius
 
     depth = gap_depth(rq, rows, cols)
@@ -388,7 +389,7 @@ def test_gap_radius_in_one_pass_is_the_search_of_each_depth(seed, radius, proxim
     """Every node's candidates and distances: those of search_candidates at its own depth's
     radius and prior, bit for bit, whether its disc holds k candidates (one pass) or must
     widen (its depth's search); beyond the image (k = 40, μ = 1e300) too."""
-    from refsynth.synthesis.bp_gap_radius import gap_radius_candidates
+    from refsynth.synthesis.belief.gap_radius import gap_radius_candidates
 
     rng = np.random.default_rng(seed)
     H, W = rng.integers(3, 12), rng.integers(3, 16)
@@ -418,7 +419,7 @@ def test_gap_radius_in_one_pass_is_the_search_of_each_depth(seed, radius, proxim
 
 def test_gap_radius_beyond_the_image_keeps_each_depths_prior_in_one_pass():
     """Discs r + d past the image's diagonal: cut to it, the prior still μ (|v| / (r + d))²."""
-    from refsynth.synthesis.bp_gap_radius import gap_radius_candidates
+    from refsynth.synthesis.belief.gap_radius import gap_radius_candidates
 
     rng = np.random.default_rng(3)
     levels = quantise_intensity(rng.random((5, 6, 1)))
@@ -436,7 +437,7 @@ def test_gap_radius_beyond_the_image_keeps_each_depths_prior_in_one_pass():
 
 def test_the_one_pass_leaves_short_discs_to_the_widening_search():
     """search_at_radii stores a node only when its own disc holds k finite candidates."""
-    from refsynth.synthesis.bp_search import search_at_radii, search_features
+    from refsynth.synthesis.belief.search import search_at_radii, search_features
 
     rq = np.full((1, 9), -1)
     rq[0, [0, 8]] = [0, 65536]
@@ -482,7 +483,7 @@ def test_bp_fill_training_radius():
 
 
 def test_np_observation_is_nps_fill_on_the_measured_ranges_unit_scale():
-    from refsynth.synthesis.bp_observation import np_observation
+    from refsynth.synthesis.belief.observation import np_observation
 
     partial = np.array([[2.0, np.nan, 6.0, np.nan]])
     unit = np_observation(np.array([[2.0, 3.0, 6.0, 1.0]]), partial)
@@ -493,8 +494,8 @@ def test_np_observation_is_nps_fill_on_the_measured_ranges_unit_scale():
 
 
 def test_observation_np_is_bp_on_nps_fill_from_the_same_seed():
-    from refsynth.synthesis.bp_observation import np_observation
-    from refsynth.synthesis.bp_proposals import np_proposals
+    from refsynth.synthesis.belief.observation import np_observation
+    from refsynth.synthesis.belief.proposals import np_proposals
 
     image, partial = _small()
     for seed in (0, 5):

@@ -1,4 +1,4 @@
-"""BP's proposals (a departure from Fig. 6): refsynth.synthesis.bp_proposals."""
+"""BP's proposals (a departure from Fig. 6): refsynth.synthesis.belief.proposals."""
 
 import numpy as np
 import pytest
@@ -6,8 +6,8 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 import refsynth
 from refsynth.numeric import quantise_range
-from refsynth.synthesis.bp import bp_fill
-from refsynth.synthesis.bp_proposals import np_proposals, proposal_frame
+from refsynth.synthesis.belief.fill import bp_fill
+from refsynth.synthesis.belief.proposals import np_proposals, proposal_frame
 from refsynth.synthesis.readings import split_options
 
 

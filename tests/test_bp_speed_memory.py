@@ -22,10 +22,10 @@ from refsynth.numeric import (
     quantise_intensity,
     quantise_range,
 )
-from refsynth.synthesis.bp import bp_fill, bp_memory_estimate, grid_edges
-from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, check_bp_memory, psi_bytes
-from refsynth.synthesis.bp_search import candidates, search_candidates, stable_smallest
-from refsynth.synthesis.messages import belief_propagation
+from refsynth.synthesis.belief.fill import bp_fill, bp_memory_estimate, grid_edges
+from refsynth.synthesis.belief.memory import BP_MEMORY_LIMIT, check_bp_memory, psi_bytes
+from refsynth.synthesis.belief.messages import belief_propagation
+from refsynth.synthesis.belief.search import candidates, search_candidates, stable_smallest
 from refsynth.synthesis.patch_table import PatchTable
 
 #: Tests of a fast kernel's internals (``-m kernel`` selects them).

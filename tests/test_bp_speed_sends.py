@@ -2,7 +2,7 @@
 
 The max-product send takes the sender's labels one at a time (no (E, k, k) temporary),
 the rows of Ψ are kept in a bounded cache that prefers the edges still changing, and
-:class:`~refsynth.synthesis.bp_model.Compatibilities` reads the shared pixels of two
+:class:`~refsynth.synthesis.belief.model.Compatibilities` reads the shared pixels of two
 candidate patches straight from the range plane. Each must give the numbers of the
 plain formulas (§3.2.3, Eqs. 6 and 9), whatever the cache's size or the blocks.
 """
@@ -17,8 +17,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.lib.stride_tricks import sliding_window_view
 
-from refsynth.synthesis.bp_model import Compatibilities, grid_edges, pair_compatibilities, psi
-from refsynth.synthesis.messages import belief_propagation
+from refsynth.synthesis.belief.messages import belief_propagation
+from refsynth.synthesis.belief.model import Compatibilities, grid_edges, pair_compatibilities, psi
 
 #: Tests of a fast kernel's internals (``-m kernel`` selects them).
 pytestmark = pytest.mark.kernel
@@ -69,7 +69,7 @@ def test_the_first_sweep_is_eq9_of_the_whole_array(h, w, k, seed, ties):
        st.sampled_from([0, 1, 3, 10, 10_000]), st.sampled_from([0.0, 0.3]), st.booleans())
 def test_any_size_of_the_psi_cache_changes_no_bit(h, w, k, seed, rows, damping, ties):
     """Ψ as a function, with room for 0 to 10 000 rows: the table's numbers, sweep by sweep."""
-    import refsynth.synthesis.messages as messages
+    import refsynth.synthesis.belief.messages as messages
 
     unary, pairs, log_psi = _grid_model(np.random.default_rng(seed), h, w, k, ties)
     silent = np.random.default_rng(seed + 1).random(unary.shape[0]) < 0.2
@@ -147,7 +147,7 @@ def _literal_mean_square(pi, pj, direction, centres):
 def test_compatibilities_are_eq6_of_the_candidate_patches(case, block, moved, centres):
     """Ψ from the plane's shared pixels equals Eq. 6 of the whole patches, in any blocks;
     with the offset copy's shifts, of the patches moved by them; with the centres too."""
-    import refsynth.synthesis.bp_model as bp_model
+    import refsynth.synthesis.belief.model as bp_model
 
     plane, n, labels, width, pairs, n_h = case
     patches = sliding_window_view(plane, (n, n))

@@ -17,7 +17,7 @@ import refsynth
 from refsynth.cli.synth import pixel_progress
 from refsynth.synthesis import reference as ref
 from refsynth.synthesis import validate_inputs
-from refsynth.synthesis.bp import bp_fill
+from refsynth.synthesis.belief.fill import bp_fill
 from refsynth.synthesis.limits import PARAMETER_BOUNDS, image_reach, search_radius
 from refsynth.synthesis.nonparametric import np_fill
 from refsynth.synthesis.readings import split_options

@@ -52,15 +52,14 @@ def test_np_memory_grows_with_the_frame_and_the_window(side):
 
 
 def test_np_memory_counts_the_rows_dtype(monkeypatch):
-    """Float64 intensity rows up to WIDE_TABLE_BYTES: they take twice the bytes, and the
-    window bound's rows (5 C + 1 float64) come with them."""
+    """Float64 intensity rows up to WIDE_TABLE_BYTES: they take twice the bytes."""
     from refsynth.synthesis import filltable
 
     rows = (375 + 20) * (450 + 20)
     wide = np_memory((375, 450), 3, 5, 10.0)
     monkeypatch.setattr(filltable, "WIDE_TABLE_BYTES", 0)
     narrow = np_memory((375, 450), 3, 5, 10.0)
-    assert wide - narrow == rows * 4 * (25 * 3 + 4) + rows * 8 * (5 * 3 + 1)
+    assert wide - narrow == rows * 4 * (25 * 3 + 4)
 
 
 @pytest.mark.parametrize("wide", [True, False])

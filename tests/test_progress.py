@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import refsynth
 from refsynth.synthesis.api import OBSERVATION_SHARE
-from refsynth.synthesis.bp import BP_STAGES, bp_fill
+from refsynth.synthesis.belief.fill import BP_STAGES, bp_fill
 from refsynth.synthesis.completion import portable_colorization
 from refsynth.synthesis.progress import PER_MILLE, StagedProgress
 

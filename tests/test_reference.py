@@ -241,7 +241,7 @@ def test_the_window_is_the_rounded_gaussian_of_neighbourhood_py():
 @given(st.integers(0, 2**32 - 1), st.integers(2, 12), st.integers(2, 12),
        st.floats(0.05, 0.9))
 def test_the_reference_gap_depth_is_the_floored_distance_transform(seed, H, W, fraction):
-    from refsynth.synthesis.bp_gap_radius import gap_depth
+    from refsynth.synthesis.belief.gap_radius import gap_depth
 
     g = np.random.default_rng(seed)
     known = g.random((H, W)) < fraction

@@ -61,9 +61,9 @@ from refsynth.io import (
 )
 from refsynth.plotting.layouts import result_figure, save_figure
 from refsynth.synthesis.api import synthesize
-from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
-from refsynth.synthesis.bp_model import COMPATIBILITIES
-from refsynth.synthesis.bp_observation import OBSERVATIONS
+from refsynth.synthesis.belief.gap_radius import TRAINING_RADII
+from refsynth.synthesis.belief.model import COMPATIBILITIES
+from refsynth.synthesis.belief.observation import OBSERVATIONS
 from refsynth.synthesis.gap_readings import GAPS
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
 from refsynth.synthesis.readings import DEFAULT_PRESET, PRESETS, Readings, split_options

@@ -7,8 +7,9 @@
   NP and BP runs (its outputs and BP's model: candidates, unary terms, compatibilities,
   messages, beliefs), and the fast code's own Eq. 5, 6 and 7
   (:func:`~refsynth.synthesis.nonparametric.eq5_set`,
-  :func:`~refsynth.synthesis.bp.pair_compatibilities`, :func:`~refsynth.synthesis.bp.psi`,
-  :func:`~refsynth.synthesis.bp.phi`); None (skipped) for the other kinds.
+  :func:`~refsynth.synthesis.belief.fill.pair_compatibilities`,
+  :func:`~refsynth.synthesis.belief.fill.psi`, :func:`~refsynth.synthesis.belief.fill.phi`);
+  None (skipped) for the other kinds.
 
 Either is also a template for a port's adapter: take ``inputs`` and ``options``, call the
 port, return a dict of arrays named as the case's outputs.
@@ -76,7 +77,7 @@ def _normalised(q: np.ndarray) -> np.ndarray:
 
 
 def _fast_equation(kind: str, inputs: dict, options: dict):
-    from refsynth.synthesis import bp
+    from refsynth.synthesis.belief import fill as bp
     from refsynth.synthesis.nonparametric import eq5_set
 
     if kind == "eq5":
@@ -104,8 +105,8 @@ def refsynth_fast(inputs: dict, options: dict) -> dict | None:
     Whole runs go through :func:`refsynth.synthesize` (with the case's
     ``edges`` unless ``use_edges`` is off); Eqs. 5, 6 and 7 through the fast
     code's :func:`~refsynth.synthesis.nonparametric.eq5_set`,
-    :func:`~refsynth.synthesis.bp.pair_compatibilities`,
-    :func:`~refsynth.synthesis.bp.psi` and :func:`~refsynth.synthesis.bp.phi`.
+    :func:`~refsynth.synthesis.belief.fill.pair_compatibilities`,
+    :func:`~refsynth.synthesis.belief.fill.psi` and :func:`~refsynth.synthesis.belief.fill.phi`.
 
     Parameters
     ----------

@@ -26,9 +26,9 @@ Read beside §3.2 of the paper, top to bottom:
 - :mod:`refsynth.synthesis.priority` (§3.2.4, Eqs. 10–12): the synthesis
   order — confidence, data term, edge count — and the onion-peel order of
   Fig. 7.
-- :mod:`refsynth.synthesis.bp` (§3.2.3, Eqs. 6–7, Fig. 6): belief
+- :mod:`refsynth.synthesis.belief.fill` (§3.2.3, Eqs. 6–7, Fig. 6): belief
   propagation's model — candidates, Φ, Ψ, the edge rule — and :func:`bp_fill`.
-- :mod:`refsynth.synthesis.messages` (§3.2.3, Eqs. 8–9): the messages and
+- :mod:`refsynth.synthesis.belief.messages` (§3.2.3, Eqs. 8–9): the messages and
   beliefs, :func:`belief_propagation`.
 - :mod:`refsynth.synthesis.canny` (§3.2): the Canny edges (σ = 0.8) that
   Eq. 10 and BP's edge-constraint rule use.
@@ -51,8 +51,8 @@ from refsynth.synthesis.api import (
     SynthesisResult,
     synthesize,
 )
-from refsynth.synthesis.bp import *  # noqa: F403 (§3.2.3: the names of bp.__all__)
-from refsynth.synthesis.bp import __all__ as _BP_NAMES
+from refsynth.synthesis.belief.fill import *  # noqa: F403 (§3.2.3: the names of bp.__all__)
+from refsynth.synthesis.belief.fill import __all__ as _BP_NAMES
 from refsynth.synthesis.canny import (
     canny,
     hysteresis,

@@ -2,7 +2,7 @@
 
 Validates the inputs, normalises the intensity, detects intensity edges
 (Canny, σ = 0.8) and dispatches to the range-synthesis method: NP
-(:mod:`refsynth.synthesis.nonparametric`) or BP (:mod:`refsynth.synthesis.bp`).
+(:mod:`refsynth.synthesis.nonparametric`) or BP (:mod:`refsynth.synthesis.belief`).
 Every other part of refsynth (the command line, the tutorials, the
 benchmarks, a faster port checking itself against this one) calls this
 function.
@@ -46,9 +46,9 @@ import numpy as np
 
 from refsynth._checks import check_bool, check_choice, check_real
 from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity
-from refsynth.synthesis.bp import BPResult, bp_fill
-from refsynth.synthesis.bp_observation import np_observation, observation_fill
-from refsynth.synthesis.bp_proposals import np_proposals
+from refsynth.synthesis.belief.fill import BPResult, bp_fill
+from refsynth.synthesis.belief.observation import np_observation, observation_fill
+from refsynth.synthesis.belief.proposals import np_proposals
 from refsynth.synthesis.canny import canny
 from refsynth.synthesis.gap_readings import gap_gate
 from refsynth.synthesis.limits import (
@@ -106,7 +106,7 @@ class SynthesisResult:
         pixel received when it was synthesized (Eq. 11, see
         :mod:`refsynth.synthesis.priority`); for BP the normalised belief (Eq. 8) of the
         chosen range, pooled over the candidates that propose it (see
-        :mod:`refsynth.synthesis.bp`).
+        :mod:`refsynth.synthesis.belief`).
     order : ndarray of shape (N, 2), int64
         The synthesized pixels as (row, col): NP's fill order; for BP, which
         decides all pixels together, raster order.
@@ -124,7 +124,7 @@ class SynthesisResult:
     bp : BPResult or None
         BP: the whole model and its solution — candidates, unary terms, pairs,
         ``log Ψ``, the final messages and beliefs (see
-        :class:`refsynth.synthesis.bp.BPResult`); None for NP.
+        :class:`refsynth.synthesis.belief.fill.BPResult`); None for NP.
     uncertainty : ndarray of shape (H, W), float64, or None
         Each pixel's expected absolute error in the range's unit: 0 where
         measured, finite and > 0 on every synthesized pixel
@@ -258,7 +258,7 @@ def synthesize(
         Called as ``progress(done, total)``: NP in pixels, every few hundred
         pixels; BP in per mille of its estimated work, as the observations'
         fill sweeps, the candidates are searched and the messages are sent
-        (:data:`refsynth.synthesis.bp.BP_STAGES`, :data:`OBSERVATION_SHARE`),
+        (:data:`refsynth.synthesis.belief.fill.BP_STAGES`, :data:`OBSERVATION_SHARE`),
         so that no stage runs long without a report.
 
     Returns
@@ -383,7 +383,7 @@ def synthesize(
     proposals = chosen.pop("proposals", None)
     colour = chosen["colour"]
     # beyond the image's diagonal the radius means the whole image (bit for bit); the gap's
-    # discs (r plus each node's depth) are cut one by one (bp_gap_radius)
+    # discs (r plus each node's depth) are cut one by one (belief.gap_radius)
     cut_radius, cut_proximity = search_radius(method, radius, chosen.get("proximity", 0.0),
                                               range_values.shape)
     run_radius, proximity = cut_radius, cut_proximity
@@ -431,7 +431,7 @@ def synthesize(
                       offset_tolerance=chosen["offset_tolerance"],
                       compatibility=chosen["compatibility"],
                       training_radius=chosen["training_radius"])
-    if proposals is not None:  # the departure: NP's fills as more labels (bp_proposals)
+    if proposals is not None:  # the departure: NP's fills as more labels (belief.proposals)
         bp_options["proposals"] = np_proposals(
             image, range_values, edge_map, rng, runs=proposal_runs,
             **{**common, "radius": np_radius, "progress": None})

@@ -55,17 +55,10 @@ Per step, :meth:`FillTable.shortlist` gathers the range rows only of the candida
 intensity term alone does not already exceed ``1 + ε`` times one candidate's whole distance
 (Eq. 2's range term is never negative, so the others can be neither Eq. 4's best match nor
 in Eq. 5's set): on the Motorcycle about 12 of 190 candidates, the same decisions and
-distances bit for bit. Beside float64 intensity rows, it gathers the intensity
-rows only of the candidates that a lower bound on their intensity term, from five weighted
-sums of each window (:mod:`refsynth.synthesis.window_bound`: 16 numbers a row for a colour
-image, against 79), does not already rule out by the same test: about one in nine. At 43 %
-of the steps (the Motorcycle at 450×375) only the candidate that set the bound is left: its
-distance, computed for the bound, is returned as it is, and NP takes it without Eq. 5's draw
-(a set of one). The cost is a few numpy calls: the products use ``numpy.matvec`` where numpy
-has it (2.2 and later), whose loop stays in this thread (``@`` hands products this size to
-OpenBLAS's threads, whose hand-offs cost more than the products on a shared machine), and a
-synthesized range is written into the 25 rows that hold it through one strided view
-(:meth:`FillTable.set_range`).
+distances bit for bit. The bound is the whole distance of the candidate with the smallest
+intensity term; where it is the only candidate left, its distance, computed for the bound,
+is returned as it is, and NP takes it without Eq. 5's draw (a set of one). The cost is a
+few numpy calls and three small products (``@``) a step.
 
 References
 ----------
@@ -77,7 +70,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided, sliding_window_view
+from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import (
     EQ2_UNIT,
@@ -90,21 +83,9 @@ from refsynth.numeric import (
 )
 from refsynth.synthesis.neighbourhood import intensity_patches
 from refsynth.synthesis.range_copy import OFFSET_BITS, round_half_even
-from refsynth.synthesis.window_bound import (
-    PARTS,
-    SLACK,
-    bound_rows,
-    bound_weights,
-    margin,
-    part_sums,
-)
 
 __all__ = ["FillTable", "WIDE_TABLE_BYTES", "intensity_dtype"]
 
-#: Matrix times vector: numpy's own loop where it has one (numpy >= 2.2), which unlike ``@``
-#: never hands these small products to BLAS threads; the sums are exact, so either gives
-#: the same bits.
-_matvec = getattr(np, "matvec", np.matmul)
 
 #: The most bytes :class:`FillTable`'s intensity rows may take as float64
 #: (:func:`intensity_dtype`).
@@ -137,14 +118,6 @@ def intensity_dtype(pixels: int, channels: int, n: int) -> type:
     """
     return np.float64 if pixels * (n * n * channels + 4) * 8 <= WIDE_TABLE_BYTES else np.float32
 
-
-def _by_rows(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """``weights @ rows.T``: each row of ``weights`` (``(J, K)``) times the rows ``(M, K)``,
-    shape ``(J, M)``; one matrix-vector product per weight row, by :data:`_matvec`'s loop
-    where numpy has it. The sums are exact, so the same bits either way."""
-    if _matvec is np.matmul:
-        return np.matmul(weights, rows.T)
-    return _matvec(rows, weights)
 
 
 #: Pixels of the frame built at a time, in whole rows: the float64 temporaries (about 2 MB)
@@ -237,13 +210,6 @@ class FillTable:
         # candidates' constant 1 (a power-of-two scaling: exact)
         self.self_unit = np.zeros(pixels)
         self_frame = self.self_unit.reshape(self.shape)
-        # window_bound's rows (the part sums and Q), beside float64 intensity rows only:
-        # 5 C + 1 float64 more a pixel (91 MB at 900×750)
-        self.bound_rows = None
-        self.bound_weights = bound_weights(n, C, self.divisor)
-        if self.intensity.dtype == np.float64:
-            self.bound_rows = np.zeros((pixels, PARTS * C + 1))
-            bound_frame = self.bound_rows.reshape(self.shape + (PARTS * C + 1,))
         g = window_weights(n).ravel().astype(np.float64)
         g_int = np.repeat(g, C)  # intensity columns are (offset, channel) raveled
         levels = np.multiply(np.asarray(image, dtype=np.float64), 2.0**INTENSITY_BITS)
@@ -262,9 +228,6 @@ class FillTable:
             s = (ints**2) @ g_int
             self_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = s
             out[:, :, s0:one] = _split(s, 3, self.intensity.dtype)
-            if self.bound_rows is not None:  # the sums exact: integers below 2**53
-                bound_frame[pad + rows.start : pad + rows.stop, pad : pad + W] = bound_rows(
-                    part_sums(ints, n, C), self.bound_weights).reshape(-1, W, PARTS * C + 1)
             out = frame_r[pad + rows.start : pad + rows.stop, pad : pad + W]
             r = rp[rows].reshape(-1, W, nn)
             has = np.isfinite(r)
@@ -338,25 +301,16 @@ class FillTable:
         self._single_mv = memoryview(self._single)
         self._bound = np.zeros(())  # the shortlist's bound, written per step
         self._wa = np.zeros(())  # w_a w_unit, written per step
-        # set_range writes p's range into the rows p - o (o an offset of the window, k its
-        # raster index) at the columns R and V + k: with o = (a - h) Wp + (b - h)
-        # for k = a n + b, one strided view per p, shape (2, n, n), whose element (blk, a, b)
-        # is ranges[p - o, r0 + blk nn + k]: its flat index is p width + h (Wp + 1) width + r0
-        # + blk nn + a (n - Wp width) + b (1 - width). self._p0 = h (Wp + 1) is the smallest
-        # p whose window rows all lie in the frame (every pixel of the image, pad > h).
-        wp = self.shape[1]
-        self._p0 = p0 = h * (wp + 1)
-        self.flat = flat = self.ranges.reshape(-1)
-        item = flat.itemsize
-        strides = (width * item, nn * item, (n - wp * width) * item, (1 - width) * item)
-        start = (p0 + h * (wp + 1)) * width + r0  # the element (p0, 0, 0, 0)
-        self._windows = as_strided(flat[start:], shape=(flat.size // width - 2 * p0, 2, n, n),
-                                   strides=strides)
-        self._values = np.ones(2, dtype=np.float32)  # [R, V], broadcast
-        self._value_block = self._values[:, None, None]
-        # single values through memoryviews (cheaper than numpy's scalar indexing); a
-        # float32 item is set by C's conversion, rounding to nearest as numpy's
-        self._values_mv = memoryview(self._values)
+        # set_range writes p's range into the rows p - o (o the window's offset of raster
+        # index k = a n + b: o = (a - h) Wp + (b - h)) at the columns R + k and V + k: the
+        # entries p width + e of the flat range rows, e = -o width + (R or V) + k
+        k = np.arange(nn)
+        a, b = np.divmod(k, n)
+        rows = -((a - h) * self.shape[1] + (b - h)) * width
+        self._window_entries = np.concatenate([rows + r0 + k, rows + v0 + k])
+        self._window_values = np.ones(2 * nn, dtype=np.float32)  # [R ... | 1 ...]
+        self._flat_ranges = self.ranges.reshape(-1)  # a view
+        # single values through memoryviews (cheaper than numpy's scalar indexing)
         self._w_si_mv, self._self_mv = memoryview(self.w_si), memoryview(self.self_unit)
         #: :meth:`shortlist` as ``shortlist_step(p, candidates, scale)``, which NP's loop calls
         self.shortlist_step = self._shortlister()
@@ -407,11 +361,8 @@ class FillTable:
         Eq. 2 is the intensity term plus a range term ``>= 0``, so a candidate whose
         intensity term alone exceeds ``scale`` times some candidate's distance is neither
         the best match nor within ``scale`` of it. The range term is evaluated for the rest
-        only (on the Motorcycle about one candidate in sixteen). With float64 intensity
-        rows, the intensity term too is evaluated only for the candidates whose lower bound
-        (:mod:`~refsynth.synthesis.window_bound`) does not exceed the bound, and the
-        candidate with the smallest lower bound gives the bound; with float32 rows, the
-        candidate with the smallest intensity term.
+        only (on the Motorcycle about one candidate in sixteen). The candidate with the
+        smallest intensity term gives the bound.
 
         Parameters
         ----------
@@ -438,9 +389,7 @@ class FillTable:
         with ``k`` any candidate (the bound's) and ``D_min <= D_k``, every ``q``
         with ``D_q <= fl(scale D_min)`` has ``t_q <= fl(scale D_k)`` and is kept. The
         kept candidates keep their order, so the first minimum among them is the first
-        overall. The lower bound ``L_q <= t_q`` rules out only candidates with ``t_q`` above
-        the bound too (its rounding within the margin it is tested with), and ``k`` itself
-        is never ruled out. :meth:`offset_shift` then reads the kept candidates' rows.
+        overall. :meth:`offset_shift` then reads the kept candidates' rows.
 
         Examples
         --------
@@ -465,7 +414,7 @@ class FillTable:
         ``shortlist_step(p, candidates, scale, every=False)``. A step is some twenty numpy
         calls on small arrays, so the closure reads its operands from local names (methods
         would look each one up on ``self``). It writes ``p``'s weights, picks the bound's
-        candidate (the smallest lower bound, or intensity term), forms its whole distance,
+        candidate (the smallest intensity term), forms its whole distance,
         then that of the candidates the bound keeps; it leaves the rows :meth:`offset_shift`
         reads in ``self._last``. It refers to the table's arrays, never to the table."""
         intensity, ranges = self.intensity, self.ranges
@@ -485,21 +434,13 @@ class FillTable:
         lam, mean = self.lam, self.missing_range == "mean"
         wa_mv = memoryview(wa.reshape(1))  # w_a w_unit, written as a Python float
         multiply, less_equal, divide, float64 = np.multiply, np.less_equal, np.divide, np.float64
-        # window_bound's expanded bound: p's weights [-2 w S(p) | 1], Q_p, the margin
-        lower_rows, bound_lower, divisor_value = self.bound_rows, np.zeros(()), self.divisor
-        if lower_rows is not None:
-            m, m1 = lower_rows.shape[1] - 1, lower_rows.shape[1]
-            lower_weights = np.ones(m1)
-            lower_head, minus_2w = lower_weights[:m], -2.0 * self.bound_weights
-            q_mv = memoryview(lower_rows.reshape(-1))  # Q_x at x m1 + m
-            lower_margin, bound_slack = margin(lower_rows), 1.0 + SLACK
 
         def finish(si: np.ndarray, rows: np.ndarray) -> np.ndarray:
             # Eq. 2 from the intensity terms si and the gathered range rows (in place)
-            sums = _by_rows(range_weights, rows)  # [s_r u; w_s w; b w], exact
+            sums = range_weights @ rows.T  # [s_r u; w_s w; b w], exact
             r = rows[:, :nn]
             sr, ws, _ = sums
-            np.add(sr, _matvec(np.multiply(r, r), square_weights), sr)  # + Σ G V_p R_q² u
+            np.add(sr, np.multiply(r, r) @ square_weights, sr)  # + Σ G V_p R_q² u
             last[0], last[1] = rows, sums[1:]  # the offset copy's rows, a and b (w_s is a)
             if not mean:
                 return _combine(si, sr, None, None, 1, lam, missing, scalars)
@@ -521,19 +462,13 @@ class FillTable:
             # ΣG 2**32 by Cauchy–Schwarz: every partial sum, in any order, lies within
             # ±2 C ΣG 2**32 < 1.6 2**52, as C <= 3 and ΣG <= 262151 < 1.01 2**18); float32
             # rows are widened by the product
-            if every or lower_rows is None:
-                si = _matvec(intensity.take(candidates, axis=0), w_si)
-                if divisor is not None:
-                    divide(si, divisor, si)
-                if every:  # distances(): every candidate's range term
-                    return candidates, finish(si, ranges.take(candidates, axis=0).astype(float64))
-                k = int(si.argmin())  # the bound's candidate: the smallest intensity term
-                q, t = int(candidates[k]), float(si[k])
-            else:  # the smallest lower bound; its intensity term the same exact sum, alone
-                multiply(lower_rows[p, :m], minus_2w, lower_head)
-                lower = lower_rows.take(candidates, axis=0).dot(lower_weights)  # L_q - Q_p
-                q = int(candidates[int(lower.argmin())])
-                t = float(intensity[q].dot(w_si)) / divisor_value
+            si = intensity.take(candidates, axis=0) @ w_si
+            if divisor is not None:
+                divide(si, divisor, si)
+            if every:  # distances(): every candidate's range term
+                return candidates, finish(si, ranges.take(candidates, axis=0).astype(float64))
+            k = int(si.argmin())  # the bound's candidate: the smallest intensity term
+            q, t = int(candidates[k]), float(si[k])
             # the bound: the whole Eq. 2 of the candidate q, _combine's operations on Python
             # floats (the same IEEE operations, so the same bits); its range row (float32)
             # stays for offset_shift
@@ -550,13 +485,6 @@ class FillTable:
             else:
                 best = t + sr
             bound[()] = scale * best
-            if lower_rows is not None:  # the intensity terms of the candidates the bounds keep
-                bound_lower[()] = bound_slack * float(bound[()]) + lower_margin - q_mv[p * m1 + m]
-                candidates = candidates.compress(less_equal(lower, bound_lower))
-                if candidates.size > 1:  # (alone, it is q: kept below, t known)
-                    si = _matvec(intensity.take(candidates, axis=0), w_si)
-                    if divisor is not None:
-                        divide(si, divisor, si)
             if candidates.size > 1:
                 keep = less_equal(si, bound)
                 candidates = candidates.compress(keep)
@@ -646,8 +574,8 @@ class FillTable:
         True
         """
         # np.rint's value (both round half to even), exact in float32 (at most 2**16)
-        self._values_mv[0] = float(round(value * 2.0**RANGE_BITS))
-        self._windows[p - self._p0] = self._value_block
+        self._window_values[: self.nn] = float(round(value * 2.0**RANGE_BITS))
+        self._flat_ranges.put(self._window_entries + p * self.range_width, self._window_values)
 
 
 def _split(x: np.ndarray, parts: int, dtype=np.float32) -> np.ndarray:

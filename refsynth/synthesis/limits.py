@@ -33,7 +33,7 @@ limit apply to the parameters:
    level, at a cost that grows with σ.
 3. **Memory** (:func:`check_memory`): NP's estimate of its largest arrays
    (:func:`np_memory`) against the machine's physical memory, BP's
-   (:func:`refsynth.synthesis.bp_memory.check_bp_memory`) against its limit
+   (:func:`refsynth.synthesis.belief.memory.check_bp_memory`) against its limit
    (4 GiB by default), refused before the work with the amount it would
    need.
 
@@ -50,9 +50,8 @@ from types import MappingProxyType
 import numpy as np
 
 from refsynth._checks import check_in_range, check_memory_need, to_float
-from refsynth.synthesis.bp_memory import check_bp_memory
+from refsynth.synthesis.belief.memory import check_bp_memory
 from refsynth.synthesis.filltable import intensity_dtype
-from refsynth.synthesis.window_bound import PARTS
 
 __all__ = [
     "validate_inputs",
@@ -347,8 +346,7 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     frame padded by ``max(ceil(r), n // 2 + 1)``, an intensity row of ``n² C + 4`` entries
     (float64 up to :data:`~refsynth.synthesis.filltable.WIDE_TABLE_BYTES` in all, float32
     above: :func:`~refsynth.synthesis.filltable.intensity_dtype`), a float32 range row of
-    ``2 n² + 1`` and a float64 self term, and beside float64 intensity rows the
-    ``5 C + 1`` float64 of :mod:`~refsynth.synthesis.window_bound`'s bound. While it is built,
+    ``2 n² + 1`` and a float64 self term. While it is built,
     at most three image-sized float64 copies of the quantised intensity and two of the
     range exist beside it, with the temporaries of one block of about 4096 rows. Then come
     the fill front (:data:`_NP_FRONT_BYTES` per pixel of the frame, and four float64 frames
@@ -384,23 +382,18 @@ def np_memory(shape: tuple[int, int], channels: int, neighbourhood: int, radius:
     --------
     >>> from refsynth._checks import format_bytes
     >>> [format_bytes(np_memory(shape, 3, 5, 10.0)) for shape in ((12, 12), (375, 450))]
-    ['1.3 MiB', '213.4 MiB']
+    ['1.1 MiB', '190.8 MiB']
     """
     n2 = neighbourhood * neighbourhood
     rows = _padded_rows(shape, neighbourhood, radius)
     pixels = shape[0] * shape[1]
     item = np.dtype(intensity_dtype(rows, channels, neighbourhood)).itemsize
     table = rows * (item * (n2 * channels + 4) + 4 * (2 * n2 + 1) + _FLOAT)
-    if item == _FLOAT:  # window_bound's rows beside float64 intensity rows
-        table += rows * _FLOAT * (PARTS * channels + 1)
     inputs = pixels * (_FLOAT * (channels + 1) + 1)  # synthesize's copies
     # the quantised levels and range, image-sized; each block of the table's rows (about
     # 4096 pixels, filltable._CHUNK_PIXELS) as float64 patches and their squares, or the
-    # patches beside the range's two columns and their temporaries; with the bound's rows,
-    # one more copy of the patches
+    # patches beside the range's two columns and their temporaries
     block = min(pixels, 4096) * _FLOAT * (2 * n2 * channels + 3 * n2)
-    if item == _FLOAT:  # and window_bound's part sums: the patches reordered, then weighted
-        block += min(pixels, 4096) * _FLOAT * n2 * channels
     build = 3 * _FLOAT * pixels * channels + 2 * _FLOAT * pixels + block
     # the front, four frames of its temporaries while it is built, the copied range; order, draws
     fill = rows * (_NP_FRONT_BYTES + 5 * _FLOAT) + pixels * (2 * _FLOAT + 1)
@@ -421,8 +414,8 @@ def check_memory(method: str, image: np.ndarray, range_values: np.ndarray, *,
     """Refuse, before any work, a run that would need more memory than it may use.
 
     NP: :func:`np_memory` against the machine's physical memory; BP: its own
-    estimate and limit (:func:`refsynth.synthesis.bp_memory.check_bp_memory`,
-    which :func:`~refsynth.synthesis.bp.bp_fill` checks again).
+    estimate and limit (:func:`refsynth.synthesis.belief.memory.check_bp_memory`,
+    which :func:`~refsynth.synthesis.belief.fill.bp_fill` checks again).
 
     Parameters
     ----------

@@ -2,7 +2,7 @@ r"""Eq. 2, expanded: the distance from one neighbourhood to a whole candidate se
 
 The fast form of :func:`refsynth.synthesis.similarity.eq2_distance` (the literal Eq. 2,
 §3.2.2), bit for bit. NP (:mod:`refsynth.synthesis.nonparametric`) and BP
-(:mod:`refsynth.synthesis.bp`) evaluate Eq. 2 for every candidate of a pixel with
+(:mod:`refsynth.synthesis.belief.fill`) evaluate Eq. 2 for every candidate of a pixel with
 :class:`PatchTable` (NP's narrower :class:`refsynth.synthesis.filltable.FillTable` holds the
 same integers). Expanding the squares separates what belongs to the target ``p`` from what
 belongs to a candidate ``q``:

@@ -63,7 +63,6 @@ from scipy import ndimage
 from refsynth._checks import check_int
 from refsynth.synthesis.frontqueue import ABSENT, FrontQueue
 from refsynth.synthesis.onion import onion_order  # re-exported: Fig. 7's order
-from refsynth.synthesis.strided import block_views, flat_view
 
 __all__ = [
     "box_sum",
@@ -544,7 +543,6 @@ class FillFront:
         centre = templates[:, h + 1 - k : h + 2 + k, h + 1 - k : h + 2 + k]
         assert np.count_nonzero(templates) == np.count_nonzero(centre)
         self.templates = centre.reshape(10, -1).copy()
-        side = 2 * k + 1
         tiered = use_edges and edges_last
         self.tier = edge_pad.astype(np.int8) if tiered else np.zeros(self.shape, np.int8)
         self.tie = np.ascontiguousarray(rng.permutation(self.inside.size).reshape(self.shape))
@@ -556,16 +554,12 @@ class FillFront:
         # the front (unknown voxels with a filled 8-neighbour) is where _NEIGH > 0
         np.subtract(state[..., _NEIGH], _CLOSED, out=state[..., _NEIGH], where=~self.open)
         front = state[..., _NEIGH] > 0
-        # per step, one integer index instead of slicing: every block around a pixel as one
-        # strided view (element p - offset: the block centred on p), and the single values
-        # through memoryviews (Python floats and bools, the same values as numpy's scalars)
-        self._offset, self._state_blocks = block_views(state, side)
-        # the blocks field-major, (fields, side, side), as the step reads them
-        self._field_blocks = self._state_blocks.transpose(0, 3, 1, 2)
+        # per step, the single values through memoryviews of the flat frames (Python floats
+        # and bools, the same values as numpy's scalars)
         self._filled_mv, self._open_mv, self._range_mv, self._confidence_mv = (
-            memoryview(flat_view(a)) for a in (self.filled, self.open, self.range_norm,
-                                            self.confidence))
-        self._state_mv = memoryview(flat_view(state).reshape(-1))
+            memoryview(a.reshape(-1)) for a in (self.filled, self.open, self.range_norm,
+                                             self.confidence))
+        self._state_mv = memoryview(state.reshape(-1))
         flat = np.flatnonzero(front)
         p = _eq10(self.flat_state[flat], use_isophotes)  # Eq. 10 on the front only
         self.queue.set(flat, p.view(np.int64) + self.tier_offset.ravel()[flat])
@@ -618,7 +612,9 @@ class FillFront:
         # the templates' coefficients: confidence, 4 pairs' difference and count, mask (1)
         coef = np.array([0.0] * 9 + [1.0])
         c_mv = memoryview(coef)
-        offset, field_blocks, templates = self._offset, self._field_blocks, self.templates
+        templates, reach = self.templates, self.reach
+        offset = reach * (width + 1)  # p less its block's top-left pixel
+        field_frame = self.state.transpose(2, 0, 1)  # field-major, as the step reads a block
         change = np.empty(templates.shape[1])  # a fill's change to the block
         change_fields = change.reshape(side, side, _FIELDS).transpose(2, 0, 1)  # field-major
         add, maximum, divide, multiply = np.add, np.maximum, np.divide, np.multiply
@@ -627,7 +623,7 @@ class FillFront:
         # the block's flat offsets from its top-left pixel (1-d indices: cheap to scatter)
         block_offsets = (np.arange(side)[:, None] * width + np.arange(side)[None, :]).ravel()
         at_array = np.zeros((), dtype=np.int64)  # the block's top-left pixel, as a 0-d array
-        take_tier, take_tie = flat_view(self.tier_offset).take, flat_view(self.tie).take
+        take_tier, take_tie = self.tier_offset.reshape(-1).take, self.tie.reshape(-1).take
         shift = np.array(self.queue.shift)  # a slot's block: slot >> shift
         right_shift, set_in_blocks = np.right_shift, self.queue.set_in_blocks
         # Eq. 10's buffers on the block, field-major, and their views (about a µs each)
@@ -658,7 +654,8 @@ class FillFront:
             # the templates' support: the central max(n, 3)² of the (n+2)² block, so no
             # other voxel's sums, and hence priority, change
             at = p - offset
-            block = field_blocks[at]
+            row, col = divmod(at, width)
+            block = field_frame[:, row : row + side, col : col + side]
             coef.dot(templates, out=change)
             add(block, change_fields, block)
             if not update:

@@ -55,7 +55,7 @@ around ``i`` or, with BP's default ``observation="np"``, that range completed by
 with ``"colorization"``, by the colorization fill) and ``l``'s measured patch
 (:func:`offset_shifts`, all labels at once). Eq. 6 compares the two labels' patches each
 moved by its shift (Ψ sees differences only, so the shifts are added with a common lift
-that keeps every moved value ``≥ 0``: :data:`refsynth.synthesis.bp_model.SHIFT_LIFT`), a
+that keeps every moved value ``≥ 0``: :data:`refsynth.synthesis.belief.model.SHIFT_LIFT`), a
 measured neighbour's term compares the
 moved patch with the measured one, and the MAP label (Eq. 8) gives its centre plus its shift
 (:func:`shifted_values`, NP's arithmetic and clipping); the pooled confidence and
@@ -89,7 +89,7 @@ grid). :func:`default_offset_tolerance`: NP's ``2**-7`` with the measured or col
 observations, where a looser agreement loses on the Motorcycle, and
 :data:`NP_OBSERVATION_TOLERANCE` (``2**-3``) with ``observation="np"``, where NP's dense fill
 is the observation and the looser agreement wins (measured in
-:mod:`refsynth.synthesis.bp_observation`).
+:mod:`refsynth.synthesis.belief.observation`).
 
 References
 ----------

@@ -92,9 +92,9 @@ field                   ``paper``      ``refsynth``   the paper's text; the evid
 
 The figures behind each line are on the documentation's departures page and in the docstring
 of the module that implements the departure (:mod:`refsynth.synthesis.similarity`,
-:mod:`refsynth.synthesis.range_copy`, :mod:`refsynth.synthesis.bp_observation`,
-:mod:`refsynth.synthesis.bp_gap_radius`, :mod:`refsynth.synthesis.bp_centres`,
-:mod:`refsynth.synthesis.bp_proposals`, :mod:`refsynth.synthesis.gap_readings`), each with the
+:mod:`refsynth.synthesis.range_copy`, :mod:`refsynth.synthesis.belief.observation`,
+:mod:`refsynth.synthesis.belief.gap_radius`, :mod:`refsynth.synthesis.belief.centres`,
+:mod:`refsynth.synthesis.belief.proposals`, :mod:`refsynth.synthesis.gap_readings`), each with the
 command that prints them.
 
 References
@@ -108,11 +108,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 from refsynth._checks import check_bool, check_choice, check_in_range, check_int, check_real
-from refsynth.synthesis.bp import EDGE_RULES
-from refsynth.synthesis.bp_centres import COMPATIBILITIES
-from refsynth.synthesis.bp_gap_radius import TRAINING_RADII
-from refsynth.synthesis.bp_observation import OBSERVATIONS
-from refsynth.synthesis.bp_proposals import PROPOSALS
+from refsynth.synthesis.belief.centres import COMPATIBILITIES
+from refsynth.synthesis.belief.fill import EDGE_RULES
+from refsynth.synthesis.belief.gap_radius import TRAINING_RADII
+from refsynth.synthesis.belief.observation import OBSERVATIONS
+from refsynth.synthesis.belief.proposals import PROPOSALS
 from refsynth.synthesis.gap_readings import GAPS
 from refsynth.synthesis.limits import PARAMETER_BOUNDS
 from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES

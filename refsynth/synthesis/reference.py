@@ -1,9 +1,9 @@
 r"""The literal reference: Eq. 2, NP (Eqs. 3–5, 10–12) and BP (Eqs. 6–9) as plainly as the paper.
 
 This module is the definition that the fast code (:mod:`refsynth.synthesis.nonparametric`,
-:mod:`refsynth.synthesis.priority`, :mod:`refsynth.synthesis.bp`) and any port must match bit
-for bit. It loops over pixels, candidates and labels in Python, in the order the paper reads;
-it is slow (use it on images up to about 32 × 32) and has no cleverness.
+:mod:`refsynth.synthesis.priority`, :mod:`refsynth.synthesis.belief.fill`) and any port must
+match bit for bit. It loops over pixels, candidates and labels in Python, in the order the
+paper reads; it is slow (use it on images up to about 32 × 32) and has no cleverness.
 
 The numeric contract
 --------------------
@@ -512,8 +512,8 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
     2. Labels of node ``i``: its ``k`` closest training patches (:func:`_bp_candidates`),
        ranked by Eq. 2 against its observation ``y_i``. refsynth's defaults depart from
-       Fig. 6 here (measured in :mod:`refsynth.synthesis.bp_observation` and
-       :mod:`refsynth.synthesis.bp_gap_radius`): with ``observation="np"`` (the default)
+       Fig. 6 here (measured in :mod:`refsynth.synthesis.belief.observation` and
+       :mod:`refsynth.synthesis.belief.gap_radius`): with ``observation="np"`` (the default)
        :func:`np_reference` (NP's defaults, drawing on ``rng``) fills the range
        first and its result completes ``y_i``'s unknown range (:func:`_observed_frame`);
        with ``"colorization"`` the colorization fill completes it

@@ -93,7 +93,8 @@ class Patches:
 
 @dataclass(frozen=True)
 class BeliefReference:
-    """What :func:`bp_reference` returns, laid out as :class:`refsynth.synthesis.bp.BPResult`.
+    """What :func:`bp_reference` returns, laid out as BP's fast result
+    (:class:`refsynth.synthesis.belief.fill.BPResult`).
 
     Nodes are the unknown pixels in raster order (``order``); pairs the 4-neighbour pairs
     of nodes, horizontal then vertical, each in raster order. ``candidates`` (N, k, 2) the

@@ -20,8 +20,8 @@ a measured neighbour's term (the fixed node's message) compares it with every
 measured pixel the two patches share. The labels are flat indices into a
 stack of range frames on the contract's grid (:mod:`refsynth.numeric`): frame
 0 the measured range (−1 where unknown), frame ``s`` the proposal ``D_s``; so
-:class:`~refsynth.synthesis.bp_model.Compatibilities`,
-:func:`~refsynth.synthesis.bp_model.fixed_neighbour_terms` and the message loop
+:class:`~refsynth.synthesis.belief.model.Compatibilities`,
+:func:`~refsynth.synthesis.belief.model.fixed_neighbour_terms` and the message loop
 run unchanged on ``k + S`` labels.
 
 Φ (Eq. 7) of a proposal (:data:`PROPOSAL_PHI`). Its observation is ``p``'s
@@ -180,7 +180,7 @@ def proposal_frame(
         Dense ranges, finite wherever the range is unknown.
     labels, distance : ndarray of shape (N, k)
         The training candidates (flat pixel indices) and their Eq. 2 distances,
-        best first (:func:`refsynth.synthesis.bp_search.search_candidates`).
+        best first (:func:`refsynth.synthesis.belief.search.search_candidates`).
     flat : ndarray of int, shape (N,)
         The nodes' flat pixel indices, in raster order.
     n : int

@@ -6,7 +6,7 @@ disc's offsets — so that the candidates are the same on every machine
 (``np.argpartition``'s order is whatever its selection algorithm, SIMD-dispatched,
 leaves). :func:`stable_smallest` finds the sort's first ``k`` with a partition;
 :func:`smallest_measured` ranks each node on its measured offsets alone, every
-other offset of its disc being ∞ (:mod:`refsynth.synthesis.bp_search`).
+other offset of its disc being ∞ (:mod:`refsynth.synthesis.belief.search`).
 
 References
 ----------

@@ -1,18 +1,18 @@
 r"""The memory BP needs (§3.2.3, Fig. 6), estimated before any work.
 
-:func:`refsynth.synthesis.bp.bp_fill` holds, for ``N`` unknown pixels with
+:func:`refsynth.synthesis.belief.fill.bp_fill` holds, for ``N`` unknown pixels with
 ``k`` candidates each and ``E ≤ 2N`` pairs of unknown 4-neighbours:
 
 - per pixel of the image, the quantised intensity and range and the patch
-  rows' sources of the candidate search (:mod:`refsynth.synthesis.bp_search`);
+  rows' sources of the candidate search (:mod:`refsynth.synthesis.belief.search`);
 - per node, the candidates, their distances and values, the unary terms and
   the beliefs (``k`` float64 or int64 each);
 - per pair, its two messages (``2k`` float64) and the bookkeeping of the
-  schedule (:func:`refsynth.synthesis.messages.belief_propagation`);
+  schedule (:func:`refsynth.synthesis.belief.messages.belief_propagation`);
 - blocks of bounded size for the search, Ψ and the sends.
 
 Ψ (``E·k²`` float64, 522 MB at 900×750) is *not* held: the sends compute it
-block by block, and :attr:`refsynth.synthesis.bp.BPResult.log_psi` computes
+block by block, and :attr:`refsynth.synthesis.belief.fill.BPResult.log_psi` computes
 the whole array on first access (:func:`psi_bytes` says how much that takes).
 :func:`bp_memory_estimate` is an upper bound of the peak resident memory BP adds
 to the process, calibrated on the Motorcycle (x-stripes, 78 % unknown) from

@@ -11,7 +11,7 @@ candidate patches share where both have range (Ψ = 1 where none):
 :func:`pair_compatibilities` for two unknown neighbours (k × k),
 :func:`fixed_neighbour_terms` for an unknown node beside a measured one (whose
 message is a fixed unary term). :func:`grid_edges` lists the pairs of the
-4-neighbourhood. :func:`refsynth.synthesis.bp.bp_fill` assembles them.
+4-neighbourhood. :func:`refsynth.synthesis.belief.fill.bp_fill` assembles them.
 
 The numeric contract (:mod:`refsynth.numeric`): the range is on the ``2**-16``
 grid of its span, so the expanded squares of Eq. 6 are integer sums, exact in
@@ -37,7 +37,7 @@ __all__ = ["phi", "psi", "pair_compatibilities", "fixed_neighbour_terms", "grid_
 
 #: The readings of Eq. 6's mean square: over the overlap alone (the default), or with the
 #: two patches' centres as one more shared pixel (a departure,
-#: :mod:`refsynth.synthesis.bp_centres`).
+#: :mod:`refsynth.synthesis.belief.centres`).
 COMPATIBILITIES = ("overlap", "overlap-centres")
 
 _PSI_BLOCK = 512  # pairs per block of Eq. 6: about 0.3 MB per temporary, in the cache
@@ -107,7 +107,7 @@ def _overlap_mean_square(a: np.ndarray, b: np.ndarray, quantised: bool = False,
     order, and one scaling and one division make the mean.
 
     ``centres`` (quantised only; the departure ``"overlap-centres"``,
-    :mod:`refsynth.synthesis.bp_centres`): ``(ca, cb)``, (E, K) and (E, L), the
+    :mod:`refsynth.synthesis.belief.centres`): ``(ca, cb)``, (E, K) and (E, L), the
     two patches' centre ranges on the grid (−1 = missing); each pair where both
     are present counts their squared difference as one more shared entry.
     """
@@ -216,7 +216,7 @@ def fixed_neighbour_terms(
         As in :func:`pair_compatibilities`.
     centres : bool, default False
         **A departure** (``compatibility="overlap-centres"``,
-        :mod:`refsynth.synthesis.bp_centres`; needs ``quantised``): the
+        :mod:`refsynth.synthesis.belief.centres`; needs ``quantised``): the
         candidate's centre range and the measured neighbour's own count as one
         more shared pixel.
 
@@ -296,9 +296,9 @@ SHIFT_LIFT = 2**18
 class Compatibilities:
     """``log Ψ`` (Eq. 6) of any pairs, from their candidates' range patches.
 
-    The sends of :func:`~refsynth.synthesis.messages.belief_propagation` call it
+    The sends of :func:`~refsynth.synthesis.belief.messages.belief_propagation` call it
     block by block, so the whole (E, k, k) table is never held; ``all()`` makes it
-    (for :attr:`refsynth.synthesis.bp.BPResult.log_psi`). Each pair's Ψ is the same
+    (for :attr:`refsynth.synthesis.belief.fill.BPResult.log_psi`). Each pair's Ψ is the same
     function of its own patches wherever it is computed, so the numbers are those
     of one table.
 
@@ -322,7 +322,7 @@ class Compatibilities:
         σ_s of Eq. 6.
     centres : bool, default False
         **A departure** (``compatibility="overlap-centres"``,
-        :mod:`refsynth.synthesis.bp_centres`): the two candidates' centre
+        :mod:`refsynth.synthesis.belief.centres`): the two candidates' centre
         ranges count as one more shared pixel of Eq. 6's mean square.
 
     Examples

@@ -4,7 +4,7 @@ Step 2 of Fig. 6 ranks, for every unknown pixel ``p``, the measured pixels ``q``
 within ``r`` of it by the distance of Eq. 2 between their neighbourhoods (with
 the mean-filled range term of :mod:`refsynth.synthesis.similarity`), plus the
 proximity prior ``μ (|p − q| / r)²`` when μ > 0 (the default μ = 0 ranks by
-Eq. 2 alone, as Fig. 6 does). :func:`refsynth.synthesis.bp.candidates`
+Eq. 2 alone, as Fig. 6 does). :func:`refsynth.synthesis.belief.fill.candidates`
 does it one node at a time over every offset of the disc, measured or not,
 from the rows of a :class:`~refsynth.synthesis.patch_table.PatchTable` — a
 table of 150 float64 per pixel (850 MB at 900×750). Most disc offsets are
@@ -20,7 +20,7 @@ most of their training patches, so :func:`search_candidates` instead
    patch rows gathered on the fly through sliding-window views of the
    quantised image's padded planes (no table);
 3. reads each node's disc from those products (a measured offset only) and
-   ranks it as :func:`~refsynth.synthesis.bp.candidates` does, on the node's
+   ranks it as :func:`~refsynth.synthesis.belief.fill.candidates` does, on the node's
    measured offsets alone, packed in their raster order (every other offset
    is ∞, so cannot come first while ``k`` finite ones remain; a node with
    fewer is ranked over its whole disc).
@@ -34,13 +34,13 @@ makes the distance from the same four sums by the same IEEE operations. The
 ranking is the stable sort's (ties in the raster order of the disc offsets),
 found with a partition: the ``k`` smallest are those below the ``k``-th
 value and the first of those equal to it, sorted
-(:mod:`refsynth.synthesis.bp_ranking`). So the candidates and their
-distances are bit for bit those of :func:`~refsynth.synthesis.bp.candidates`
+(:mod:`refsynth.synthesis.belief.ranking`). So the candidates and their
+distances are bit for bit those of :func:`~refsynth.synthesis.belief.fill.candidates`
 (and of the literal reference).
 
 :func:`search_at_radii` is the first pass of :func:`search_candidates` for
 nodes that each have a radius of their own (the gap radius,
-:mod:`refsynth.synthesis.bp_gap_radius`): one pass over tiles of 12 holding
+:mod:`refsynth.synthesis.belief.gap_radius`): one pass over tiles of 12 holding
 every radius, each node's disc cut from the tile's widest by the test of
 :func:`~refsynth.synthesis.neighbourhood.disc_offsets`, the same steps 1–3.
 
@@ -58,7 +58,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from refsynth.numeric import NO_RANGE, combine_eq2, window_weights
-from refsynth.synthesis.bp_ranking import smallest_measured, stable_smallest
+from refsynth.synthesis.belief.ranking import smallest_measured, stable_smallest
 from refsynth.synthesis.neighbourhood import disc_offsets, window_offsets
 from refsynth.synthesis.patch_table import PatchTable
 
@@ -134,9 +134,9 @@ def search_features(
     """The training and the observations' patch rows :func:`search_candidates` reads.
 
     Built once per image (each costs a pass over the whole image); a caller that
-    runs the search several times on one image — :func:`~refsynth.synthesis.
-    bp_gap_radius.gap_radius_candidates`, once per gap depth — builds them here
-    and passes them as ``features``, which changes no number.
+    runs the search several times on one image —
+    :func:`~refsynth.synthesis.belief.gap_radius.gap_radius_candidates`, once per gap
+    depth — builds them here and passes them as ``features``, which changes no number.
 
     Parameters
     ----------
@@ -183,7 +183,7 @@ def search_candidates(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` closest training patches of each node by Eq. 2 (Fig. 6, step 2).
 
-    The result of :func:`refsynth.synthesis.bp.candidates` on the
+    The result of :func:`refsynth.synthesis.belief.fill.candidates` on the
     :class:`~refsynth.synthesis.patch_table.PatchTable` of the same image, bit for
     bit, computed tile by tile from measured offsets only (see above).
 
@@ -217,7 +217,7 @@ def search_candidates(
         Eq. 2's intensity term over the colour channels: their sum (the
         paper's) or their mean.
     observed : ndarray of int, shape (H, W), optional
-        **A departure** (:mod:`refsynth.synthesis.bp_observation`): the range
+        **A departure** (:mod:`refsynth.synthesis.belief.observation`): the range
         of the nodes' observations ``y_i`` on ``rq``'s grid (``NO_RANGE``
         where none), e.g. ``rq`` completed by a classical fill. None: ``rq``
         (Fig. 6, bit for bit).
@@ -549,7 +549,7 @@ def candidates(
     Notes
     -----
     The literal reading, one block of nodes at a time over every disc offset,
-    from the rows of a table. :func:`~refsynth.synthesis.bp.bp_fill` uses
+    from the rows of a table. :func:`~refsynth.synthesis.belief.fill.bp_fill` uses
     :func:`search_candidates`, which gives the same numbers without the table
     (its tests compare the two).
 

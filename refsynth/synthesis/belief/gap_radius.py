@@ -16,12 +16,12 @@ so that every node searches the same ``r`` beyond the edge of its gap. A node
 beside a measured pixel (``d_i = 1``) searches ``r + 1``. The rest of step 2 —
 the ranking by Eq. 2, the doubling when fewer than ``k`` are found — is
 unchanged; :func:`gap_radius_candidates` ranks every node at its own radius
-in one pass (:func:`~refsynth.synthesis.bp_search.search_at_radii`, tiles
+in one pass (:func:`~refsynth.synthesis.belief.search.search_at_radii`, tiles
 holding nodes of every depth), then runs
-:func:`~refsynth.synthesis.bp_search.search_candidates` once per value of
+:func:`~refsynth.synthesis.belief.search.search_candidates` once per value of
 ``⌊d_i⌋`` on the nodes whose disc held fewer than ``k`` candidates (which
 that search widens), all from patch rows built once
-(:func:`~refsynth.synthesis.bp_search.search_features`), so each node's
+(:func:`~refsynth.synthesis.belief.search.search_features`), so each node's
 candidates are exactly those of the search at its own radius. The distances are those of
 :func:`scipy.ndimage.distance_transform_edt` (square roots of integers,
 correctly rounded): exact, so the grouping is portable. A disc beyond the
@@ -40,7 +40,7 @@ choosing split against Fig. 6's 0.328 / 0.597 / 0.848 (and on the room
 0.281 / 0.329 m against 0.244 / 0.312): with observations that hold no range
 deep in a gap, a wider disc only offers more intensity matches. With the
 observations completed (``observation="colorization"``,
-:mod:`refsynth.synthesis.bp_observation`), Eq. 2 ranks the wider disc by range
+:mod:`refsynth.synthesis.belief.observation`), Eq. 2 ranks the wider disc by range
 too:
 
 ===================  =======================  =======================  =====================
@@ -73,7 +73,7 @@ import numpy as np
 from scipy import ndimage
 
 from refsynth.numeric import NO_RANGE
-from refsynth.synthesis.bp_search import search_at_radii, search_candidates, search_features
+from refsynth.synthesis.belief.search import search_at_radii, search_candidates, search_features
 from refsynth.synthesis.limits import search_radius
 
 __all__ = ["TRAINING_RADII", "gap_depth", "gap_radius_candidates"]
@@ -115,17 +115,17 @@ def gap_depth(rq: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
 
 def gap_radius_candidates(levels, rq, rows, cols, *, radius: float, pad: int, n: int,
                           progress=None, **options):
-    """:func:`~refsynth.synthesis.bp_search.search_candidates` at radius ``r + ⌊d_i⌋``.
+    """:func:`~refsynth.synthesis.belief.search.search_candidates` at radius ``r + ⌊d_i⌋``.
 
     Parameters
     ----------
     levels, rq, rows, cols
-        As :func:`~refsynth.synthesis.bp_search.search_candidates` takes them.
+        As :func:`~refsynth.synthesis.belief.search.search_candidates` takes them.
     radius : float
         ``r``.
     pad : int
         The frame's padding at radius ``r`` (widened with the radius, as
-        :func:`refsynth.synthesis.bp.bp_fill` sets it: ``max(⌈r⌉, n // 2 + 1)``).
+        :func:`refsynth.synthesis.belief.fill.bp_fill` sets it: ``max(⌈r⌉, n // 2 + 1)``).
     n : int
         The patch side.
     progress : callable, optional

@@ -53,15 +53,15 @@ The algorithm of Fig. 6, step by step:
 
 Everything is array operations over all nodes × k (× k for Ψ and the
 messages), in blocks that bound the memory: the candidate search runs tile by
-tile over measured offsets only (:mod:`refsynth.synthesis.bp_search`), Ψ is
+tile over measured offsets only (:mod:`refsynth.synthesis.belief.search`), Ψ is
 computed block by block where the messages need it and never held whole
 (:attr:`BPResult.log_psi` computes it on first access), and the sends after
 the first sweep touch only the edges whose inputs changed
-(:func:`~refsynth.synthesis.messages.belief_propagation`). What a call needs
+(:func:`~refsynth.synthesis.belief.messages.belief_propagation`). What a call needs
 is estimated before any work (:func:`bp_memory_estimate`), and a call over the
-limit is refused then (:mod:`refsynth.synthesis.bp_memory`).
+limit is refused then (:mod:`refsynth.synthesis.belief.memory`).
 
-Φ, Ψ and the grid of pairs (steps 3–4) are :mod:`refsynth.synthesis.bp_model`.
+Φ, Ψ and the grid of pairs (steps 3–4) are :mod:`refsynth.synthesis.belief.model`.
 
 **A departure, the default preset's** (``range_copy="offset"``,
 :mod:`refsynth.synthesis.range_copy`): each label is moved by the consistent difference in
@@ -74,7 +74,7 @@ fills of the range (NP's, from :func:`refsynth.synthesize` with
 ``proposals="np"``) give every node more labels after its ``k`` training
 candidates — their patches centred on it, from frames stacked below the
 measured range's — so Ψ sees synthesized range
-(:mod:`refsynth.synthesis.bp_proposals`, where the measured gain is). Without
+(:mod:`refsynth.synthesis.belief.proposals`, where the measured gain is). Without
 it, Fig. 6 as printed, bit for bit.
 
 The numeric contract (:mod:`refsynth.numeric`): the candidates are ranked by
@@ -118,9 +118,10 @@ from refsynth.numeric import (
     quantise_range,
     window_weights,
 )
-from refsynth.synthesis.bp_gap_radius import TRAINING_RADII, gap_radius_candidates
-from refsynth.synthesis.bp_memory import BP_MEMORY_LIMIT, bp_memory_estimate, check_bp_memory
-from refsynth.synthesis.bp_model import (
+from refsynth.synthesis.belief.gap_radius import TRAINING_RADII, gap_radius_candidates
+from refsynth.synthesis.belief.memory import BP_MEMORY_LIMIT, bp_memory_estimate, check_bp_memory
+from refsynth.synthesis.belief.messages import belief_propagation
+from refsynth.synthesis.belief.model import (
     COMPATIBILITIES,
     SHIFT_LIFT,
     Compatibilities,
@@ -130,10 +131,9 @@ from refsynth.synthesis.bp_model import (
     phi,
     psi,
 )
-from refsynth.synthesis.bp_observation import observed_ranges
-from refsynth.synthesis.bp_proposals import proposal_frame
-from refsynth.synthesis.bp_search import candidates, search_candidates
-from refsynth.synthesis.messages import belief_propagation
+from refsynth.synthesis.belief.observation import observed_ranges
+from refsynth.synthesis.belief.proposals import proposal_frame
+from refsynth.synthesis.belief.search import candidates, search_candidates
 from refsynth.synthesis.progress import StagedProgress
 from refsynth.synthesis.range_copy import (
     OFFSET_TOLERANCE,
@@ -241,7 +241,7 @@ class BPResult:
         """``log Ψ`` (Eq. 6) of every pair, (E, k, k): label of ``pairs[e, 0]`` first.
 
         Computed on first access (then kept): ``E·k²`` float64, 8 bytes each
-        (:func:`refsynth.synthesis.bp_memory.psi_bytes`; 522 MB at 900×750),
+        (:func:`refsynth.synthesis.belief.memory.psi_bytes`; 522 MB at 900×750),
         the same numbers BP's sends used.
         """
         return None if self.compatibilities is None else self.compatibilities()
@@ -347,7 +347,7 @@ def bp_fill(
         :func:`bp_memory_estimate` exceeds it. Default
         :data:`BP_MEMORY_LIMIT` (4 GiB).
     proposals : ndarray of shape (S, H, W) or (H, W), optional
-        **A departure from Fig. 6** (:mod:`refsynth.synthesis.bp_proposals`):
+        **A departure from Fig. 6** (:mod:`refsynth.synthesis.belief.proposals`):
         dense ranges (e.g. NP's fills), finite at every unknown pixel. Each
         node gets ``S`` more labels after its ``k`` training candidates, the
         patches of the proposals centred on it; Ψ and the measured
@@ -355,16 +355,16 @@ def bp_fill(
         Fig. 6 as printed, bit for bit.
     proposal_phi : {"match", "twin", "best", "worst", "zero"}, default "match"
         A proposal's Eq. 2 distance in Φ (Eq. 7)
-        (:data:`~refsynth.synthesis.bp_proposals.PROPOSAL_PHI`).
+        (:data:`~refsynth.synthesis.belief.proposals.PROPOSAL_PHI`).
     proposal_centred : bool, default True
         Give each node the proposals' patches centred on it as labels.
     proposal_completed : bool, default False
         Complete the training patches' unknown range from the first proposal.
     observation : ndarray of shape (H, W), optional
         **A departure from Fig. 6, step 2**
-        (:mod:`refsynth.synthesis.bp_observation`): a dense range on the
+        (:mod:`refsynth.synthesis.belief.observation`): a dense range on the
         measured range's unit scale, ``(D − low) / span``, finite at every
-        unknown pixel (:func:`~refsynth.synthesis.bp_observation.observation_fill`,
+        unknown pixel (:func:`~refsynth.synthesis.belief.observation.observation_fill`,
         the colorization fill), that completes the observations ``y_i`` for
         Eq. 2's ranking of the candidates. None: the observations hold the
         measured range only, as printed. (:func:`refsynth.synthesize` passes
@@ -376,11 +376,11 @@ def bp_fill(
     compatibility : {"overlap", "overlap-centres"}, default "overlap"
         Eq. 6's mean square over the overlap's shared measured pixels (the
         default), or with the two candidates' centre ranges as one more shared
-        pixel (**a departure**, :mod:`refsynth.synthesis.bp_centres`).
+        pixel (**a departure**, :mod:`refsynth.synthesis.belief.centres`).
     training_radius : {"fixed", "gap"}, default "fixed"
         A node's training disc: radius ``r`` (Fig. 6), or ``r`` plus the
         node's distance to the nearest measured pixel, floored (**a
-        departure**, :mod:`refsynth.synthesis.bp_gap_radius`).
+        departure**, :mod:`refsynth.synthesis.belief.gap_radius`).
     range_copy : {"offset", "value"}, default "offset"
         Move every label by its offset-copy shift against the node's
         observation (``observation`` where given, else the measured range) in

@@ -9,7 +9,7 @@ The messages of Eq. 9, on a synchronous schedule, normalised every sweep:
 ``b_i(x_i) = Φ(x_i, y_i) Π_j M_ji(x_i)``, all as logarithms. The edge-constraint
 rule enters as nodes that send no message (``silent``) and, in the paper's
 reading, nodes that receive none either (``deaf``);
-:func:`refsynth.synthesis.bp.bp_fill` builds the model (the candidates, Φ and Ψ)
+:func:`refsynth.synthesis.belief.fill.bp_fill` builds the model (the candidates, Φ and Ψ)
 and calls :func:`belief_propagation`.
 
 The cost: a sweep sends only the messages whose inputs changed bit for bit in
@@ -77,7 +77,7 @@ def belief_propagation(
         ``log Ψ[e, l, m]`` for label ``l`` at ``a`` and ``m`` at ``b``; or a
         function that returns those rows, ``log_psi(edges)`` for an int array
         of edge indices (so that the whole table need not be held:
-        :func:`refsynth.synthesis.bp.bp_fill` computes Ψ where it is needed);
+        :func:`refsynth.synthesis.belief.fill.bp_fill` computes Ψ where it is needed);
         if it takes an ``out`` keyword, ``log_psi(edges, out=rows)`` writes them
         into ``rows``, an (m, K, K) view of the cache.
     silent : ndarray of shape (N,), bool, optional

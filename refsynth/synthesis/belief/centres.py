@@ -7,7 +7,7 @@ pixels they share:
 
 refsynth reads ``|d − d'|²`` as the mean square over the shared pixels where
 *both* training patches have measured range, and Ψ = 1 where there is none
-(:mod:`refsynth.synthesis.bp_model`). A training patch is centred on a
+(:mod:`refsynth.synthesis.belief.model`). A training patch is centred on a
 measured pixel but holds range only where the measurement does: on the
 Motorcycle's x-stripes (3 known columns between 5 and 17 unknown) two
 candidates of neighbouring nodes often share no measured pixel, or one or
@@ -27,9 +27,9 @@ empty overlap Ψ compares the two nodes' ranges, a smoothness term of
 neighbouring values; with a full overlap the centres weigh one pixel in
 ``n(n − 1) + 1``. It stays exact: the centres are on the same ``2**-16`` grid
 as the overlap, and the sum is of integers
-(:func:`refsynth.synthesis.bp_model.pair_compatibilities`,
-:func:`~refsynth.synthesis.bp_model.fixed_neighbour_terms`,
-:class:`~refsynth.synthesis.bp_model.Compatibilities`, all with ``centres``).
+(:func:`refsynth.synthesis.belief.model.pair_compatibilities`,
+:func:`~refsynth.synthesis.belief.model.fixed_neighbour_terms`,
+:class:`~refsynth.synthesis.belief.model.Compatibilities`, all with ``centres``).
 
 Measured (MAR in disparity px, the Motorcycle's x-stripes at 63 / 78 / 85 %,
 ``audit_departures.py --variants bp-fig6,bp-centres,bp-centres-sigma-s0.1 --seeds 0``):
@@ -39,7 +39,7 @@ of 3 % or less at 78 and 85 %, a tie by the audit's rule; on the report split
 0.353 / 0.553 / 0.791 (450×375) and 0.323 / 0.579 / 0.904 (741×500) against
 0.353 / 0.570 / 0.809 and 0.333 / 0.600 / 0.932; on the room (grids 10/20,
 5/25) 0.242 / 0.302 m against 0.244 / 0.312. With the observations completed
-(:mod:`refsynth.synthesis.bp_observation`) it adds 1–4 %.
+(:mod:`refsynth.synthesis.belief.observation`) it adds 1–4 %.
 
 References
 ----------
@@ -48,6 +48,6 @@ Torres-Méndez & Dudek (2008), §3.2.3, Eq. 6, doi:10.1007/s11263-007-0108-2.
 
 from __future__ import annotations
 
-from refsynth.synthesis.bp_model import COMPATIBILITIES
+from refsynth.synthesis.belief.model import COMPATIBILITIES
 
 __all__ = ["COMPATIBILITIES"]
