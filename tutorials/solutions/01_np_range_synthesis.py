@@ -147,10 +147,12 @@ def vertical_streaks(bad: np.ndarray, length: int = 20) -> int:
 def exercise_3() -> None:
     """Make the fill run in onion order and look at the streaks.
 
-    With Eq. 5's copy of the drawn value (``range_copy="value"``, refsynth's
-    default up to 0.4), on vertical stripes the priority order fills in
-    chains: each filled pixel raises its neighbours' confidence (Eq. 11), so
-    the fill runs down the front, copying from the pixel it has just filled;
+    The fills are read as filled (``gaps="copy"``: the gap reading, after the
+    fill, would draw the line across the stripes' smooth gaps). With Eq. 5's copy
+    of the drawn value (``range_copy="value"``, the paper's), on vertical stripes
+    the priority order fills in chains: each filled pixel raises its neighbours'
+    confidence (Eq. 11), so the fill runs down the front, copying from the pixel it
+    has just filled;
     where Eq. 2 cannot tell a candidate one row off from the right one, a
     small error is copied down the chain into a long vertical streak. Onion
     peeling fills each layer from measured data before the next, so errors
@@ -172,7 +174,8 @@ def exercise_3() -> None:
     for copy in ("value", "offset"):
         for ordering in ("priority", "onion"):
             fills = [refsynth.synthesize(scene.intensity, partial, seed=s, ordering=ordering,
-                                         readings={"range_copy": copy}).range for s in SEEDS]
+                                         readings={"range_copy": copy, "gaps": "copy"}).range
+                     for s in SEEDS]
             streaks[copy, ordering] = [
                 vertical_streaks(~known & (np.abs(f - scene.range) > threshold)) for f in fills]
             errors[copy, ordering] = np.mean([mar(f, scene.range, known) for f in fills])
