@@ -20,7 +20,7 @@ beside the four classical fills (nearest, linear, colorization, joint-bilateral)
 
 Run::
 
-    python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0,1,2 \\
+    python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0,1 \\
         --samplings x63,x78,distance60,g5_25 --arrays /tmp/gaps --json /tmp/gaps.json
 
 ``--arrays DIR`` keeps each NP / BP fill as

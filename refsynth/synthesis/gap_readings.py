@@ -31,7 +31,7 @@ pixels lie in columns with no measured pixel, as with x-stripes and Fig. 2's sli
 other sampling (the paper's grids of Table 1, scattered pixels) it returns the synthesis
 unchanged.
 
-``python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0,1,2`` prints, per scene
+``python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0,1`` prints, per scene
 and sampling, NP and BP with and without the gate beside the nearest, linear, colorization and
 joint-bilateral fills (Table 4's protocol at 450 × 375); docs/distance_sampling.md holds the
 diagnosis and the table.
