@@ -100,7 +100,10 @@ class SynthesisResult:
     Attributes
     ----------
     range : ndarray of shape (H, W), float64
-        The dense range, finite everywhere; measured pixels are unchanged.
+        The dense range, finite everywhere; measured pixels are unchanged. With the
+        reading ``gaps="gate"`` (the default) a column scan's gaps are the fill after
+        :func:`refsynth.synthesis.gap_readings.gap_gate`; ``bp.range`` keeps BP's MAP
+        labels as filled.
     confidence : ndarray of shape (H, W), float64
         In [0, 1]: 1 where the range was measured; for NP the confidence the
         pixel received when it was synthesized (Eq. 11, see
