@@ -26,6 +26,10 @@ default; the paper's is ``"copy"``, every unknown pixel as NP or BP filled it) a
    the line (an object between two columns that agree, which NP and BP can see and the line
    cannot); a gap open at the image's border takes its one bound's value.
 
+The result's confidence, order and (BP) labels stay the fill's: the gate changes the range
+only, and :attr:`refsynth.SynthesisResult.uncertainty` is computed on the gated range with
+the fill as its ``raw`` estimate.
+
 The gate acts on a *column scan* only (:func:`is_column_scan`: at least half of the unknown
 pixels lie in columns with no measured pixel, as with x-stripes and Fig. 2's slices); on any
 other sampling (the paper's grids of Table 1, scattered pixels) it returns the synthesis
