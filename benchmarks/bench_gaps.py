@@ -51,9 +51,11 @@ from refsynth._files import write_atomic  # noqa: E402
 from refsynth.evaluation.baselines import BASELINES  # noqa: E402
 from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
 from refsynth.evaluation.metrics import evaluate  # noqa: E402
-from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity  # noqa: E402
-from refsynth.synthesis.api import synthesize, validate_inputs  # noqa: E402
-from refsynth.synthesis.canny import canny  # noqa: E402
+from refsynth.synthesis.api import (  # noqa: E402
+    intensity_edges,  # noqa: E402
+    synthesize,
+    validate_inputs,
+)
 from refsynth.synthesis.gap_readings import (  # noqa: E402
     complete_slices,
     gap_gate,
@@ -83,7 +85,7 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
     known = known_mask(scene, sampling)
     partial = np.where(known, scene.range, np.nan)
     image = validate_inputs(scene.intensity, partial)[0]   # NP's edges: refsynth.synthesize's
-    edges = canny(quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS, sigma=0.8)
+    edges = intensity_edges(image, sigma=0.8)
     rows = []
     if (name, size, sampling, "row-linear", seeds[0]) not in have:
         for method in (*scenes.CLASSICAL, "row-linear"):

@@ -55,9 +55,11 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).res
 import bench_scenes as scenes  # noqa: E402
 
 from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
-from refsynth.numeric import INTENSITY_BITS, quantise_grey, quantise_intensity  # noqa: E402
-from refsynth.synthesis.api import synthesize, validate_inputs  # noqa: E402
-from refsynth.synthesis.canny import canny  # noqa: E402
+from refsynth.synthesis.api import (  # noqa: E402
+    intensity_edges,  # noqa: E402
+    synthesize,
+    validate_inputs,
+)
 from refsynth.synthesis.gap_readings import gap_gate  # noqa: E402
 from refsynth.synthesis.uncertainty import (  # noqa: E402
     CALIBRATION,
@@ -115,9 +117,7 @@ def score_case(scene, known, result, method, gate=False) -> tuple[dict, np.ndarr
     if gate:
         edges = result.get("edges")
         if edges is None:   # a cache without them: synthesize's Canny, recomputed
-            levels = quantise_grey(quantise_intensity(validate_inputs(
-                scene.intensity, partial)[0])) * 2.0**-INTENSITY_BITS
-            edges = canny(levels, sigma=0.8)
+            edges = intensity_edges(validate_inputs(scene.intensity, partial)[0], sigma=0.8)
         estimate, raw = gap_gate(result["range"], partial, edges=edges), result["range"]
     start = time.perf_counter()
     unc = uncertainty_map(partial, estimate, method=method, raw=raw,

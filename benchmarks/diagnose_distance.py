@@ -71,8 +71,10 @@ from refsynth.numeric import (  # noqa: E402
     quantise_intensity,
     quantise_range,
 )
-from refsynth.synthesis.api import synthesize  # noqa: E402
-from refsynth.synthesis.canny import canny  # noqa: E402
+from refsynth.synthesis.api import (
+    intensity_edges,  # noqa: E402
+    synthesize,  # noqa: E402
+)
 from refsynth.synthesis.filltable import FillTable  # noqa: E402
 from refsynth.synthesis.limits import validate_inputs  # noqa: E402
 from refsynth.synthesis.neighbourhood import disc_offsets  # noqa: E402
@@ -224,8 +226,8 @@ def traced_synthesize(intensity, partial, *, seed=0, check=True, override=None,
     ``refsynth.synthesize``'s with ``gaps="copy"``; a difference raises ``AssertionError``.
     """
     image, range_values = validate_inputs(intensity, partial)
-    levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
-    edges = canny(levels, sigma=canny_sigma) if use_edges else np.zeros(partial.shape, bool)
+    edges = (intensity_edges(image, sigma=canny_sigma) if use_edges
+             else np.zeros(partial.shape, bool))
     rng = np.random.default_rng(seed)
     trace = traced_np_fill(image, range_values, edges, rng, use_edges=use_edges,
                            override=override, **options)

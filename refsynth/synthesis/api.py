@@ -76,6 +76,7 @@ __all__ = [
     "SynthesisResult",
     "synthesize",
     "validate_inputs",
+    "intensity_edges",
     "normalise_intensity",
     "Readings",
     "NP_OPTIONS",
@@ -155,6 +156,33 @@ class SynthesisResult:
     candidate_values: np.ndarray | None = None
     bp: BPResult | None = None
     uncertainty: np.ndarray | None = None
+
+
+def intensity_edges(image: np.ndarray, sigma: float = 0.8) -> np.ndarray:
+    """The edges :func:`synthesize` detects (§3.2): Canny on the grey level of the quantised
+    intensity, brought to [0, 1] (the intensity convention: the thresholds are fractions of
+    the grey span).
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, C), real
+        The intensity as :func:`synthesize` hands it on (:func:`validate_inputs`; any offset
+        and scale: :func:`~refsynth.numeric.quantise_intensity` brings it to its span).
+    sigma : float, default 0.8
+        Canny's σ (``canny_sigma``).
+
+    Returns
+    -------
+    ndarray of shape (H, W), bool
+
+    Examples
+    --------
+    >>> image = np.zeros((9, 9, 1)); image[:, 5:] = 1.0
+    >>> bool(intensity_edges(image)[:, 4:6].any()), bool(intensity_edges(image)[:, :3].any())
+    (True, False)
+    """
+    levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
+    return canny(levels, sigma=sigma)
 
 
 def _gaps(filled: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
@@ -403,9 +431,7 @@ def synthesize(
 
     if edges is None:
         # the intensity convention: Canny on the grey level brought to [0, 1]
-        levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
-        edge_map = canny(levels, sigma=canny_sigma) if use_edges else None
-        del levels
+        edge_map = intensity_edges(image, sigma=canny_sigma) if use_edges else None
     else:
         edge_map = edges.copy()
     if edge_map is None or not use_edges:
