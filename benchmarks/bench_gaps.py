@@ -52,7 +52,7 @@ from refsynth.evaluation.baselines import BASELINES  # noqa: E402
 from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
 from refsynth.evaluation.metrics import evaluate  # noqa: E402
 from refsynth.synthesis.api import (  # noqa: E402
-    intensity_edges,  # noqa: E402
+    intensity_edges,
     synthesize,
     validate_inputs,
 )

@@ -56,7 +56,7 @@ import bench_scenes as scenes  # noqa: E402
 
 from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
 from refsynth.synthesis.api import (  # noqa: E402
-    intensity_edges,  # noqa: E402
+    intensity_edges,
     synthesize,
     validate_inputs,
 )

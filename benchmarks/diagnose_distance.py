@@ -72,7 +72,7 @@ from refsynth.numeric import (  # noqa: E402
     quantise_range,
 )
 from refsynth.synthesis.api import (
-    intensity_edges,  # noqa: E402
+    intensity_edges,
     synthesize,  # noqa: E402
 )
 from refsynth.synthesis.filltable import FillTable  # noqa: E402
