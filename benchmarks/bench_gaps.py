@@ -52,7 +52,7 @@ from refsynth.evaluation.baselines import BASELINES  # noqa: E402
 from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
 from refsynth.evaluation.metrics import evaluate  # noqa: E402
 from refsynth.synthesis.api import (  # noqa: E402
-    intensity_edges,
+    synthesis_edges,
     synthesize,
     validate_inputs,
 )
@@ -85,7 +85,7 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
     known = known_mask(scene, sampling)
     partial = np.where(known, scene.range, np.nan)
     image = validate_inputs(scene.intensity, partial)[0]   # NP's edges: refsynth.synthesize's
-    edges = intensity_edges(image, sigma=0.8)
+    edges = synthesis_edges(image, sigma=0.8)
     rows = []
     if (name, size, sampling, "row-linear", seeds[0]) not in have:
         for method in (*scenes.CLASSICAL, "row-linear"):

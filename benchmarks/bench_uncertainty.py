@@ -56,7 +56,7 @@ import bench_scenes as scenes  # noqa: E402
 
 from refsynth.evaluation.cases import known_mask, parse_sampling, parse_size  # noqa: E402
 from refsynth.synthesis.api import (  # noqa: E402
-    intensity_edges,
+    synthesis_edges,
     synthesize,
     validate_inputs,
 )
@@ -117,7 +117,7 @@ def score_case(scene, known, result, method, gate=False) -> tuple[dict, np.ndarr
     if gate:
         edges = result.get("edges")
         if edges is None:   # a cache without them: synthesize's Canny, recomputed
-            edges = intensity_edges(validate_inputs(scene.intensity, partial)[0], sigma=0.8)
+            edges = synthesis_edges(validate_inputs(scene.intensity, partial)[0], sigma=0.8)
         estimate, raw = gap_gate(result["range"], partial, edges=edges), result["range"]
     start = time.perf_counter()
     unc = uncertainty_map(partial, estimate, method=method, raw=raw,

@@ -72,7 +72,7 @@ from refsynth.numeric import (  # noqa: E402
     quantise_range,
 )
 from refsynth.synthesis.api import (
-    intensity_edges,
+    synthesis_edges,
     synthesize,  # noqa: E402
 )
 from refsynth.synthesis.filltable import FillTable  # noqa: E402
@@ -226,7 +226,7 @@ def traced_synthesize(intensity, partial, *, seed=0, check=True, override=None,
     ``refsynth.synthesize``'s with ``gaps="copy"``; a difference raises ``AssertionError``.
     """
     image, range_values = validate_inputs(intensity, partial)
-    edges = (intensity_edges(image, sigma=canny_sigma) if use_edges
+    edges = (synthesis_edges(image, sigma=canny_sigma) if use_edges
              else np.zeros(partial.shape, bool))
     rng = np.random.default_rng(seed)
     trace = traced_np_fill(image, range_values, edges, rng, use_edges=use_edges,

@@ -642,20 +642,20 @@ def test_inputs_are_not_modified(camera):
 
 
 @pytest.mark.parametrize("colour", [False, True])
-def test_intensity_edges_are_synthesizes_own(colour):
+def test_synthesis_edges_are_synthesizes_own(colour):
     """The edges synthesize detects: Canny on the quantised grey level, an offset and a
     scale of the intensity changing nothing."""
     import refsynth
-    from refsynth.synthesis.api import intensity_edges, validate_inputs
+    from refsynth.synthesis.api import synthesis_edges, validate_inputs
 
     g = np.random.default_rng(3)
     image = g.integers(0, 256, (20, 24, 3) if colour else (20, 24)).astype(np.uint8)
     partial = np.where(g.random((20, 24)) < 0.4, 1.0 + g.random((20, 24)), np.nan)
     partial[0, 0] = 2.0
     prepared = validate_inputs(image, partial)[0]
-    edges = intensity_edges(prepared, sigma=1.2)
+    edges = synthesis_edges(prepared, sigma=1.2)
     assert edges.any() and not edges.all()
     assert np.array_equal(edges, refsynth.synthesize(image, partial, canny_sigma=1.2).edges)
-    assert np.array_equal(edges, intensity_edges(prepared * 0.25 + 3.0, sigma=1.2))
+    assert np.array_equal(edges, synthesis_edges(prepared * 0.25 + 3.0, sigma=1.2))
     levels = refsynth.numeric.quantise_grey(refsynth.numeric.quantise_intensity(prepared))
     assert np.array_equal(edges, canny(levels * 2.0**-16, sigma=1.2))

@@ -76,7 +76,7 @@ __all__ = [
     "SynthesisResult",
     "synthesize",
     "validate_inputs",
-    "intensity_edges",
+    "synthesis_edges",
     "normalise_intensity",
     "Readings",
     "NP_OPTIONS",
@@ -158,7 +158,7 @@ class SynthesisResult:
     uncertainty: np.ndarray | None = None
 
 
-def intensity_edges(image: np.ndarray, sigma: float = 0.8) -> np.ndarray:
+def synthesis_edges(image: np.ndarray, sigma: float = 0.8) -> np.ndarray:
     """The edges :func:`synthesize` detects (§3.2): Canny on the grey level of the quantised
     intensity, brought to [0, 1] (the intensity convention: the thresholds are fractions of
     the grey span).
@@ -178,7 +178,7 @@ def intensity_edges(image: np.ndarray, sigma: float = 0.8) -> np.ndarray:
     Examples
     --------
     >>> image = np.zeros((9, 9, 1)); image[:, 5:] = 1.0
-    >>> bool(intensity_edges(image)[:, 4:6].any()), bool(intensity_edges(image)[:, :3].any())
+    >>> bool(synthesis_edges(image)[:, 4:6].any()), bool(synthesis_edges(image)[:, :3].any())
     (True, False)
     """
     levels = quantise_grey(quantise_intensity(image)) * 2.0**-INTENSITY_BITS
@@ -431,7 +431,7 @@ def synthesize(
 
     if edges is None:
         # the intensity convention: Canny on the grey level brought to [0, 1]
-        edge_map = intensity_edges(image, sigma=canny_sigma) if use_edges else None
+        edge_map = synthesis_edges(image, sigma=canny_sigma) if use_edges else None
     else:
         edge_map = edges.copy()
     if edge_map is None or not use_edges:
