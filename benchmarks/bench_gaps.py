@@ -62,7 +62,7 @@ from refsynth.synthesis.gap_readings import (  # noqa: E402
     row_interpolation,
 )
 
-DEFAULT_SAMPLINGS = ("x63", "x78", "distance60", "g5_25")
+DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")   # the choosing cases (the gate leaves grids alone)
 
 
 def readings(base: str, jumps: Sequence[float]) -> list[str]:
