@@ -62,7 +62,8 @@ from refsynth.synthesis.gap_readings import (  # noqa: E402
     row_interpolation,
 )
 
-DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")   # the choosing cases (the gate leaves grids alone)
+#: The choosing cases (the gate leaves grids alone: add g5_25 to see it).
+DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")
 
 
 def readings(base: str, jumps: Sequence[float]) -> list[str]:
