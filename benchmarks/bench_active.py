@@ -17,6 +17,11 @@ measured (the rig's vertical slices, §4), at each fraction of the columns:
     :func:`refsynth.acquisition.next_slices` (``--active-method``, default BP)
     per ``--step`` (5 %) of the columns, each on what is measured so far.
 
+``--active-error truth`` is a probe of how far the choice can go, not a
+strategy a rig can run: each round's columns are chosen by the same greedy
+rule from the fill's *true* error (``|fill − truth|`` where there is truth, the
+uncertainty map elsewhere) instead of its uncertainty map.
+
 Each fill (NP, BP, the classical fills of :mod:`refsynth.evaluation.baselines`)
 is scored with MAR (Eq. 13) over the unknown pixels that have ground truth. The
 target: active BP at 40 % ≤ 0.8× the best of BP and the classical fills on
@@ -52,6 +57,7 @@ import bench_scenes  # noqa: E402  (puts the checkout on the path if refsynth is
 
 from refsynth._files import write_atomic  # noqa: E402
 from refsynth.acquisition import next_slices, x_stripes_for_fraction  # noqa: E402
+from refsynth.acquisition.active import _greedy, measured_columns  # noqa: E402
 from refsynth.evaluation.baselines import BASELINES  # noqa: E402
 from refsynth.evaluation.cases import known_mask, parse_size  # noqa: E402
 from refsynth.evaluation.metrics import evaluate  # noqa: E402
@@ -87,11 +93,21 @@ def fixed_mask(scene, strategy: str, fraction: float) -> np.ndarray:
     return mask & scene.has_truth
 
 
+def truth_slices(scene, partial: np.ndarray, n: int, method: str, seed: int) -> np.ndarray:
+    """next_slices's greedy choice from the fill's true error (the ``truth`` probe)."""
+    result = synthesize(scene.intensity, partial, method=method, seed=seed)
+    measured = np.isfinite(partial)
+    error = np.where(scene.has_truth & ~measured, np.abs(result.range - scene.range),
+                     np.where(scene.has_truth, 0.0, result.uncertainty))
+    return _greedy(error.sum(axis=0), measured_columns(partial), n)
+
+
 def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: int,
-                 progress=None, start: int | None = None
+                 progress=None, start: int | None = None, error: str = "uncertainty"
                  ) -> tuple[dict[int, np.ndarray], list[float]]:
     """``{percent: mask}`` of the active strategy (from ``even`` at ``start`` %, default the
-    first fraction), and the seconds of each next_slices call."""
+    first fraction), and the seconds of each next_slices call (``error="truth"``: the
+    probe, :func:`truth_slices`)."""
     width = scene.range.shape[1]
     start = min(fractions) if start is None else start
     columns = set(even_columns(width, start / 100).tolist())
@@ -106,7 +122,11 @@ def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: 
         wanted = int(round(percent / 100 * width)) - len(columns)
         partial = np.where(mask, scene.range, np.nan)
         began = time.perf_counter()
-        picks = next_slices(scene.intensity, partial, max(wanted, 1), method=method, seed=seed)
+        if error == "truth":
+            picks = truth_slices(scene, partial, max(wanted, 1), method, seed)
+        else:
+            picks = next_slices(scene.intensity, partial, max(wanted, 1), method=method,
+                                seed=seed)
         seconds.append(time.perf_counter() - began)
         columns.update(picks.tolist())
         if progress:
@@ -121,12 +141,13 @@ def fill(scene, known: np.ndarray, method: str, seed: int) -> np.ndarray:
 
 
 def run_scene(name: str, scene, fractions, methods, strategies, step, active_method, seed,
-              progress=None, start: int | None = None) -> tuple[list[dict], list[float]]:
+              progress=None, start: int | None = None, error: str = "uncertainty"
+              ) -> tuple[list[dict], list[float]]:
     rows, calls = [], []
     for strategy in strategies:
         if strategy == "active":
             masks, calls = active_masks(scene, fractions, step, active_method, seed, progress,
-                                        start)
+                                        start, error)
         else:
             masks = {f: fixed_mask(scene, strategy, f / 100) for f in fractions}
         for percent, known in masks.items():
@@ -238,6 +259,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                         help="active: the evenly spread columns it starts from (default: the "
                         "first of --fractions)")
     parser.add_argument("--active-method", default="bp", choices=("np", "bp"))
+    parser.add_argument("--active-error", default="uncertainty", choices=("uncertainty", "truth"),
+                        help="active: choose from the uncertainty map (default) or, as a probe "
+                        "of how far the choice can go, from the fill's true error")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="write the runs here")
     parser.add_argument("--figure", default=None, metavar="PATH", help="write the curves here")
@@ -286,15 +310,18 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     for name, spec in specs:
         scene = bench_scenes.load(spec, size)
         found, seconds = run_scene(name, scene, fractions, methods, strategies, args.step,
-                                   args.active_method, args.seed, progress, start)
+                                   args.active_method, args.seed, progress, start,
+                                   args.active_error)
         rows += found
         calls[name] = seconds
         if args.json:
             write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), rows=rows,
                                                     next_slices_seconds=calls),
                                                indent=1).encode())
+    chooser = ("next_slices" if args.active_error == "uncertainty"
+               else "greedy choice from the true error (a probe)")
     print(f"bench_active: size {size}, seed {args.seed}, {len(scenes)} scenes, active: "
-          f"{args.active_method.upper()}'s next_slices, +{args.step} % per call; MAR (Eq. 13)",
+          f"{args.active_method.upper()}'s {chooser}, +{args.step} % per call; MAR (Eq. 13)",
           file=out)
     print(format_tables(rows, scenes, methods, strategies, fractions), file=out)
     if "active" in strategies and 40 in fractions and "bp" in methods:

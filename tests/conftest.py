@@ -1,4 +1,5 @@
-"""Shared test configuration: hypothesis profiles, the Agg backend, the benchmarks' loader."""
+"""Shared test configuration: hypothesis profiles, the Agg backend, the benchmarks' loader,
+and how pytest-xdist shares the tests among its workers."""
 
 import importlib.util
 import os
@@ -50,3 +51,27 @@ def tutorial_runs_started(request):
     tutorial_runs.prefetch(request.session.items)
     yield
     tutorial_runs.cancel_pending()
+
+
+#: Files whose tests share one session's tutorial runs (``tutorial_runs.py``): one worker.
+_SHARED_RUNS = {"test_tutorials.py", "test_notebooks.py"}
+
+
+#: The longest files, started first so that no worker is left with one at the end.
+_LONGEST = ("test_notebooks.py", "test_tutorials.py", "test_docs.py", "test_demo_story.py",
+            "test_demo_active.py", "test_reference.py", "test_oracle.py")
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook reads the groups
+def pytest_collection_modifyitems(config, items):
+    """Give each test an ``xdist_group``: its file, so that a worker runs a file's tests
+    together and builds its module fixtures once; the tutorials' and the notebooks' tests
+    one group, so that one worker runs each tutorial once for both (``--dist loadgroup``).
+    The longest files go first, each file's tests in their order."""
+    first = {name: k for k, name in enumerate(_LONGEST)}
+    items.sort(key=lambda item: first.get(item.path.name, len(first)))
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            name = item.nodeid.split("::")[0]
+            item.add_marker(pytest.mark.xdist_group(
+                "tutorial-runs" if item.path.name in _SHARED_RUNS else name))

@@ -48,6 +48,20 @@ def test_active_adds_its_step_per_call_on_the_uncertain_side(bench, folder):
     assert sum(24 <= c <= 45 for c in added) >= 3, added
 
 
+def test_the_truth_probe_chooses_where_the_fill_is_wrong(bench, folder):
+    """``--active-error truth``: the greedy choice from |fill − truth|, on measured columns
+    never; it equals next_slices's greedy step fed that error."""
+    scene = bench.bench_scenes.load(str(folder / "box"), "48x40")
+    masks, _ = bench.active_masks(scene, [20, 25], 5, "np", 0, error="truth")
+    first, last = (set(np.flatnonzero(masks[f].any(axis=0))) for f in (20, 25))
+    added = sorted(last - first)
+    partial = np.where(masks[20], scene.range, np.nan)
+    fill = bench.synthesize(scene.intensity, partial, method="np", seed=0).range
+    error = np.where(np.isnan(partial), np.abs(fill - scene.range), 0.0).sum(axis=0)
+    assert added == sorted(bench._greedy(error, masks[20].any(axis=0), 2).tolist())
+    assert not first & set(added)
+
+
 def test_table_ratio_json_and_from_json(bench, folder, tmp_path):
     out, target = io.StringIO(), tmp_path / "runs.json"
     argv = [str(folder), "--size", "48x40", "--fractions", "20,40", "--methods",

@@ -8,7 +8,11 @@ of MAR against the simulator's ground truth, the targets of stage 3, the
 merged 3-D model and its rendered view (about a minute on two cores);
 ``--pipeline`` names the same story. ``--quick`` (or ``--size``) is
 :func:`refsynth.plotting.demo.run_demo`: the synthetic room, NP, its
-ablations, BP and the baselines on two samplings (about 30 s on two cores). This
+ablations, BP and the baselines on two samplings (about 30 s on two cores).
+``--active`` is :func:`refsynth.plotting.active_story.run_active_demo`: from
+the story's first position, the rig scans with stripes, Fig. 2's
+distance-driven slices and active scanning (§5) at the same number of
+slices, and BP and two classical fills are scored on each. This
 module prints their results, and the story's progress with the time left on
 stderr. The output folder and the memory the largest fill needs are checked
 before any work. User errors are raised as ValueError / OSError with a
@@ -32,6 +36,7 @@ from refsynth.cli.arguments import (
 )
 from refsynth.cli.synth import pixel_progress
 from refsynth.evaluation.cases import Case, case_memory
+from refsynth.plotting.active_story import ACTIVE_FILES, run_active_demo
 from refsynth.plotting.demo import DEMO_FIGURES, run_demo, run_pipeline_demo
 from refsynth.plotting.story import STORY_FILES
 
@@ -175,14 +180,48 @@ def _cmd_story(args) -> int:
     return 0
 
 
+def _cmd_active(args) -> int:
+    check_memory(case_memory(Case("synthetic-0", "481x114", "x78", "bp", 0)),
+                 "the active-scanning demo", "run demo --quick")
+    progress = story_progress()
+    start = time.perf_counter()
+    try:
+        summary = run_active_demo(Path(args.out), seed=args.seed, progress=progress)
+    finally:
+        progress.finish()
+    rounds = summary["rounds"]
+    print(f"refsynth demo --active: the simulated rig's room (seed {args.seed}) from position "
+          f"1, 40 % of the 500 slices by each strategy; "
+          f"{time.perf_counter() - start:.0f} s")
+    print(f"  active: a first pass of {len(rounds[0])} evenly spread slices, then "
+          f"{len(rounds) - 1} rounds of {', '.join(str(len(r)) for r in rounds[1:])} slices, "
+          "each chosen by next_slices (BP) from what was measured")
+    print("MAR (Eq. 13) against the simulator's ground truth, range in m, on every 2nd row "
+          "and column of each registered panorama:")
+    print(_format_table(summary["rows"], [
+        ("strategy", "strategy", ""), ("slices", "slices", "d"), ("method", "method", ""),
+        ("unknown", "unknown %", ".1f"), ("mar", "MAR (m)", ".4f"),
+        ("rmse", "RMSE (m)", ".4f"), ("seconds", "seconds", ".2f"),
+    ]))
+    print(f"active BP / the best fixed strategy and fill: {summary['gain']:.3f}")
+    print("wrote:")
+    for path in summary["files"]:
+        print(f"  {path}{'/' if Path(path).is_dir() else ''}")
+    return 0
+
+
 def _cmd_demo(args) -> int:
     out = check_folder(args.out, "--out")
-    check_files_in(out, (*DEMO_FIGURES, *STORY_FILES), "--out")
+    check_files_in(out, (*DEMO_FIGURES, *STORY_FILES, *ACTIVE_FILES), "--out")
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
     quick = args.quick or args.size is not None
     if quick and args.pipeline:
         raise ValueError("--pipeline (the default story) takes no --quick or --size")
+    if args.active and (quick or args.pipeline):
+        raise ValueError("--active (its own story) takes no --quick, --size or --pipeline")
+    if args.active:
+        return _cmd_active(args)
     if not quick:
         return _cmd_story(args)
     if args.size is None:
@@ -226,6 +265,11 @@ def add_demo_parser(subparsers) -> argparse.ArgumentParser:
                       "--quick (default 128)")
     demo.add_argument("--seed", type=integer, default=0,
                       help="room, noise and synthesis seed (default 0)")
+    demo.add_argument("--active", action="store_true",
+                      help="active scanning (§5) instead: from the story's first position the "
+                      "rig scans with stripes, distance-driven slices and active rounds at the "
+                      "same number of slices; BP and two classical fills on each, one table "
+                      "and active_scan.png (about 1-2 minutes; default off)")
     demo.add_argument("--pipeline", action="store_true",
                       help="the default story, named explicitly (default off)")
     return demo

@@ -184,9 +184,11 @@ class _Position:
 # ----------------------------------------------------------------------------- stage 1
 
 
-def _acquire(folder: Path, seed: int, pose: RigPose, fraction: float) -> None:
-    """Scan from ``pose`` into ``folder``, or keep the scan there if it is this one."""
-    settings = ScanSettings("stripes", fraction=fraction)
+def _acquire(folder: Path, seed: int, pose: RigPose, fraction: float,
+             settings: ScanSettings | None = None) -> None:
+    """Scan from ``pose`` into ``folder`` (stripes unless ``settings`` say otherwise), or keep
+    the scan there if it is this one."""
+    settings = settings or ScanSettings("stripes", fraction=fraction)
     manifest = saved_manifest(folder)  # {} without a manifest.json
     if manifest:
         recorded = manifest.get("source", {})

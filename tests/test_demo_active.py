@@ -1,0 +1,104 @@
+"""``python -m refsynth demo --active``: active scanning beside the fixed strategies (§5)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from refsynth.acquisition import ScanSettings
+from refsynth.acquisition.slice_plan import plan_slices
+from refsynth.cli.main import main
+from refsynth.plotting.active_story import (
+    ACTIVE_FILES,
+    ACTIVE_FILLS,
+    ACTIVE_STRATEGIES,
+    run_active_demo,
+)
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def story(tmp_path_factory):
+    """The active demo at 30 % of the slices (a first pass of 20 %, two rounds of 5 %), every
+    fourth row and column of the panoramas: the same stages, a third of the work."""
+    out = tmp_path_factory.mktemp("active")
+    stages = []
+    summary = run_active_demo(out, fraction=0.3, shrink=4,
+                              progress=lambda stage, done: stages.append((stage, done)))
+    return out, summary, stages
+
+
+def test_every_strategy_measures_its_fraction_of_the_slices(story):
+    """150 of the 500 slices for the distance-driven and the active scans; the stripes'
+    pattern (4 wide, Table 4) comes to 156 at 30 % (200 at the demo's 40 %)."""
+    out, summary, _ = story
+    assert list(summary["slices"]) == list(ACTIVE_STRATEGIES)
+    counts = {"stripes": 156, "distance": 150, "active": 150}
+    for strategy, chosen in summary["slices"].items():
+        assert len(chosen) == len(set(chosen)) == counts[strategy], strategy
+        assert chosen == sorted(chosen) and 0 <= chosen[0] and chosen[-1] < 500
+    assert summary["slices"]["stripes"] == plan_slices(ScanSettings("stripes", 0.3)).tolist()
+    assert len(plan_slices(ScanSettings("stripes", 0.4))) == 200
+    for row in summary["rows"]:
+        assert row["slices"] == counts[row["strategy"]]
+
+
+def test_the_rounds_are_the_first_pass_then_next_slices_choices(story):
+    _, summary, _ = story
+    rounds = summary["rounds"]
+    first = plan_slices(ScanSettings("active", fraction=0.3)).tolist()
+    assert rounds[0] == first and len(first) == 100
+    assert [len(r) for r in rounds[1:]] == [25, 25]
+    every = [i for r in rounds for i in r]
+    assert len(every) == len(set(every)) == 150  # no slice scanned twice
+    assert sorted(every) == summary["slices"]["active"]
+
+
+def test_the_table_scores_bp_and_the_fills_on_each_strategy(story):
+    out, summary, _ = story
+    rows = summary["rows"]
+    assert [(r["strategy"], r["method"]) for r in rows] == [
+        (s, m) for s in ACTIVE_STRATEGIES for m in ("BP", *ACTIVE_FILLS)]
+    for row in rows:
+        assert np.isfinite(row["mar"]) and row["mar"] > 0 and 40 < row["unknown"] < 80
+    fixed = min(r["mar"] for r in rows if r["strategy"] != "active")
+    active = next(r["mar"] for r in rows if (r["strategy"], r["method"]) == ("active", "BP"))
+    assert summary["gain"] == pytest.approx(active / fixed, rel=1e-12)
+    saved = json.loads((out / "active.json").read_text())
+    assert saved["rows"] == json.loads(json.dumps(rows)) and saved["gain"] == summary["gain"]
+    assert saved["rounds"] == summary["rounds"]
+
+
+def test_files_and_progress(story):
+    out, summary, stages = story
+    for name in ACTIVE_FILES:
+        assert (out / name).is_file() and (out / name) in summary["files"]
+    for strategy in ACTIVE_STRATEGIES:
+        assert (out / f"scan-{strategy}" / "manifest.json").is_file()
+    from matplotlib.image import imread
+
+    assert imread(out / "active_scan.png").shape[2] in (3, 4)
+    done = [fraction for _, fraction in stages]
+    assert done == sorted(done) and done[0] == 0.0 and stages[-1] == ("done", 1.0)
+
+
+def test_another_fraction_in_the_same_folder_is_refused(story):
+    out, _, _ = story
+    with pytest.raises(ValueError, match="holds another scan"):
+        run_active_demo(out, fraction=0.4, shrink=4)
+
+
+@pytest.mark.parametrize("fraction", [0.2, 0.1, 1.5])
+def test_fractions_the_active_scan_cannot_reach_are_refused(tmp_path, fraction):
+    with pytest.raises(ValueError, match="`fraction` must be in"):
+        run_active_demo(tmp_path, fraction=fraction)
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv", [["--active", "--quick"], ["--active", "--size", "32"],
+                                  ["--active", "--pipeline"]])
+def test_active_with_another_story_gives_one_line(tmp_path, capsys, argv):
+    assert main(["demo", "--out", str(tmp_path / "d"), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--active (its own story) takes no" in err[0]
