@@ -8,6 +8,8 @@
   :func:`make_figures` writes every PNG of ``figures/``.
 - :mod:`refsynth.plotting.demo`: the demos (the synthetic room; the simulated
   pipeline), which run the methods, return the table's rows and write figures.
+- :mod:`refsynth.plotting.active_story`: active scanning on the simulated rig
+  beside the fixed strategies (§5, ``demo --active``).
 - :mod:`refsynth.plotting.examples`: the tiny range ramp the layouts' Examples draw.
 
 Every figure is a :class:`matplotlib.figure.Figure` built without pyplot's
@@ -21,6 +23,7 @@ doi:10.1007/s11263-007-0108-2.
 """
 
 from refsynth.plotting import figures
+from refsynth.plotting.active_story import run_active_demo
 from refsynth.plotting.demo import (
     DEMO_FIGURES,
     DEMO_METHODS,
@@ -57,6 +60,7 @@ __all__ = [
     "ProgressFactory",
     "run_demo",
     "run_pipeline_demo",
+    "run_active_demo",
     # the Examples' case
     "example_ramp",
 ]

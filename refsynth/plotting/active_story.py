@@ -50,7 +50,7 @@ from refsynth.acquisition.manifest import saved_manifest
 from refsynth.evaluation.baselines import BASELINES
 from refsynth.evaluation.metrics import evaluate
 from refsynth.plotting.layouts import save_figure
-from refsynth.plotting.story import DEMO_POSES, _acquire, _Position, _register
+from refsynth.plotting.story import DEMO_POSES, ScanPosition, acquire_position, register_position
 from refsynth.plotting.story_truth import true_range
 from refsynth.scenes import room_geometry
 from refsynth.synthesis.api import synthesize
@@ -129,11 +129,11 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
     for strategy in ACTIVE_STRATEGIES:
         folder = out / f"scan-{strategy}"
         stage(f"{strategy}: scan")
-        _acquire(folder, seed, pose, fraction, _settings(strategy, fraction))
+        acquire_position(folder, seed, pose, fraction, _settings(strategy, fraction))
         slices[strategy] = _scanned(folder)
         stage(f"{strategy}: registration")
-        position = _Position(1, pose, folder)
-        _register(position, shrink)
+        position = ScanPosition(1, pose, folder)
+        register_position(position, shrink)
         position.truth = true_range(room, position.camera, position.partial.shape,
                                     position.model_pose)
         positions[strategy] = position
@@ -157,7 +157,7 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
     return dict(rows=rows, rounds=rounds, slices=slices, gain=gain, files=files)
 
 
-def _fills(strategy: str, count: int, position: _Position, seed: int) -> list[dict]:
+def _fills(strategy: str, count: int, position: ScanPosition, seed: int) -> list[dict]:
     """BP and :data:`ACTIVE_FILLS` on one registered scan: the table's rows."""
     rows = []
     for method in ("bp", *ACTIVE_FILLS):
@@ -223,6 +223,7 @@ def active_figure(positions: dict, rows: list[dict], slices: dict, rounds: list[
     top = float(np.nanpercentile(np.concatenate([e[~positions[s].known].ravel()
                                                  for s, e in errors.items()]), 99))
     cmap_error = plt.get_cmap("magma").with_extremes(bad="0.8")
+    images = []
     for k, strategy in enumerate(strategies, start=1):
         position = positions[strategy]
         image = fig.add_subplot(grid[k, :3])
@@ -233,7 +234,9 @@ def active_figure(positions: dict, rows: list[dict], slices: dict, rounds: list[
         image.set_title(f"{strategy}: BP's |error| where not measured (measured: grey), "
                         f"MAR {mar:.4f} m",
                         fontsize=9)
-        fig.colorbar(shown, ax=image, label="|error| (m)", extend="max", shrink=0.9)
+        images.append(image)
+    fig.colorbar(shown, ax=images, location="bottom", label="BP's |error| (m)", extend="max",
+                 shrink=0.5, aspect=40)
     bars = fig.add_subplot(grid[1:, 3])
     methods = list(dict.fromkeys(r["method"] for r in rows))
     width = 0.8 / len(methods)

@@ -159,7 +159,7 @@ class _Work:
 
 
 @dataclass
-class _Position:
+class ScanPosition:
     """One scan position through the stages."""
 
     number: int
@@ -184,7 +184,7 @@ class _Position:
 # ----------------------------------------------------------------------------- stage 1
 
 
-def _acquire(folder: Path, seed: int, pose: RigPose, fraction: float,
+def acquire_position(folder: Path, seed: int, pose: RigPose, fraction: float,
              settings: ScanSettings | None = None) -> None:
     """Scan from ``pose`` into ``folder`` (stripes unless ``settings`` say otherwise), or keep
     the scan there if it is this one."""
@@ -203,7 +203,7 @@ def _acquire(folder: Path, seed: int, pose: RigPose, fraction: float,
     simulate_scan(folder, settings, seed=seed, pose=pose, resume=True)
 
 
-def _register(position: _Position, shrink: int) -> None:
+def register_position(position: ScanPosition, shrink: int) -> None:
     """Appendix A, then every ``shrink``-th row and column with the camera to match."""
     scan = load_scan(position.folder)
     images = [read_array(picture.path) for picture in scan.images]
@@ -223,7 +223,7 @@ def _register(position: _Position, shrink: int) -> None:
 # ----------------------------------------------------------------------------- stage 2
 
 
-def _fill(position: _Position, methods, baselines, seed: int, work: _Work) -> list[dict]:
+def _fill(position: ScanPosition, methods, baselines, seed: int, work: _Work) -> list[dict]:
     """NP / BP and the baselines on one position; the table's rows (MAR against the truth)."""
     rows = []
     known, truth = position.known, position.truth
@@ -251,13 +251,13 @@ def _fill(position: _Position, methods, baselines, seed: int, work: _Work) -> li
 # ----------------------------------------------------------------------------- stage 3
 
 
-def _models(position: _Position) -> dict:
+def _models(position: ScanPosition) -> dict:
     return {method: build_model(result.range, position.camera, intensity=position.intensity,
                                 confidence=result.confidence, measured=position.known)
             for method, result in position.results.items()}
 
 
-def _position_targets(position: _Position, models: dict, room) -> dict:
+def _position_targets(position: ScanPosition, models: dict, room) -> dict:
     """Points off the true surface and bridging triangles, for one position (story_truth)."""
     pose = position.model_pose
     points, triangles = {}, {}
@@ -398,7 +398,7 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods: Sequence[str] = ("np", 
         raise TypeError("The parameter `poses` must be a non-empty sequence of RigPose")
     if methods and len(poses) < 2:
         raise ValueError("The parameter `poses` must hold two positions or more for the model")
-    positions = [_Position(k + 1, pose, out / ("scan" if k == 0 else f"scan-{k + 1}"))
+    positions = [ScanPosition(k + 1, pose, out / ("scan" if k == 0 else f"scan-{k + 1}"))
                  for k, pose in enumerate(poses)]
     per_position = _COST["scan"] + _COST["register"]
     if methods:
@@ -410,9 +410,9 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods: Sequence[str] = ("np", 
     out.mkdir(parents=True, exist_ok=True)
     for position in positions:
         work.start(f"position {position.number}: scan", _COST["scan"])
-        _acquire(position.folder, seed, position.pose, fraction)
+        acquire_position(position.folder, seed, position.pose, fraction)
         work.start(f"position {position.number}: registration", _COST["register"])
-        _register(position, shrink)
+        register_position(position, shrink)
         position.truth = true_range(room, position.camera, position.partial.shape,
                                     position.model_pose)
         if methods:
