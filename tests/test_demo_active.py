@@ -89,11 +89,19 @@ def test_another_fraction_in_the_same_folder_is_refused(story):
         run_active_demo(out, fraction=0.4, shrink=4)
 
 
-@pytest.mark.parametrize("fraction", [0.2, 0.1, 1.5])
-def test_fractions_the_active_scan_cannot_reach_are_refused(tmp_path, fraction):
-    with pytest.raises(ValueError, match="`fraction` must be in"):
-        run_active_demo(tmp_path, fraction=fraction)
-    assert not any(tmp_path.iterdir())
+@pytest.mark.parametrize("options, error, match", [
+    ({"fraction": 0.2}, ValueError, "`fraction` must be in"),
+    ({"fraction": 0.1}, ValueError, "`fraction` must be in"),
+    ({"fraction": 1.5}, ValueError, "`fraction` must be <= 1.0"),
+    ({"fraction": "0.4"}, TypeError, "`fraction` must be a real number"),
+    ({"seed": -1}, ValueError, "`seed` must be an integer >= 0"),
+    ({"shrink": 0}, ValueError, "`shrink` must be an integer >= 1"),
+    ({"shrink": 2.0}, TypeError, "`shrink` must be an integer"),
+])
+def test_bad_options_are_refused_before_any_work(tmp_path, options, error, match):
+    with pytest.raises(error, match=match):
+        run_active_demo(tmp_path / "out", **options)
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("argv", [["--active", "--quick"], ["--active", "--size", "32"],

@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from refsynth._checks import check_int, check_real
 from refsynth._files import write_atomic
 from refsynth.acquisition import ScanSettings
 from refsynth.acquisition.geometry import PAN_SLICES
@@ -66,10 +67,6 @@ ACTIVE_FILES = ("active_scan.png", "active.json")
 
 #: ``progress(stage, fraction)``: as :data:`refsynth.plotting.story.StoryProgress`.
 ActiveProgress = Callable[[str, float], None]
-
-
-def _settings(strategy: str, fraction: float) -> ScanSettings:
-    return ScanSettings(strategy, fraction=fraction)
 
 
 def _rounds(folder: Path) -> list[list[int]]:
@@ -112,8 +109,11 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
         the best MAR of a fixed strategy, BP or a classical fill) and ``files``.
     """
     out = Path(out)
-    if not 0.2 < fraction <= 1.0:
+    fraction = check_real("fraction", fraction, maximum=1.0)
+    if fraction <= 0.2:
         raise ValueError(f"The parameter `fraction` must be in (0.2, 1], got {fraction!r}")
+    seed = check_int("seed", seed, minimum=0)
+    shrink = check_int("shrink", shrink, minimum=1)
     out.mkdir(parents=True, exist_ok=True)
     room = room_geometry(seed)
     pose = DEMO_POSES[0]
@@ -129,7 +129,7 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
     for strategy in ACTIVE_STRATEGIES:
         folder = out / f"scan-{strategy}"
         stage(f"{strategy}: scan")
-        acquire_position(folder, seed, pose, fraction, _settings(strategy, fraction))
+        acquire_position(folder, seed, pose, fraction, ScanSettings(strategy, fraction=fraction))
         slices[strategy] = _scanned(folder)
         stage(f"{strategy}: registration")
         position = ScanPosition(1, pose, folder)
