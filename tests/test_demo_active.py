@@ -110,3 +110,33 @@ def test_active_with_another_story_gives_one_line(tmp_path, capsys, argv):
     assert main(["demo", "--out", str(tmp_path / "d"), *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--active (its own story) takes no" in err[0]
+
+
+def test_the_cli_prints_the_rounds_the_table_and_the_gain(tmp_path, capsys, monkeypatch):
+    """``demo --active`` prints what run_active_demo returns (here made up), one row per
+    strategy and fill."""
+    import refsynth.cli.demo as cli_demo
+
+    rows = [dict(strategy=s, slices=200, method=m, unknown=60.5, mar=0.01 * (k + 1),
+                 rmse=0.09, seconds=1.0, bad1=0.0, bad3=0.0, n=10)
+            for k, (s, m) in enumerate((s, m) for s in ACTIVE_STRATEGIES
+                                       for m in ("BP", *ACTIVE_FILLS))]
+    summary = dict(rows=rows, rounds=[list(range(0, 500, 5)), *[[1] * 25] * 4],
+                   slices={}, gain=0.891, files=[tmp_path / name for name in ACTIVE_FILES])
+    seen = {}
+
+    def fake(out, seed, progress):
+        seen.update(out=out, seed=seed)
+        return summary
+
+    monkeypatch.setattr(cli_demo, "run_active_demo", fake)
+    assert main(["demo", "--active", "--out", str(tmp_path), "--seed", "3"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert seen == {"out": tmp_path, "seed": 3}
+    assert out[0].startswith("refsynth demo --active: the simulated rig's room (seed 3)")
+    assert "a first pass of 100 evenly spread slices, then 4 rounds of 25, 25, 25, 25" in out[1]
+    table = [line.split() for line in out if line.split()[:2] in (
+        ["stripes", "200"], ["distance", "200"], ["active", "200"])]
+    assert [(r[0], r[2], r[4]) for r in table] == [
+        (r["strategy"], r["method"], f"{r['mar']:.4f}") for r in rows]
+    assert "active BP / the best fixed strategy and fill: 0.891" in out
