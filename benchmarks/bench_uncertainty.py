@@ -22,7 +22,11 @@ post-pass with the fill's edges — :func:`refsynth.synthesize`'s default, ``gap
 :data:`refsynth.synthesis.uncertainty.CALIBRATION` on the cases run (a grid search of the
 weights whose ``mean / MAR`` varies least across the cases among those of mean AUSE at most
 0.15, the scale centring that ratio's range on 1) and prints them; with ``--gate`` the
-post-pass's cases count too.
+post-pass's cases count too. ``--held-out`` asks how the scale carries to a scene it was
+not set on: for each scene, the scale is set again from the other scenes' cases alone (the
+geometric middle of their ``mean / MAR`` range, with :data:`CALIBRATION`'s weights; the
+scored cases: the gated ones with ``--gate``), and that scene's ``mean / MAR`` is printed
+under it beside the one under :data:`CALIBRATION`'s scale.
 
 Run::
 
@@ -30,6 +34,8 @@ Run::
         --gate
     python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --arrays /tmp/unccache \\
         --gate --fit
+    python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --arrays /tmp/unccache \\
+        --gate --held-out
     python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --size 225x188 \\
         --scenes motorcycle,kv2_livingroom_raw --samplings x78,x63
 
@@ -178,6 +184,24 @@ def fit(cases: Sequence[tuple], method: str, ause_limit: float = AUSE_LIMIT) -> 
     return chosen
 
 
+def held_out(cases: Sequence[tuple], method: str) -> list[tuple[str, float, float]]:
+    """Per scene: ``(scene, mean / MAR under CALIBRATION, mean / MAR under the scale set on
+    the other scenes' cases alone)``, the ratio averaged over the scene's cases.
+
+    ``cases``: ``(scene name, ratio)``, the ratio ``mean(map) / MAR`` under CALIBRATION.
+    Every term of the map is multiplied by the scale, so a case's ratio under another scale
+    is its ratio times the new scale over CALIBRATION's.
+    """
+    scale = CALIBRATION[method]["scale"]
+    rows = []
+    for name in dict.fromkeys(n for n, _ in cases):
+        own = [r for n, r in cases if n == name]
+        others = [r / scale for n, r in cases if n != name]   # the ratios under scale 1
+        refit = 1.0 / math.sqrt(min(others) * max(others))
+        rows.append((name, float(np.mean(own)), float(np.mean(own) / scale * refit)))
+    return rows
+
+
 def main(argv: Sequence[str] | None = None, out=None) -> int:
     out = out or sys.stdout
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -190,6 +214,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse the results")
     parser.add_argument("--gate", action="store_true", help="also score gap_gate's post-pass")
     parser.add_argument("--fit", action="store_true", help="re-fit CALIBRATION and print it")
+    parser.add_argument("--held-out", action="store_true",
+                        help="each scene's mean/MAR under a scale set on the other scenes alone")
     args = parser.parse_args(argv)
     try:
         size = parse_size(args.size)
@@ -208,6 +234,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     print(header, file=out)
     print("|" + "---|" * 10, file=out)
     collected: dict[str, list] = {m: [] for m in methods}
+    ratios: dict[str, list] = {m: [] for m in methods}
     figures: dict[str, list] = {}
     for (name, spec), sampling, method in itertools.product(specs, samplings, methods):
         scene, known, result = load_result(name, spec, size, sampling, method, args.arrays)
@@ -216,6 +243,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
             collected[method].append((scene, known, result, estimate, raw))
             label = f"{method} (default)" if gate else f"{method} (gaps=\"copy\")"
             figures.setdefault(label, []).append(row)
+            if gate or not args.gate:
+                ratios[method].append((name, row["mean_ratio"]))
             print(f"| {name} | {sampling} | {label} | {row['mar']:.4g} {row['units']} | "
                   f"{row['mean_ratio']:.2f} | {row['ause']:.3f} | {row['random']:.3f} | "
                   f"{row['confidence']:.3f} | {100 * row['zero']:.1f} % | "
@@ -226,6 +255,17 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         print(f"{label}: AUSE mean {np.mean([r['ause'] for r in rows]):.3f}, worst "
               f"{max(r['ause'] for r in rows):.3f}; mean/MAR {ratio.min():.2f}–{ratio.max():.2f}; "
               f"zero on synthesized pixels {max(r['zero'] for r in rows):.1%}", file=out)
+    if args.held_out:
+        scored = "the default (gated) output" if args.gate else 'gaps="copy"'
+        print(f"\nmean/MAR, each scene under a scale set on the other scenes ({scored}):",
+              file=out)
+        for method in methods:
+            if len({n for n, _ in ratios[method]}) < 2:
+                print(f"  {method}: --held-out needs two scenes or more", file=out)
+                continue
+            for name, own, refit in held_out(ratios[method], method):
+                print(f"  {method}  {name:>24s}  {own:.2f} (all scenes)  {refit:.2f} (held out)",
+                      file=out)
     if args.fit:
         print("\nCALIBRATION = {", file=out)
         for method in methods:

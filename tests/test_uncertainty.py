@@ -201,3 +201,17 @@ def test_the_benchmarks_ause_is_zero_for_the_true_errors_and_worst_reversed(benc
     assert 0.2 < bench.ause(noise, errors) < bench.ause(-errors, errors)
     curve = bench.sparsification(np.argsort(-errors), errors)
     assert curve[0] == pytest.approx(errors.mean()) and np.all(np.diff(curve) <= 1e-12)
+
+
+def test_the_held_out_scale_centres_the_other_scenes_ratios(benchmark_script):
+    """``--held-out``: a scene's ratio under the scale whose other scenes' ratios (at scale 1)
+    span [lo, hi] is its own ratio (at scale 1) over sqrt(lo · hi)."""
+    bench = benchmark_script("bench_uncertainty")
+    scale = bench.CALIBRATION["np"]["scale"]
+    at_one = {"a": [2.0, 2.2], "b": [1.0], "c": [4.0]}   # ratios under scale 1
+    cases = [(name, scale * r) for name, rs in at_one.items() for r in rs]
+    rows = {name: (own, held) for name, own, held in bench.held_out(cases, "np")}
+    assert rows["a"][0] == pytest.approx(2.1 * scale)
+    assert rows["a"][1] == pytest.approx(2.1 / np.sqrt(1.0 * 4.0))
+    assert rows["b"][1] == pytest.approx(1.0 / np.sqrt(2.0 * 4.0))
+    assert rows["c"][1] == pytest.approx(4.0 / np.sqrt(1.0 * 2.2))
