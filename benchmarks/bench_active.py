@@ -336,7 +336,11 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                   f"   largest {max(finite):.3f}", file=out)
     every = [s for seconds in calls.values() for s in seconds]
     if every:
-        print(f"\nnext_slices: {len(every)} calls, mean {np.mean(every):.1f} s", file=out)
+        fills = [r["seconds"] for r in rows if r["method"] == args.active_method]
+        cost = (f" = {np.mean(every) / np.mean(fills):.2f} of the mean "
+                f"{args.active_method.upper()} fill of the run ({np.mean(fills):.1f} s)"
+                if fills else "")
+        print(f"\nnext_slices: {len(every)} calls, mean {np.mean(every):.1f} s{cost}", file=out)
     if args.figure:
         fig = figure(rows, scenes, methods, strategies, fractions)
         buffer = io.BytesIO()
