@@ -48,6 +48,15 @@ def test_active_adds_its_step_per_call_on_the_uncertain_side(bench, folder):
     assert sum(24 <= c <= 45 for c in added) >= 3, added
 
 
+def test_the_cost_of_a_call_is_given_in_fills_of_the_run(bench, folder):
+    out = io.StringIO()
+    assert bench.main([str(folder), "--size", "48x40", "--fractions", "20,30", "--methods",
+                       "np", "--strategies", "active", "--active-method", "np", "--quiet"],
+                      out=out) == 0
+    line = out.getvalue().strip().splitlines()[-1]
+    assert line.startswith("next_slices: 2 calls, mean ") and "of the mean NP fill" in line
+
+
 def test_the_truth_probe_chooses_where_the_fill_is_wrong(bench, folder):
     """``--active-error truth``: the greedy choice from |fill − truth|, on measured columns
     never; it equals next_slices's greedy step fed that error."""
@@ -69,6 +78,8 @@ def test_table_ratio_json_and_from_json(bench, folder, tmp_path):
     assert bench.main(argv, out=out) == 0
     text = out.getvalue()
     assert "target <= 0.8" in text and "geometric mean" in text
+    # the calls' cost is given in fills of the active method only when the run made some
+    assert "next_slices: 4 calls" in text and "of the mean NP fill" not in text
     rows = json.loads(target.read_text())["rows"]
     assert len(rows) == 4 * 2 * 2                      # strategies x fractions x methods
     again = io.StringIO()
