@@ -297,8 +297,11 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         return 2
     progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     rows, calls, scenes = [], {}, [name for name, _ in specs]
+    active_method, active_error = args.active_method, args.active_error
     for path in _list(args.from_json or ""):
         saved = json.loads(Path(path).read_text())
+        active_method = saved.get("active_method", active_method)   # as the runs chose
+        active_error = saved.get("active_error", active_error)
         rows += saved["rows"]
         calls.update(saved["next_slices_seconds"])
         scenes += [s for s in dict.fromkeys(r["scene"] for r in saved["rows"]) if s not in scenes]
@@ -310,18 +313,19 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     for name, spec in specs:
         scene = bench_scenes.load(spec, size)
         found, seconds = run_scene(name, scene, fractions, methods, strategies, args.step,
-                                   args.active_method, args.seed, progress, start,
-                                   args.active_error)
+                                   active_method, args.seed, progress, start, active_error)
         rows += found
         calls[name] = seconds
         if args.json:
             write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), rows=rows,
-                                                    next_slices_seconds=calls),
+                                                    next_slices_seconds=calls,
+                                                    active_method=active_method,
+                                                    active_error=active_error),
                                                indent=1).encode())
-    chooser = ("next_slices" if args.active_error == "uncertainty"
+    chooser = ("next_slices" if active_error == "uncertainty"
                else "greedy choice from the true error (a probe)")
     print(f"bench_active: size {size}, seed {args.seed}, {len(scenes)} scenes, active: "
-          f"{args.active_method.upper()}'s {chooser}, +{args.step} % per call; MAR (Eq. 13)",
+          f"{active_method.upper()}'s {chooser}, +{args.step} % per call; MAR (Eq. 13)",
           file=out)
     print(format_tables(rows, scenes, methods, strategies, fractions), file=out)
     if "active" in strategies and 40 in fractions and "bp" in methods:
@@ -336,9 +340,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                   f"   largest {max(finite):.3f}", file=out)
     every = [s for seconds in calls.values() for s in seconds]
     if every:
-        fills = [r["seconds"] for r in rows if r["method"] == args.active_method]
+        fills = [r["seconds"] for r in rows if r["method"] == active_method]
         cost = (f" = {np.mean(every) / np.mean(fills):.2f} of the mean "
-                f"{args.active_method.upper()} fill of the run ({np.mean(fills):.1f} s)"
+                f"{active_method.upper()} fill of the run ({np.mean(fills):.1f} s)"
                 if fills else "")
         print(f"\nnext_slices: {len(every)} calls, mean {np.mean(every):.1f} s{cost}", file=out)
     if args.figure:
