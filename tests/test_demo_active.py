@@ -18,23 +18,27 @@ from refsynth.plotting.active_story import (
 pytestmark = pytest.mark.slow
 
 
+#: The test's run: the stripes and the active scan at 30 % of the slices (a first pass of
+#: 20 %, two rounds of 5 %), every fourth row and column of the panoramas.
+STRATEGIES = ("stripes", "active")
+
+
 @pytest.fixture(scope="module")
 def story(tmp_path_factory):
-    """The active demo at 30 % of the slices (a first pass of 20 %, two rounds of 5 %), every
-    fourth row and column of the panoramas: the same stages, a third of the work."""
+    """The active demo's stages on less work (:data:`STRATEGIES`)."""
     out = tmp_path_factory.mktemp("active")
     stages = []
-    summary = run_active_demo(out, fraction=0.3, shrink=4,
+    summary = run_active_demo(out, fraction=0.3, shrink=4, strategies=STRATEGIES,
                               progress=lambda stage, done: stages.append((stage, done)))
     return out, summary, stages
 
 
 def test_every_strategy_measures_its_fraction_of_the_slices(story):
-    """150 of the 500 slices for the distance-driven and the active scans; the stripes'
-    pattern (4 wide, Table 4) comes to 156 at 30 % (200 at the demo's 40 %)."""
+    """150 of the 500 slices for the active scan; the stripes' pattern (4 wide, Table 4)
+    comes to 156 at 30 % (200 at the demo's 40 %)."""
     out, summary, _ = story
-    assert list(summary["slices"]) == list(ACTIVE_STRATEGIES)
-    counts = {"stripes": 156, "distance": 150, "active": 150}
+    assert list(summary["slices"]) == list(STRATEGIES)
+    counts = {"stripes": 156, "active": 150}
     for strategy, chosen in summary["slices"].items():
         assert len(chosen) == len(set(chosen)) == counts[strategy], strategy
         assert chosen == sorted(chosen) and 0 <= chosen[0] and chosen[-1] < 500
@@ -59,7 +63,7 @@ def test_the_table_scores_bp_and_the_fills_on_each_strategy(story):
     out, summary, _ = story
     rows = summary["rows"]
     assert [(r["strategy"], r["method"]) for r in rows] == [
-        (s, m) for s in ACTIVE_STRATEGIES for m in ("BP", *ACTIVE_FILLS)]
+        (s, m) for s in STRATEGIES for m in ("BP", *ACTIVE_FILLS)]
     for row in rows:
         assert np.isfinite(row["mar"]) and row["mar"] > 0 and 40 < row["unknown"] < 80
     fixed = min(r["mar"] for r in rows if r["strategy"] != "active")
@@ -74,8 +78,9 @@ def test_files_and_progress(story):
     out, summary, stages = story
     for name in ACTIVE_FILES:
         assert (out / name).is_file() and (out / name) in summary["files"]
-    for strategy in ACTIVE_STRATEGIES:
+    for strategy in STRATEGIES:
         assert (out / f"scan-{strategy}" / "manifest.json").is_file()
+    assert not (out / "scan-distance").exists()
     from matplotlib.image import imread
 
     assert imread(out / "active_scan.png").shape[2] in (3, 4)
@@ -97,6 +102,11 @@ def test_another_fraction_in_the_same_folder_is_refused(story):
     ({"seed": -1}, ValueError, "`seed` must be an integer >= 0"),
     ({"shrink": 0}, ValueError, "`shrink` must be an integer >= 1"),
     ({"shrink": 2.0}, TypeError, "`shrink` must be an integer"),
+    ({"strategies": ("stripes",)}, ValueError, "`strategies` must hold 'active'"),
+    ({"strategies": ("active",)}, ValueError, "`strategies` must hold 'active'"),
+    ({"strategies": ("active", "active")}, ValueError, "`strategies` must hold 'active'"),
+    ({"strategies": ("even", "active")}, ValueError, "`strategies` must be one of"),
+    ({"strategies": "active"}, TypeError, "`strategies` must be a sequence"),
 ])
 def test_bad_options_are_refused_before_any_work(tmp_path, options, error, match):
     with pytest.raises(error, match=match):

@@ -38,12 +38,12 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from refsynth._checks import check_int, check_real
+from refsynth._checks import check_choice, check_int, check_real
 from refsynth._files import write_atomic
 from refsynth.acquisition import ScanSettings
 from refsynth.acquisition.geometry import PAN_SLICES
@@ -80,6 +80,7 @@ def _scanned(folder: Path) -> list[int]:
 
 
 def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: int = 2,
+                    strategies: Sequence[str] = ACTIVE_STRATEGIES,
                     progress: ActiveProgress | None = None) -> dict:
     """Active scanning against the fixed strategies on the simulated rig, one position (§5).
 
@@ -96,6 +97,9 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
         and adds 5 % a round, so ``fraction`` is above 0.2.
     shrink : int, default 2
         Keep every ``shrink``-th row and column of each registered panorama.
+    strategies : sequence of str, default :data:`ACTIVE_STRATEGIES`
+        Which of them to run, in the table's order; ``"active"`` and at least
+        one fixed strategy, each once.
     progress : callable, optional
         ``progress(stage, fraction_done)`` as each stage starts.
 
@@ -114,10 +118,18 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
         raise ValueError(f"The parameter `fraction` must be in (0.2, 1], got {fraction!r}")
     seed = check_int("seed", seed, minimum=0)
     shrink = check_int("shrink", shrink, minimum=1)
+    if isinstance(strategies, str):
+        raise TypeError(f"The parameter `strategies` must be a sequence of names, got "
+                        f"{strategies!r}")
+    strategies = [check_choice("strategies", s, ACTIVE_STRATEGIES) for s in strategies]
+    if "active" not in strategies or len(strategies) < 2 or len(set(strategies)) < len(
+            strategies):
+        raise ValueError("The parameter `strategies` must hold 'active' and a fixed strategy, "
+                         f"each once, got {strategies!r}")
     out.mkdir(parents=True, exist_ok=True)
     room = room_geometry(seed)
     pose = DEMO_POSES[0]
-    stages = 3 * len(ACTIVE_STRATEGIES) + 1
+    stages = 3 * len(strategies) + 1
     rows, positions, slices, done = [], {}, {}, 0
 
     def stage(label: str) -> None:
@@ -126,7 +138,7 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
             progress(label, done / stages)
         done += 1
 
-    for strategy in ACTIVE_STRATEGIES:
+    for strategy in strategies:
         folder = out / f"scan-{strategy}"
         stage(f"{strategy}: scan")
         acquire_position(folder, seed, pose, fraction, ScanSettings(strategy, fraction=fraction))
@@ -144,7 +156,7 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
     fixed = [r["mar"] for r in rows if r["strategy"] != "active"]
     active_bp = next(r["mar"] for r in rows if (r["strategy"], r["method"]) == ("active", "BP"))
     gain = active_bp / min(fixed)
-    files = [out / f"scan-{s}" for s in ACTIVE_STRATEGIES]
+    files = [out / f"scan-{s}" for s in strategies]
     fig = active_figure(positions, rows, slices, rounds)
     save_figure(fig, out / "active_scan.png", dpi=100)
     files.append(out / "active_scan.png")
