@@ -162,37 +162,41 @@ def _print_story(summary: dict, args, seconds: float) -> None:
         ("median_percent", "median |error| / range %", ".2f"), ("seconds", "seconds", ".2f"),
     ]))
     _print_targets(summary["targets"])
+    _print_files(summary["files"])
+
+
+def _print_files(files) -> None:
+    """``wrote:`` and each path, a folder with a trailing slash."""
     print("wrote:")
-    for path in summary["files"]:
+    for path in files:
         print(f"  {path}{'/' if Path(path).is_dir() else ''}")
 
 
-def _cmd_story(args) -> int:
-    check_memory(case_memory(Case("synthetic-0", "481x114", "x78", "bp", 0)),
-                 "the demo", "run demo --quick")
+def _run_story(run, args, what: str) -> tuple[dict, float]:
+    """``run(out, seed=, progress=)`` after the memory check, with the progress line on
+    stderr; its summary and the seconds it took."""
+    check_memory(case_memory(Case("synthetic-0", "481x114", "x78", "bp", 0)), what,
+                 "run demo --quick")
     progress = story_progress()
     start = time.perf_counter()
     try:
-        summary = run_pipeline_demo(Path(args.out), seed=args.seed, progress=progress)
+        summary = run(Path(args.out), seed=args.seed, progress=progress)
     finally:
         progress.finish()
-    _print_story(summary, args, time.perf_counter() - start)
+    return summary, time.perf_counter() - start
+
+
+def _cmd_story(args) -> int:
+    summary, seconds = _run_story(run_pipeline_demo, args, "the demo")
+    _print_story(summary, args, seconds)
     return 0
 
 
 def _cmd_active(args) -> int:
-    check_memory(case_memory(Case("synthetic-0", "481x114", "x78", "bp", 0)),
-                 "the active-scanning demo", "run demo --quick")
-    progress = story_progress()
-    start = time.perf_counter()
-    try:
-        summary = run_active_demo(Path(args.out), seed=args.seed, progress=progress)
-    finally:
-        progress.finish()
+    summary, seconds = _run_story(run_active_demo, args, "the active-scanning demo")
     rounds = summary["rounds"]
     print(f"refsynth demo --active: the simulated rig's room (seed {args.seed}) from position "
-          f"1, 40 % of the 500 slices by each strategy; "
-          f"{time.perf_counter() - start:.0f} s")
+          f"1, 40 % of the 500 slices by each strategy; {seconds:.0f} s")
     print(f"  active: a first pass of {len(rounds[0])} evenly spread slices, then "
           f"{len(rounds) - 1} rounds of {', '.join(str(len(r)) for r in rounds[1:])} slices, "
           "each chosen by next_slices (BP) from what was measured")
@@ -204,9 +208,7 @@ def _cmd_active(args) -> int:
         ("rmse", "RMSE (m)", ".4f"), ("seconds", "seconds", ".2f"),
     ]))
     print(f"active BP / the best fixed strategy and fill: {summary['gain']:.3f}")
-    print("wrote:")
-    for path in summary["files"]:
-        print(f"  {path}{'/' if Path(path).is_dir() else ''}")
+    _print_files(summary["files"])
     return 0
 
 
