@@ -78,6 +78,7 @@ def test_demo_default_is_the_story_and_prints_every_output(tmp_path, capsys, mon
         for name in ("scan/", "scan-2/", *STORY_FILES):
             assert str(tmp_path / name).rstrip("/") in out
         assert "demo:   0 % position 1: scan" in captured.err
+        assert out.splitlines()[-1].startswith("next: python -m refsynth demo --active")
     assert calls == [(tmp_path, 3), (tmp_path, 3)]
 
 

@@ -163,6 +163,8 @@ def _print_story(summary: dict, args, seconds: float) -> None:
     ]))
     _print_targets(summary["targets"])
     _print_files(summary["files"])
+    print("next: python -m refsynth demo --active (active scanning beside the fixed "
+          "strategies), python -m refsynth --help")
 
 
 def _print_files(files) -> None:
