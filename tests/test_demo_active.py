@@ -68,9 +68,9 @@ def test_the_table_scores_bp_and_the_fills_on_each_strategy(story):
         assert np.isfinite(row["mar"]) and row["mar"] > 0 and 40 < row["unknown"] < 80
     fixed = min(r["mar"] for r in rows if r["strategy"] != "active")
     active = next(r["mar"] for r in rows if (r["strategy"], r["method"]) == ("active", "BP"))
-    assert summary["gain"] == pytest.approx(active / fixed, rel=1e-12)
+    assert summary["ratio"] == pytest.approx(active / fixed, rel=1e-12)
     saved = json.loads((out / "active.json").read_text())
-    assert saved["rows"] == json.loads(json.dumps(rows)) and saved["gain"] == summary["gain"]
+    assert saved["rows"] == json.loads(json.dumps(rows)) and saved["ratio"] == summary["ratio"]
     assert saved["rounds"] == summary["rounds"]
 
 
@@ -122,7 +122,7 @@ def test_active_with_another_story_gives_one_line(tmp_path, capsys, argv):
     assert len(err) == 1 and "--active (its own story) takes no" in err[0]
 
 
-def test_the_cli_prints_the_rounds_the_table_and_the_gain(tmp_path, capsys, monkeypatch):
+def test_the_cli_prints_the_rounds_the_table_and_the_ratio(tmp_path, capsys, monkeypatch):
     """``demo --active`` prints what run_active_demo returns (here made up), one row per
     strategy and fill."""
     import refsynth.cli.demo as cli_demo
@@ -132,7 +132,7 @@ def test_the_cli_prints_the_rounds_the_table_and_the_gain(tmp_path, capsys, monk
             for k, (s, m) in enumerate((s, m) for s in ACTIVE_STRATEGIES
                                        for m in ("BP", *ACTIVE_FILLS))]
     summary = dict(rows=rows, rounds=[list(range(0, 500, 5)), *[[1] * 25] * 4],
-                   slices={}, gain=0.891, files=[tmp_path / name for name in ACTIVE_FILES])
+                   slices={}, ratio=0.891, files=[tmp_path / name for name in ACTIVE_FILES])
     seen = {}
 
     def fake(out, seed, progress):

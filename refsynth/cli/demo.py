@@ -209,7 +209,7 @@ def _cmd_active(args) -> int:
         ("unknown", "unknown %", ".1f"), ("mar", "MAR (m)", ".4f"),
         ("rmse", "RMSE (m)", ".4f"), ("seconds", "seconds", ".2f"),
     ]))
-    print(f"active BP / the best fixed strategy and fill: {summary['gain']:.3f}")
+    print(f"active BP / the best fixed strategy and fill: {summary['ratio']:.3f}")
     _print_files(summary["files"])
     return 0
 

@@ -25,7 +25,7 @@ each registered panorama, and the MAR of each strategy and fill.
 Files written into ``out`` (:data:`ACTIVE_FILES`, besides the scan folders
 ``scan-stripes/``, ``scan-distance/`` and ``scan-active/``, reused when
 already there for the same seed and settings): ``active_scan.png`` and
-``active.json`` (the table, the rounds and the gain).
+``active.json`` (the table, the rounds and the ratio).
 
 References
 ----------
@@ -42,6 +42,9 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib import colormaps
+from matplotlib.colors import ListedColormap
+from matplotlib.figure import Figure
 
 from refsynth._checks import check_choice, check_int, check_real
 from refsynth._files import write_atomic
@@ -109,8 +112,9 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
         ``rows`` (per strategy and fill: ``strategy``, ``slices``, ``method``,
         ``unknown`` %, the scores of :func:`refsynth.evaluation.metrics.evaluate`
         and ``seconds``), ``rounds`` (the active scan's, first pass first),
-        ``slices`` (each strategy's, ascending), ``gain`` (active BP's MAR over
-        the best MAR of a fixed strategy, BP or a classical fill) and ``files``.
+        ``slices`` (each strategy's, ascending), ``ratio`` (active BP's MAR over
+        the best MAR of a fixed strategy, BP or a classical fill: below 1 where the
+        active scan gained) and ``files``.
     """
     out = Path(out)
     fraction = check_real("fraction", fraction, maximum=1.0)
@@ -155,18 +159,18 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
     rounds = _rounds(out / "scan-active")
     fixed = [r["mar"] for r in rows if r["strategy"] != "active"]
     active_bp = next(r["mar"] for r in rows if (r["strategy"], r["method"]) == ("active", "BP"))
-    gain = active_bp / min(fixed)
+    ratio = active_bp / min(fixed)
     files = [out / f"scan-{s}" for s in strategies]
     fig = active_figure(positions, rows, slices, rounds)
     save_figure(fig, out / "active_scan.png", dpi=100)
     files.append(out / "active_scan.png")
     record = dict(seed=seed, fraction=fraction, shrink=shrink, rows=rows, rounds=rounds,
-                  slices=slices, gain=gain)
+                  slices=slices, ratio=ratio)
     files.append(write_atomic(out / "active.json",
                               (json.dumps(record, indent=1) + "\n").encode("utf-8")))
     if progress is not None:
         progress("done", 1.0)
-    return dict(rows=rows, rounds=rounds, slices=slices, gain=gain, files=files)
+    return dict(rows=rows, rounds=rounds, slices=slices, ratio=ratio, files=files)
 
 
 def _fills(strategy: str, count: int, position: ScanPosition, seed: int) -> list[dict]:
@@ -207,11 +211,8 @@ def active_figure(positions: dict, rows: list[dict], slices: dict, rounds: list[
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import ListedColormap
-
     strategies = list(positions)
-    fig = plt.figure(figsize=(11.0, 2.2 + 1.9 * len(strategies)), layout="constrained")
+    fig = Figure(figsize=(11.0, 2.2 + 1.9 * len(strategies)), layout="constrained")
     grid = fig.add_gridspec(1 + len(strategies), 4, height_ratios=[1.1] + [1.6] * len(strategies))
     # where each strategy looked: one row of the 500 slices each, the active scan by round
     ax = fig.add_subplot(grid[0, :])
@@ -234,7 +235,7 @@ def active_figure(positions: dict, rows: list[dict], slices: dict, rounds: list[
     errors = {s: np.abs(p.results["bp"].range - p.truth) for s, p in positions.items()}
     top = float(np.nanpercentile(np.concatenate([e[~positions[s].known].ravel()
                                                  for s, e in errors.items()]), 99))
-    cmap_error = plt.get_cmap("magma").with_extremes(bad="0.8")
+    cmap_error = colormaps["magma"].with_extremes(bad="0.8")
     images = []
     for k, strategy in enumerate(strategies, start=1):
         position = positions[strategy]
