@@ -150,3 +150,33 @@ def test_the_cli_prints_the_rounds_the_table_and_the_ratio(tmp_path, capsys, mon
     assert [(r[0], r[2], r[4]) for r in table] == [
         (r["strategy"], r["method"], f"{r['mar']:.4f}") for r in rows]
     assert "active BP / the best fixed strategy and fill: 0.891" in out
+
+
+def test_each_row_scores_its_own_fill_against_the_truth_on_the_unknown_pixels():
+    """``_fills`` on a hand-built position: each row's MAR is Eq. 13 of that fill (BP with
+    the demo's seed, the classical fills as :data:`BASELINES` give them) on the pixels the
+    scan did not measure."""
+    from refsynth.evaluation.baselines import BASELINES
+    from refsynth.evaluation.metrics import evaluate
+    from refsynth.plotting.active_story import _fills
+    from refsynth.plotting.story import DEMO_POSES, ScanPosition
+    from refsynth.synthesis.api import synthesize
+
+    rows_, cols = np.mgrid[0:14, 0:18]
+    truth = 2.0 + 0.05 * cols + np.where((cols > 8) & (rows_ > 4), -0.6, 0.0)
+    intensity = np.where((cols > 8) & (rows_ > 4), 0.8, 0.3) + 0.01 * rows_
+    partial = np.full(truth.shape, np.nan)
+    partial[:, ::3] = truth[:, ::3]
+    position = ScanPosition(1, DEMO_POSES[0], None, intensity=intensity, partial=partial,
+                            truth=truth)
+    rows = _fills("active", 6, position, seed=2)
+    known = np.isfinite(partial)
+    estimates = {"BP": synthesize(intensity, partial, method="bp", seed=2).range,
+                 **{m: BASELINES[m](intensity, partial) for m in ACTIVE_FILLS}}
+    assert [r["method"] for r in rows] == list(estimates)
+    for row in rows:
+        expected = evaluate(estimates[row["method"]], truth, known)
+        assert row["mar"] == expected["mar"] and row["rmse"] == expected["rmse"]
+        assert row["strategy"] == "active" and row["slices"] == 6
+        assert row["unknown"] == pytest.approx(100 * 2 / 3)
+    assert np.array_equal(position.results["bp"].range, estimates["BP"])
