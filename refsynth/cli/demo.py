@@ -256,7 +256,8 @@ def add_demo_parser(subparsers) -> argparse.ArgumentParser:
         "NP and BP fill the range (a table of MAR against the ground truth, with nearest and "
         "colorization), and the positions become one 3-D model (PLY, ICP-refined odometry) "
         "and a rendered view. --quick: NP, its ablations, BP and the baselines on the "
-        "synthetic room, one table and three figures (about 30 s on two cores).",
+        "synthetic room, one table and three figures (about 30 s on two cores). --active: "
+        "active scanning (§5) beside stripes and distance-driven slices on the rig.",
         func=_cmd_demo,
     )
     demo.add_argument("--out", default="refsynth-demo",
