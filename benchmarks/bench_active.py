@@ -238,17 +238,10 @@ def figure(rows, scenes, methods, strategies, fractions):
     return fig
 
 
-def _list(text: str) -> list[str]:
-    return [part.strip() for part in text.split(",") if part.strip()]
-
-
 def main(argv: Sequence[str] | None = None, out=None) -> int:
     out = out or sys.stdout
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("folder", nargs="?", default=None, help="a folder of scene folders")
-    parser.add_argument("--motorcycle", action="store_true", help="add the Motorcycle")
-    parser.add_argument("--scenes", default=None, help="comma-separated scene names to keep")
-    parser.add_argument("--size", default="450x375", help="WxH (default 450x375) or native")
+    bench_scenes.add_scene_arguments(parser)
     parser.add_argument("--methods", default=",".join(DEFAULT_METHODS))
     parser.add_argument("--strategies", default=",".join(STRATEGIES))
     parser.add_argument("--fractions", default=",".join(map(str, DEFAULT_FRACTIONS)),
@@ -271,14 +264,14 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     args = parser.parse_args(argv)
     try:
         size = parse_size(args.size)
-        methods = _list(args.methods)
+        methods = bench_scenes.split_list(args.methods)
         bad = [m for m in methods if m not in {"np", "bp", *BASELINES}]
         if bad or not methods:
             raise ValueError(f"--methods: unknown {bad}")
-        strategies = _list(args.strategies)
+        strategies = bench_scenes.split_list(args.strategies)
         if not strategies or set(strategies) - set(STRATEGIES):
             raise ValueError(f"--strategies: choose from {', '.join(STRATEGIES)}")
-        fractions = sorted({int(f) for f in _list(args.fractions)})
+        fractions = sorted({int(f) for f in bench_scenes.split_list(args.fractions)})
         if not fractions or fractions[0] < 1 or fractions[-1] > 95:
             raise ValueError("--fractions must be percentages in 1-95")
         start = fractions[0] if args.active_start is None else args.active_start
@@ -289,16 +282,14 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         if args.from_json:
             specs = []
         else:
-            specs = bench_scenes.scene_specs(args.folder, args.motorcycle,
-                                             _list(args.scenes) if args.scenes else None,
-                                             warn=lambda m: print(m, file=sys.stderr))
+            specs = bench_scenes.specs_from_arguments(args)
     except ValueError as error:
         print(f"bench_active.py: {error}", file=sys.stderr)
         return 2
     progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     rows, calls, scenes = [], {}, [name for name, _ in specs]
     active_method, active_error = args.active_method, args.active_error
-    for path in _list(args.from_json or ""):
+    for path in bench_scenes.split_list(args.from_json or ""):
         saved = json.loads(Path(path).read_text())
         active_method = saved.get("active_method", active_method)   # as the runs chose
         active_error = saved.get("active_error", active_error)
@@ -306,7 +297,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         calls.update(saved["next_slices_seconds"])
         scenes += [s for s in dict.fromkeys(r["scene"] for r in saved["rows"]) if s not in scenes]
     if args.from_json:
-        wanted = _list(args.scenes) if args.scenes else scenes
+        wanted = bench_scenes.split_list(args.scenes) if args.scenes else scenes
         scenes = [s for s in scenes if s in wanted]
         rows = [r for r in rows if r["scene"] in scenes and r["method"] in methods
                 and r["strategy"] in strategies and r["fraction"] in fractions]

@@ -177,10 +177,7 @@ def format_table(summary: dict, methods: Sequence[str], mar: bool = False) -> st
 def main(argv: Sequence[str] | None = None, out=None) -> int:
     out = out or sys.stdout
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("folder", nargs="?", default=None, help="a folder of scene folders")
-    parser.add_argument("--motorcycle", action="store_true", help="add the Motorcycle")
-    parser.add_argument("--scenes", default=None, help="comma-separated scene names to keep")
-    parser.add_argument("--size", default="450x375", help="WxH (default 450x375)")
+    scenes.add_scene_arguments(parser)
     parser.add_argument("--samplings", default=",".join(DEFAULT_SAMPLINGS))
     parser.add_argument("--bases", default="np,bp", help="np, bp or np,bp (default)")
     parser.add_argument("--jumps", default="", help="other jumps of the gate to print")
@@ -195,14 +192,14 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     args = parser.parse_args(argv)
     try:
         size = parse_size(args.size)
-        samplings = [parse_sampling(s) for s in scenes._list(args.samplings)]
-        bases = scenes._list(args.bases)
+        samplings = [parse_sampling(s) for s in scenes.split_list(args.samplings)]
+        bases = scenes.split_list(args.bases)
         if not bases or set(bases) - {"np", "bp"}:
             raise ValueError(f"--bases must list np and/or bp, got {args.bases!r}")
-        jumps = [float(j) for j in scenes._list(args.jumps)]
+        jumps = [float(j) for j in scenes.split_list(args.jumps)]
         if any(not j >= 0 for j in jumps):
             raise ValueError("--jumps must list numbers >= 0")
-        seeds = [int(s) for s in scenes._list(args.seeds)]
+        seeds = [int(s) for s in scenes.split_list(args.seeds)]
         if not seeds or min(seeds) < 0:
             raise ValueError("--seeds must list non-negative integers")
         if args.resume and not args.json:
@@ -211,9 +208,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
             raise ValueError("--stored-only needs --arrays")
         if args.arrays and not Path(args.arrays).is_dir():
             raise ValueError(f"--arrays must be an existing folder, got {args.arrays!r}")
-        specs = scenes.scene_specs(args.folder, args.motorcycle,
-                                   scenes._list(args.scenes) if args.scenes else None,
-                                   warn=lambda m: print(m, file=sys.stderr))
+        specs = scenes.specs_from_arguments(args)
     except ValueError as error:
         print(f"bench_gaps.py: {error}", file=sys.stderr)
         return 2

@@ -359,17 +359,32 @@ def parse_variant(text: str) -> tuple[str, dict]:
     return label.strip(), options
 
 
-def _list(text: str) -> list[str]:
+def split_list(text: str) -> list[str]:
+    """``"a, b,,c"`` → ``["a", "b", "c"]``: a comma-separated option's items."""
     return [item.strip() for item in text.split(",") if item.strip()]
+
+
+def add_scene_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options every scene benchmark takes: the folder, ``--motorcycle``, ``--scenes``
+    and ``--size`` (read back by :func:`specs_from_arguments` and ``parse_size``)."""
+    parser.add_argument("folder", nargs="?", default=None, help="a folder of scene folders")
+    parser.add_argument("--motorcycle", action="store_true", help="add the Motorcycle")
+    parser.add_argument("--scenes", default=None, help="comma-separated scene names to keep")
+    parser.add_argument("--size", default="450x375", help="WxH (default 450x375) or native")
+
+
+def specs_from_arguments(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """:func:`scene_specs` of the options :func:`add_scene_arguments` added, warnings on
+    stderr."""
+    return scene_specs(args.folder, args.motorcycle,
+                       split_list(args.scenes) if args.scenes else None,
+                       warn=lambda m: print(m, file=sys.stderr))
 
 
 def main(argv: Sequence[str] | None = None, out=None) -> int:
     out = out or sys.stdout
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("folder", nargs="?", default=None, help="a folder of scene folders")
-    parser.add_argument("--motorcycle", action="store_true", help="add the Motorcycle")
-    parser.add_argument("--scenes", default=None, help="comma-separated scene names to keep")
-    parser.add_argument("--size", default="450x375", help="WxH (default 450x375) or native")
+    add_scene_arguments(parser)
     parser.add_argument("--methods", default=",".join(DEFAULT_METHODS))
     parser.add_argument("--samplings", default=",".join(DEFAULT_SAMPLINGS))
     parser.add_argument("--seeds", default="0,1,2", help="comma-separated seeds (default 0,1,2)")
@@ -386,22 +401,20 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
             label, options = parse_variant(text)
             VARIANTS[label] = options
         size = parse_size(args.size)
-        samplings = [parse_sampling(s) for s in _list(args.samplings)]
-        methods = _list(args.methods)
+        samplings = [parse_sampling(s) for s in split_list(args.samplings)]
+        methods = split_list(args.methods)
         known = {*SYNTHESIS_METHODS, *BASELINES, *VARIANTS, *EXTRA_METHODS}
         bad = [m for m in methods if m not in known]
         if bad or not methods:
             raise ValueError(f"--methods: unknown {bad}; choose from {sorted(known)}")
-        seeds = [int(s) for s in _list(args.seeds)]
+        seeds = [int(s) for s in split_list(args.seeds)]
         if not seeds or min(seeds) < 0:
             raise ValueError("--seeds must list non-negative integers")
         if args.jobs < 1:
             raise ValueError("--jobs must be >= 1")
         if args.resume and not args.json:
             raise ValueError("--resume needs --json")
-        specs = scene_specs(args.folder, args.motorcycle,
-                            _list(args.scenes) if args.scenes else None,
-                            warn=lambda m: print(m, file=sys.stderr))
+        specs = specs_from_arguments(args)
     except ValueError as error:
         print(f"bench_scenes.py: {error}", file=sys.stderr)
         return 2

@@ -205,10 +205,7 @@ def held_out(cases: Sequence[tuple], method: str) -> list[tuple[str, float, floa
 def main(argv: Sequence[str] | None = None, out=None) -> int:
     out = out or sys.stdout
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("folder", nargs="?", default=None, help="a folder of scene folders")
-    parser.add_argument("--motorcycle", action="store_true", help="add the Motorcycle")
-    parser.add_argument("--scenes", default=None, help="comma-separated scene names to keep")
-    parser.add_argument("--size", default="450x375", help="WxH (default 450x375)")
+    scenes.add_scene_arguments(parser)
     parser.add_argument("--samplings", default="x78", help="comma-separated (default x78)")
     parser.add_argument("--methods", default="np,bp", help="np, bp or np,bp (default)")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse the results")
@@ -219,13 +216,11 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     args = parser.parse_args(argv)
     try:
         size = parse_size(args.size)
-        samplings = [parse_sampling(s) for s in args.samplings.split(",") if s]
-        methods = [m for m in args.methods.split(",") if m]
+        samplings = [parse_sampling(s) for s in scenes.split_list(args.samplings)]
+        methods = scenes.split_list(args.methods)
         if not methods or set(methods) - {"np", "bp"}:
             raise ValueError(f"--methods must be np, bp or np,bp, got {args.methods!r}")
-        names = [n for n in args.scenes.split(",") if n] if args.scenes else None
-        specs = scenes.scene_specs(args.folder, args.motorcycle, names,
-                                   warn=lambda m: print(m, file=sys.stderr))
+        specs = scenes.specs_from_arguments(args)
     except ValueError as error:
         print(f"bench_uncertainty: {error}", file=sys.stderr)
         return 2
