@@ -145,7 +145,7 @@ def run_active_demo(out: Path, seed: int = 0, fraction: float = 0.4, *, shrink: 
     for strategy in strategies:
         folder = out / f"scan-{strategy}"
         stage(f"{strategy}: scan")
-        acquire_position(folder, seed, pose, fraction, ScanSettings(strategy, fraction=fraction))
+        acquire_position(folder, seed, pose, ScanSettings(strategy, fraction=fraction))
         slices[strategy] = _scanned(folder)
         stage(f"{strategy}: registration")
         position = ScanPosition(1, pose, folder)

@@ -184,11 +184,9 @@ class ScanPosition:
 # ----------------------------------------------------------------------------- stage 1
 
 
-def acquire_position(folder: Path, seed: int, pose: RigPose, fraction: float,
-             settings: ScanSettings | None = None) -> None:
-    """Scan from ``pose`` into ``folder`` (stripes unless ``settings`` say otherwise), or keep
-    the scan there if it is this one."""
-    settings = settings or ScanSettings("stripes", fraction=fraction)
+def acquire_position(folder: Path, seed: int, pose: RigPose, settings: ScanSettings) -> None:
+    """Scan from ``pose`` into ``folder`` with ``settings``, or keep the scan there if it is
+    this one."""
     manifest = saved_manifest(folder)  # {} without a manifest.json
     if manifest:
         recorded = manifest.get("source", {})
@@ -410,7 +408,8 @@ def run_pipeline_demo(out: Path, seed: int = 0, methods: Sequence[str] = ("np", 
     out.mkdir(parents=True, exist_ok=True)
     for position in positions:
         work.start(f"position {position.number}: scan", _COST["scan"])
-        acquire_position(position.folder, seed, position.pose, fraction)
+        acquire_position(position.folder, seed, position.pose,
+                         ScanSettings("stripes", fraction=fraction))
         work.start(f"position {position.number}: registration", _COST["register"])
         register_position(position, shrink)
         position.truth = true_range(room, position.camera, position.partial.shape,
