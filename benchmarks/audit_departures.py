@@ -27,8 +27,8 @@ Usage::
 Each line is ``variant size fraction: mean ± sd over seeds (ratio to the best
 classical fill)``; a variant wins when its mean is lower by more than the sum
 of the two seed-to-seed standard deviations. Every variant audits the fill as filled
-(``gaps="copy"``) unless it names ``gaps``: ``np-gaps`` and ``bp-gaps`` add the default gap
-reading after it.
+(``gaps="copy"``, ``median=0``) unless it names them: ``np-gaps`` and ``bp-gaps`` add the
+default post-passes after it (the gap reading, then the 3 × 3 median).
 """
 
 from __future__ import annotations
@@ -57,9 +57,9 @@ VALUE_COPY = {"range_copy": "value"}
 #: Eq. 5's value copy for the NP entries, unless it names the copy.
 VARIANTS: dict[str, dict] = {
     "np": {"method": "np"},
-    # the gap reading after the fill (every other variant runs with gaps="copy")
-    "np-gaps": {"method": "np", "gaps": "gate"},
-    "bp-gaps": {"method": "bp", "gaps": "gate"},
+    # the post-passes after the fill (every other variant runs as filled)
+    "np-gaps": {"method": "np", "gaps": "gate", "median": 3},
+    "bp-gaps": {"method": "bp", "gaps": "gate", "median": 3},
     "np-product": {"method": "np", "confidence_update": "product"},
     "np-best": {"method": "np", "confidence_update": "best"},
     "np-literal-eq2": {"method": "np", "missing_range": "ignore"},
@@ -242,7 +242,7 @@ def run_one(job: tuple) -> dict:
     if name in CLASSICAL:
         estimate = BASELINES[name](scene.intensity, partial)
     else:
-        options = {"gaps": "copy", **VARIANTS[name]}   # the fill's readings, as filled
+        options = {"gaps": "copy", "median": 0, **VARIANTS[name]}   # the fill, as filled
         solver = options.pop("fill_solver", None)
         with _fill_solver(solver):
             keywords, readings = split_options(options)

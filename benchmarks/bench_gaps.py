@@ -1,16 +1,22 @@
-"""NP and BP with and without the gap reading, against the classical fills.
+"""NP and BP with and without the post-passes (the gap reading, the median), against the classical
+fills.
 
-The reading ``gaps`` of :mod:`refsynth.synthesis.gap_readings` on the scenes and protocol of
-``bench_scenes.py`` (Table 4's centred 6:5 crop and area resize, MAR of Eq. 13 over the unknown
-pixels with truth): per scene × sampling × seed, NP (and BP) run once with
-``readings={"gaps": "copy"}`` (every unknown pixel as the method filled it, the paper's
-reading) and the gate is applied to that one result, so the rows differ by the post-pass only:
+The readings ``gaps`` (:mod:`refsynth.synthesis.gap_readings`) and ``median``
+(:mod:`refsynth.synthesis.median_pass`) on the scenes and protocol of ``bench_scenes.py``
+(Table 4's centred 6:5 crop and area resize, MAR of Eq. 13 over the unknown pixels with truth):
+per scene × sampling × seed, NP (and BP) run once with ``readings={"gaps": "copy", "median":
+0}`` (every unknown pixel as the method filled it, the paper's reading) and the post-passes
+are applied to that one result, so the rows differ by the post-passes only:
 
-- ``np-copy`` / ``bp-copy``: the fill as copied (``gaps="copy"``);
+- ``np-copy`` / ``bp-copy``: the fill as copied (``gaps="copy"``, ``median=0``);
 - ``np`` / ``bp``: :func:`~refsynth.synthesis.gap_readings.gap_gate` with its defaults and the
-  Canny edges NP used: bit for bit :func:`refsynth.synthesize`'s default (``gaps="gate"``);
-- ``np-clip``: the gate with ``jump=0`` (every bounded gap clipped to its bounds, no line);
-- ``np-jump<J>`` (``--jumps``): the gate with ``jump=J``;
+  Canny edges NP used, then :func:`~refsynth.synthesis.median_pass.median_pass` (3 × 3): bit
+  for bit :func:`refsynth.synthesize`'s default (``gaps="gate"``, ``median=3``);
+- ``np-gate``: the gate alone (``median=0``);
+- ``np-clip``: the default with the gate's ``jump=0`` (every bounded gap clipped to its bounds,
+  no line);
+- ``np-jump<J>`` (``--jumps``): the default with the gate's ``jump=J``;
+- ``np-median<K>`` (``--medians``): the gate, then a ``K × K`` median;
 - ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` of the completed
   slices (:func:`~refsynth.synthesis.gap_readings.complete_slices`) alone;
 
@@ -61,14 +67,16 @@ from refsynth.synthesis.gap_readings import (  # noqa: E402
     gap_gate,
     row_interpolation,
 )
+from refsynth.synthesis.median_pass import check_median, median_pass  # noqa: E402
 
 #: The choosing cases (the gate leaves grids alone: add g5_25 to see it).
 DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")
 
 
-def readings(base: str, jumps: Sequence[float]) -> list[str]:
+def readings(base: str, jumps: Sequence[float], medians: Sequence[int] = ()) -> list[str]:
     """The post-pass readings' labels of one base method."""
-    return [f"{base}-copy", base, f"{base}-clip", *[f"{base}-jump{j:g}" for j in jumps]]
+    return [f"{base}-copy", f"{base}-gate", base, f"{base}-clip",
+            *[f"{base}-jump{j:g}" for j in jumps], *[f"{base}-median{k}" for k in medians]]
 
 
 def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) -> dict:
@@ -80,7 +88,7 @@ def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) ->
 
 def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str],
              seeds: Sequence[int], jumps: Sequence[float], arrays: str | None, have: set,
-             progress=None, stored_only: bool = False) -> list[dict]:
+             progress=None, stored_only: bool = False, medians: Sequence[int] = ()) -> list[dict]:
     """Every row of one scene × sampling (the classical fills once, the bases per seed)."""
     scene = scenes.load(spec, size)
     known = known_mask(scene, sampling)
@@ -117,26 +125,33 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
             else:
                 start = time.perf_counter()
                 estimate = synthesize(scene.intensity, partial, method=base, seed=seed,
-                                      readings={"gaps": "copy"}).range
+                                      readings={"gaps": "copy", "median": 0}).range
                 seconds = time.perf_counter() - start
                 if path is not None:
                     write_atomic(path, _npy(estimate))
             start = time.perf_counter()
             gated = gap_gate(estimate, partial, edges=edges)
+            final = median_pass(gated, partial)
             post = time.perf_counter() - start
             copied = _row(scene, name, size, sampling, f"{base}-copy", seed, estimate, known,
                           seconds)
-            default = _row(scene, name, size, sampling, base, seed, gated, known, seconds + post)
-            rows += [copied, default]
+            default = _row(scene, name, size, sampling, base, seed, final, known, seconds + post)
+            rows += [copied, default,
+                     _row(scene, name, size, sampling, f"{base}-gate", seed, gated, known,
+                          seconds + post)]
             rows.append(_row(scene, name, size, sampling, f"{base}-clip", seed,
-                             gap_gate(estimate, partial, jump=0.0, edges=edges), known, seconds))
+                             median_pass(gap_gate(estimate, partial, jump=0.0, edges=edges),
+                                         partial), known, seconds))
             for jump in jumps:
                 rows.append(_row(scene, name, size, sampling, f"{base}-jump{jump:g}", seed,
-                                 gap_gate(estimate, partial, jump=jump, edges=edges), known,
-                                 seconds))
+                                 median_pass(gap_gate(estimate, partial, jump=jump, edges=edges),
+                                             partial), known, seconds))
+            for k in medians:
+                rows.append(_row(scene, name, size, sampling, f"{base}-median{k}", seed,
+                                 median_pass(gated, partial, k), known, seconds))
             if progress is not None:
                 progress(f"{name} {sampling} {base} seed {seed}: MAR {default['mar']:.4g} "
-                         f"(copy {copied['mar']:.4g}; {seconds:.1f} s, gate {post:.3f} s)")
+                         f"(copy {copied['mar']:.4g}; {seconds:.1f} s, post-passes {post:.3f} s)")
     return rows
 
 
@@ -181,11 +196,12 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--samplings", default=",".join(DEFAULT_SAMPLINGS))
     parser.add_argument("--bases", default="np,bp", help="np, bp or np,bp (default)")
     parser.add_argument("--jumps", default="", help="other jumps of the gate to print")
+    parser.add_argument("--medians", default="", help="other median windows to print (odd)")
     parser.add_argument("--seeds", default="0", help="comma-separated seeds (default 0)")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse NP, BP results")
     parser.add_argument("--stored-only", action="store_true",
                         help="with --arrays: skip the runs not stored there")
-    parser.add_argument("--json", default=None, help="write the runs and the summary here")
+    parser.add_argument("--json", default=None, help="write the runs here")
     parser.add_argument("--resume", action="store_true", help="keep the runs in --json")
     parser.add_argument("--mar", action="store_true", help="MARs in the table, not ratios")
     parser.add_argument("--quiet", action="store_true")
@@ -199,6 +215,10 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         jumps = [float(j) for j in scenes.split_list(args.jumps)]
         if any(not j >= 0 for j in jumps):
             raise ValueError("--jumps must list numbers >= 0")
+        medians = scenes.split_list(args.medians)
+        if not all(k.isdigit() for k in medians):
+            raise ValueError(f"--medians must list odd window sides, got {args.medians!r}")
+        medians = [check_median(int(k)) for k in medians]
         seeds = [int(s) for s in scenes.split_list(args.seeds)]
         if not seeds or min(seeds) < 0:
             raise ValueError("--seeds must list non-negative integers")
@@ -216,13 +236,13 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     if args.resume and Path(args.json).is_file():
         rows = [r for r in json.loads(Path(args.json).read_text())["runs"] if r["size"] == size]
     have = {(r["scene"], r["size"], r["sampling"], r["method"], r["seed"]) for r in rows}
-    methods = [m for b in bases for m in readings(b, jumps)]
+    methods = [m for b in bases for m in readings(b, jumps, medians)]
     methods += ["row-linear", *scenes.CLASSICAL]
     progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     for name, spec in specs:
         for sampling in samplings:
             rows += run_case(name, spec, size, sampling, bases, seeds, jumps, args.arrays, have,
-                             progress, stored_only=args.stored_only)
+                             progress, stored_only=args.stored_only, medians=medians)
             if args.json:
                 write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), runs=rows),
                                                    indent=1, allow_nan=True).encode())

@@ -1,6 +1,7 @@
 """The uncertainty map against the true errors: its mean, its ranking (AUSE), its zeros.
 
-Per scene × sampling × method (NP, BP as they fill, ``readings={"gaps": "copy"}``, seed 0), on
+Per scene × sampling × method (NP, BP as they fill, ``readings={"gaps": "copy", "median": 0}``,
+seed 0), on
 the scenes and protocol of ``bench_scenes.py`` (Table 4's centred crop and area resize; the
 unknown pixels with truth are scored):
 
@@ -16,26 +17,27 @@ unknown pixels with truth are scored):
 - ``cost``: the map's time over the synthesis's, in the same run (``nan`` when the result
   came from ``--arrays``).
 
-``--gate`` also scores the map of :func:`~refsynth.synthesis.gap_readings.gap_gate`'s
-post-pass with the fill's edges — :func:`refsynth.synthesize`'s default, ``gaps="gate"`` —
-(the method's fill given as ``raw``). ``--fit`` re-fits the weights and scales of
+``--default`` also scores the map of :func:`refsynth.synthesize`'s default output: the fill
+after :func:`~refsynth.synthesis.gap_readings.gap_gate` with the fill's edges
+(``gaps="gate"``) and :func:`~refsynth.synthesis.median_pass.median_pass` (``median=3``), the
+method's fill given as ``raw``. ``--fit`` re-fits the weights and scales of
 :data:`refsynth.synthesis.uncertainty.CALIBRATION` on the cases run (a grid search of the
 weights whose ``mean / MAR`` varies least across the cases among those of mean AUSE at most
-0.15, the scale centring that ratio's range on 1) and prints them; with ``--gate`` the
-post-pass's cases count too. ``--held-out`` asks how the scale carries to a scene it was
+0.15, the scale centring that ratio's range on 1) and prints them; with ``--default`` the
+default output's cases count too. ``--held-out`` asks how the scale carries to a scene it was
 not set on: for each scene, the scale is set again from the other scenes' cases alone (the
 geometric middle of their ``mean / MAR`` range, with :data:`CALIBRATION`'s weights; the
-scored cases: the gated ones with ``--gate``), and that scene's ``mean / MAR`` is printed
+scored cases: the default output's with ``--default``), and that scene's ``mean / MAR`` is printed
 under it beside the one under :data:`CALIBRATION`'s scale.
 
 Run::
 
     python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --arrays /tmp/unccache \\
-        --gate
+        --default
     python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --arrays /tmp/unccache \\
-        --gate --fit
+        --default --fit
     python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --arrays /tmp/unccache \\
-        --gate --held-out
+        --default --held-out
     python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --size 225x188 \\
         --scenes motorcycle,kv2_livingroom_raw --samplings x78,x63
 
@@ -67,6 +69,7 @@ from refsynth.synthesis.api import (  # noqa: E402
     validate_inputs,
 )
 from refsynth.synthesis.gap_readings import gap_gate  # noqa: E402
+from refsynth.synthesis.median_pass import median_pass  # noqa: E402
 from refsynth.synthesis.uncertainty import (  # noqa: E402
     CALIBRATION,
     uncertainty_features,
@@ -105,7 +108,8 @@ def load_result(name, spec, size, sampling, method, arrays):
         return scene, known, result
     partial = np.where(known, scene.range, np.nan)
     start = time.perf_counter()
-    out = synthesize(scene.intensity, partial, method=method, seed=0, readings={"gaps": "copy"})
+    out = synthesize(scene.intensity, partial, method=method, seed=0,
+                     readings={"gaps": "copy", "median": 0})
     seconds = time.perf_counter() - start
     result = dict(range=out.range, confidence=out.confidence, edges=out.edges, seconds=seconds)
     if out.candidate_values is not None:
@@ -116,15 +120,17 @@ def load_result(name, spec, size, sampling, method, arrays):
     return scene, known, result
 
 
-def score_case(scene, known, result, method, gate=False) -> tuple[dict, np.ndarray, object]:
-    """The figures of one case, its estimate and raw fill (``gate``: gap_gate's post-pass)."""
+def score_case(scene, known, result, method, default=False) -> tuple[dict, np.ndarray, object]:
+    """The figures of one case, its estimate and raw fill (``default``: synthesize's post-passes,
+    the gate then the median)."""
     partial = np.where(known, scene.range, np.nan)
     estimate, raw = result["range"], None
-    if gate:
+    if default:
         edges = result.get("edges")
         if edges is None:   # a cache without them: synthesize's Canny, recomputed
             edges = synthesis_edges(validate_inputs(scene.intensity, partial)[0], sigma=0.8)
-        estimate, raw = gap_gate(result["range"], partial, edges=edges), result["range"]
+        estimate = median_pass(gap_gate(result["range"], partial, edges=edges), partial)
+        raw = result["range"]
     start = time.perf_counter()
     unc = uncertainty_map(partial, estimate, method=method, raw=raw,
                           candidate_values=result.get("candidate_values"))
@@ -209,7 +215,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--samplings", default="x78", help="comma-separated (default x78)")
     parser.add_argument("--methods", default="np,bp", help="np, bp or np,bp (default)")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse the results")
-    parser.add_argument("--gate", action="store_true", help="also score gap_gate's post-pass")
+    parser.add_argument("--default", action="store_true",
+                        help="also score synthesize's default output (the gate, the median)")
     parser.add_argument("--fit", action="store_true", help="re-fit CALIBRATION and print it")
     parser.add_argument("--held-out", action="store_true",
                         help="each scene's mean/MAR under a scale set on the other scenes alone")
@@ -233,12 +240,12 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     figures: dict[str, list] = {}
     for (name, spec), sampling, method in itertools.product(specs, samplings, methods):
         scene, known, result = load_result(name, spec, size, sampling, method, args.arrays)
-        for gate in (False, True) if args.gate else (False,):
-            row, estimate, raw = score_case(scene, known, result, method, gate)
+        for default in (False, True) if args.default else (False,):
+            row, estimate, raw = score_case(scene, known, result, method, default)
             collected[method].append((scene, known, result, estimate, raw))
-            label = f"{method} (default)" if gate else f"{method} (gaps=\"copy\")"
+            label = f"{method} (default)" if default else f"{method} (as filled)"
             figures.setdefault(label, []).append(row)
-            if gate or not args.gate:
+            if default or not args.default:
                 ratios[method].append((name, row["mean_ratio"]))
             print(f"| {name} | {sampling} | {label} | {row['mar']:.4g} {row['units']} | "
                   f"{row['mean_ratio']:.2f} | {row['ause']:.3f} | {row['random']:.3f} | "
@@ -251,7 +258,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
               f"{max(r['ause'] for r in rows):.3f}; mean/MAR {ratio.min():.2f}–{ratio.max():.2f}; "
               f"zero on synthesized pixels {max(r['zero'] for r in rows):.1%}", file=out)
     if args.held_out:
-        scored = "the default (gated) output" if args.gate else 'gaps="copy"'
+        scored = "the default output" if args.default else "the fill as filled"
         print(f"\nmean/MAR, each scene under a scale set on the other scenes ({scored}):",
               file=out)
         for method in methods:

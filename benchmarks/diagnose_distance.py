@@ -84,10 +84,10 @@ from refsynth.synthesis.readings import split_options  # noqa: E402
 
 MAX_GAP = 6
 #: NP's readings compared by ``gaps``: label -> synthesize() keywords. Each runs the fill as
-#: filled (the reading ``gaps="copy"``) unless it names ``gaps``: ``np-gate`` is the default.
+#: filled (``gaps="copy"``, ``median=0``) unless it names them: ``np-gate`` is the default.
 GAP_VARIANTS = {
     "np": {},
-    "np-gate": {"gaps": "gate"},
+    "np-gate": {"gaps": "gate", "median": 3},
     "onion": {"ordering": "onion"},
     "value-copy": {"range_copy": "value"},
     "lambda0": {"range_weight": 0.0},
@@ -236,7 +236,7 @@ def traced_synthesize(intensity, partial, *, seed=0, check=True, override=None,
         keywords, readings = split_options(options)
         reference = synthesize(intensity, partial, seed=seed, use_edges=use_edges,
                                canny_sigma=canny_sigma, **keywords,
-                               readings={"gaps": "copy", **readings}).range
+                               readings={"gaps": "copy", "median": 0, **readings}).range
         if not np.array_equal(reference, trace.range):
             raise AssertionError("the traced NP differs from refsynth.synthesize: "
                                  "update the trace below to the package's np_fill")
@@ -483,7 +483,7 @@ def command_gaps(args, out) -> dict:
                 if not args.variants or k in args.variants.split(",")}
     fills = {label: (lambda image, partial, options=options: synthesize(
         image, partial, seed=args.seed, **split_options(options)[0],
-        readings={"gaps": "copy", **split_options(options)[1]}).range)
+        readings={"gaps": "copy", "median": 0, **split_options(options)[1]}).range)
         for label, options in variants.items()}
     fills.update(nearest=nearest_fill, linear=linear_fill)
     for name, scene in _scenes(args):
@@ -523,7 +523,7 @@ def command_prototypes(args, out) -> dict:
                 return float(np.abs(estimate - truth)[scored].mean())
 
             row = {"np": mar(synthesize(scene.intensity, partial, seed=args.seed,
-                                        readings={"gaps": "copy"}).range)}
+                                        readings={"gaps": "copy", "median": 0}).range)}
             for label in PROTOTYPES:
                 row[label] = mar(prototype(label)(scene, known, args.seed))
             row["linear"] = mar(linear_fill(scene.intensity, partial))

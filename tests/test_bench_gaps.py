@@ -9,6 +9,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from refsynth.evaluation.metrics import evaluate
+from refsynth.synthesis.gap_readings import gap_gate
+from refsynth.synthesis.median_pass import median_pass
+
 
 @pytest.fixture(scope="module")
 def bench(benchmark_script):
@@ -35,23 +39,34 @@ def test_table_arrays_and_resume(bench, folder, tmp_path):
     arrays.mkdir()
     target = tmp_path / "runs.json"
     argv = [str(folder), "--size", "24x20", "--samplings", "x63", "--bases", "np",
-            "--jumps", "0.1", "--arrays", str(arrays), "--json", str(target), "--quiet",
-            "--mar"]
+            "--jumps", "0.1", "--medians", "5", "--arrays", str(arrays), "--json", str(target),
+            "--quiet", "--mar"]
     out = io.StringIO()
     assert bench.main(argv, out=out) == 0
     line = next(x for x in out.getvalue().splitlines() if x.startswith("| step"))
     header = next(x for x in out.getvalue().splitlines() if x.startswith("| scene"))
     cells = dict(zip([c.strip() for c in header.split("|")], [c.strip() for c in line.split("|")]))
     runs = json.loads(target.read_text())["runs"]
-    assert {r["method"] for r in runs} == {"np-copy", "np", "np-clip", "np-jump0.1",
+    assert {r["method"] for r in runs} == {"np-copy", "np-gate", "np", "np-clip", "np-jump0.1",
+                                           "np-median5",
                                            "row-linear", "nearest", "linear", "colorization",
                                            "joint-bilateral"}
     mar = {r["method"]: r["mar"] for r in runs}
     assert float(cells["np"]) == pytest.approx(mar["np"], rel=1e-3)
     # the gate takes the line in the smooth gaps, so it is never worse than the copy here;
-    # jump 0.1 is the default's
-    assert mar["np"] <= mar["np-copy"] + 1e-12
+    # jump 0.1 is the default's; the median after the gate is the default
+    assert mar["np-gate"] <= mar["np-copy"] + 1e-12
     assert mar["np-jump0.1"] == mar["np"]
+    estimate = np.load(arrays / "step_x63_24x20_np-copy_0.npy")
+    scene = bench.scenes.load(str(folder / "step"), "24x20")
+    known = bench.known_mask(scene, "x63")
+    partial = np.where(known, scene.range, np.nan)
+    edges = bench.synthesis_edges(bench.validate_inputs(scene.intensity, partial)[0], sigma=0.8)
+    gated = gap_gate(estimate, partial, edges=edges)
+    assert mar["np"] == pytest.approx(
+        evaluate(median_pass(gated, partial), scene.range, known)["mar"], rel=1e-12)
+    assert mar["np-median5"] == pytest.approx(
+        evaluate(median_pass(gated, partial, 5), scene.range, known)["mar"], rel=1e-12)
     assert (arrays / "step_x63_24x20_np-copy_0.npy").is_file()
     assert (arrays / "step_x63_24x20_linear.npy").is_file()
     # a second run reuses the arrays: the same MARs
@@ -64,6 +79,7 @@ def test_table_arrays_and_resume(bench, folder, tmp_path):
 
 
 @pytest.mark.parametrize("bad", [["--bases", "np,xx"], ["--jumps", "-1"], ["--resume"],
+                                 ["--medians", "4"], ["--medians", "x"],
                                  ["--arrays", "/nonexistent/folder"]])
 def test_bad_arguments_exit_2(bench, folder, bad, capsys):
     assert bench.main([str(folder), *bad], out=io.StringIO()) == 2

@@ -51,28 +51,37 @@ def _digest(result) -> str:
 
 
 GOLDEN = {
-    ("steps", "np"): "27f7cd040b1f223cc74298c2",   # 0.5: NP's offset copy
+    ("steps", "np"): "cc9097f8caec9e751fa29dfe",
+    ("steps", "bp"): "0a43089e6824b25cb2683c27",
+    ("texture", "np"): "0859f634596abb5cdf19d6e1",
+    ("texture", "bp"): "0e39aa4ac95b9c537ff604c2",
+}
+#: The fill without the 3 × 3 median after it (``median=0``): the readings below keep it off,
+#: so that their hashes pin the fill itself.
+FILL = dict(median=0)
+GOLDEN_FILL = {
+    ("steps", "np"): "27f7cd040b1f223cc74298c2",   # NP's offset copy
     ("steps", "bp"): "de888bd52dfba104db0a840b",   # BP on NP's fill
     ("texture", "np"): "f2f579904e60b638f8084138",
     ("texture", "bp"): "e4ec2240a65b662ea60ea88a",
 }
 #: BP's observations completed by the colorization fill, the other defaults kept.
-COLORIZATION = dict(observation="colorization")
+COLORIZATION = dict(observation="colorization", **FILL)
 GOLDEN_COLORIZATION = {
     ("steps", "bp"): "207c5aede45dc5d1bac3b32c",
     ("texture", "bp"): "d7a8bbc8b58ef66e5f6701ca",
 }
 #: BP as Fig. 6 prints it (the observations' measured range, the fixed training disc, the
 #: labels' centre values), without refsynth's departures.
-FIG6 = dict(observation="measured", training_radius="fixed", range_copy="value")
+FIG6 = dict(observation="measured", training_radius="fixed", range_copy="value", **FILL)
 GOLDEN_FIG6 = {
     ("steps", "bp"): "da696a7a6b4edcc3d5f381ca",
     ("texture", "bp"): "e2699b75d7f964ac7ec9c282",
 }
 #: The centre's value copied (Eq. 5 as printed; Fig. 6's labels), the other defaults kept
 #: (BP on the colorization fill's observations).
-VALUE_COPY = {"np": dict(range_copy="value"),
-              "bp": dict(range_copy="value", observation="colorization")}
+VALUE_COPY = {"np": dict(range_copy="value", **FILL),
+              "bp": dict(range_copy="value", observation="colorization", **FILL)}
 GOLDEN_VALUE_COPY = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
     ("steps", "bp"): "7ce147a968fc672ca5e0f018",
@@ -81,9 +90,9 @@ GOLDEN_VALUE_COPY = {
 }
 #: Eq. 2's channel mean with the value copy; BP's proximity prior μ = 1 on Fig. 6's
 #: observations and training disc.
-CHANNEL_MEAN = {"np": dict(channels="mean", range_copy="value"),
+CHANNEL_MEAN = {"np": dict(channels="mean", range_copy="value", **FILL),
                "bp": dict(channels="mean", proximity=1.0, observation="measured",
-                          training_radius="fixed", range_copy="value")}
+                          training_radius="fixed", range_copy="value", **FILL)}
 GOLDEN_CHANNEL_MEAN = {
     ("steps", "np"): "1eb29b548dae38f8b4218494",
     ("steps", "bp"): "d8dab12d04faac1c1f7e756e",
@@ -105,6 +114,7 @@ GOLDEN_PAPER = {
 #: Every pinned reading: its name, its readings by method and its hashes.
 PINNED = [
     ("the defaults", {"np": {}, "bp": {}}, GOLDEN),
+    ("the fill", {"np": FILL, "bp": FILL}, GOLDEN_FILL),
     ("the channel mean", CHANNEL_MEAN, GOLDEN_CHANNEL_MEAN),
     ("Eq. 5's value copy", VALUE_COPY, GOLDEN_VALUE_COPY),
     ("Fig. 6", {"bp": FIG6}, GOLDEN_FIG6),
@@ -136,17 +146,20 @@ def _slices() -> tuple[np.ndarray, np.ndarray]:
     return image, np.where(known, truth, np.nan)
 
 
-#: A column scan, where the reading ``gaps`` acts: the defaults (``gaps="gate"``), the same
-#: with ``gaps="copy"``, and the paper's readings.
+#: A column scan, where the reading ``gaps`` acts: the defaults (``gaps="gate"``, then
+#: ``median=3``), the gate alone, the fill as copied, and the paper's readings.
 GOLDEN_SLICES = {
-    ("defaults", "np"): "ec82aacc92c738591faf839d",
-    ("defaults", "bp"): "14ecc224a7a51af26676c268",
+    ("defaults", "np"): "aa06077a49cbbb2345e4197d",
+    ("defaults", "bp"): "28674185b085226b965fade4",
+    ("gate", "np"): "ec82aacc92c738591faf839d",
+    ("gate", "bp"): "14ecc224a7a51af26676c268",
     ("copy", "np"): "63f6b732228ddfbb249592ca",
     ("copy", "bp"): "6d46d68100808a7f6783e721",
     ("paper", "np"): "aed0483601aeebd1e591b18a",
     ("paper", "bp"): "00c268bab03e14d49124972f",
 }
-SLICE_READINGS = {"defaults": {}, "copy": {"gaps": "copy"}, "paper": "paper"}
+SLICE_READINGS = {"defaults": {}, "gate": FILL, "copy": {"gaps": "copy", **FILL},
+                  "paper": "paper"}
 
 
 @pytest.mark.parametrize(("reading", "method"), sorted(GOLDEN_SLICES))

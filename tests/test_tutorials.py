@@ -180,6 +180,17 @@ def claims_02(text: str) -> None:
     assert rd["ceiling"] < r["np"] < r6["ceiling"]
     assert rd["mar"] - rd["ceiling"] > 0.005
     assert rd["rest"] - rd["top"] > r6["rest"] - r6["top"]
+    # section 5: the gate and then the median lower NP's and BP's MAR on the Motorcycle's
+    # x-stripes; on the room's grid the gate changes nothing and the median acts alone
+    post = {label: numbers(r"NP MAR {n} ± {n}, BP {n} ± {n}", rest) for label, rest in
+            re.findall(r"^Motorcycle, x-stripes 63 %, (.*?): (NP MAR .*)$", text, flags=re.M)}
+    assert list(post) == ["as filled", "gated", "gated, then the median (the default)"]
+    steps = list(post.values())
+    for before, after in zip(steps, steps[1:]):
+        assert after[0] < before[0] and after[2] < before[2]
+    assert "the room's grid 5/25: the gate changes nothing (True)" in text
+    filled, median = numbers(r"the room's grid 5/25, NP: MAR {n} m as filled, {n} m after", text)
+    assert median < filled
     source = text_source("02")
     for phrase in ("On the Motorcycle's vertical stripes refsynth's BP beats NP",
                    "Fig. 6's BP loses to NP",

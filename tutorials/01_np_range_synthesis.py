@@ -204,9 +204,15 @@ save(fig, "01_priority_terms.png")
 # with Eq. 2, keep those within `(1 + ε)` of the best (Eq. 5, ε = 0.1) and copy
 # the centre range of one of them, drawn with the seeded generator. The result
 # carries the fill order and the confidence each pixel received.
+#
+# Every run in this tutorial reads NP's fill itself, with
+# `readings={"median": 0}`. By default refsynth then gives each synthesized
+# pixel the median of its 3 × 3 window, a step after the fill that tutorial 2's
+# last section takes up.
 
 # %%
-result = refsynth.synthesize(scene.intensity, partial, seed=0)
+FILL = {"median": 0}  # NP's fill as filled, without the median after it
+result = refsynth.synthesize(scene.intensity, partial, seed=0, readings=FILL)
 units = scene.units
 mar_np = mar(result.range, scene.range, known)
 mar_nn = mar(nearest_fill(scene.intensity, partial), scene.range, known)
@@ -253,7 +259,7 @@ print(f"NP's error within 2 px of an intensity edge {error[scored & near_edge].m
 # %%
 when = np.full(scene.shape, np.nan)
 when[result.order[:, 0], result.order[:, 1]] = np.arange(len(result.order))
-onion = refsynth.synthesize(scene.intensity, partial, seed=0, ordering="onion")
+onion = refsynth.synthesize(scene.intensity, partial, seed=0, ordering="onion", readings=FILL)
 when_onion = np.full(scene.shape, np.nan)
 when_onion[onion.order[:, 0], onion.order[:, 1]] = np.arange(len(onion.order))
 
@@ -275,7 +281,8 @@ first = {"priority order": result, "onion order": onion}  # seed 0 of these ran 
 scores = {}
 for label, kwargs in variants.items():
     runs = [mar((first[label] if s == 0 and label in first else
-                 refsynth.synthesize(scene.intensity, partial, seed=s, **kwargs)).range,
+                 refsynth.synthesize(scene.intensity, partial, seed=s, **kwargs,
+                                     readings=FILL)).range,
                 scene.range, known) for s in range(3)]
     scores[label] = (np.mean(runs), np.std(runs, ddof=1))
     print(f"{label:>15}: MAR {scores[label][0]:.3f} ± {scores[label][1]:.3f} (3 seeds)")
@@ -346,7 +353,8 @@ small = synthetic_room((64, 64), seed=3)
 for rw, xw in [(5, 25), (3, 13)]:
     small_known = stripes(small.shape, rw, xw, axes="xy")
     small_partial = np.where(small_known, small.range, np.nan)
-    small_np = np.mean([mar(refsynth.synthesize(small.intensity, small_partial, seed=s).range,
+    small_np = np.mean([mar(refsynth.synthesize(small.intensity, small_partial, seed=s,
+                                                readings=FILL).range,
                             small.range, small_known) for s in range(3)])
     small_nn = mar(nearest_fill(small.intensity, small_partial), small.range, small_known)
     print(f"64x64, grid {rw}/{xw} ({100 * unknown_fraction(small_known):.0f} % unknown): "

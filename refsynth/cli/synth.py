@@ -211,7 +211,7 @@ _METHOD_OPTIONS = {
     "--compatibility": ("compatibility", "bp"), "--offset-tolerance": ("offset_tolerance", "bp"),
 }
 #: Options of both methods that are not Eq. 2's: passed on only when given.
-_BOTH_OPTIONS = ("range_copy", "gaps")
+_BOTH_OPTIONS = ("range_copy", "gaps", "median")
 #: Eq. 2's readings, for both methods: passed on only when given.
 _EQ2_OPTIONS = ("channels", "range_weight", "missing_range", "colour")
 _DEFAULT_RADIUS = 10.0
@@ -440,6 +440,10 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                       "pixel as filled (default: paper), or gate, the line across a smooth "
                       "gap and the fill clipped to its bounds across a depth edge (default: "
                       "refsynth)")
+    both.add_argument("--median", type=integer, metavar="N",
+                      help="after the gaps, each synthesized pixel the median of its N x N "
+                      "window: 0, none (default: paper), or an odd N from 3 to 15 (default: "
+                      "3, refsynth)")
     np_group = synth.add_argument_group("NP only (--method np)")
     np_group.add_argument("--epsilon", type=real, metavar="E",
                           help="tolerance of Eq. 5 (default 0.1)")

@@ -18,7 +18,8 @@ validates it and returns its canonical form:
   NN % unknown);
 - methods: ``np``, ``np-noedges``, ``np-noisophotes``, ``np-onion``, ``bp``,
   ``bp-noedges``, ``bp-fig6`` (Fig. 6 as printed: ``readings="paper"``), ``np-copy`` and
-  ``bp-copy`` (the default readings but ``gaps="copy"``), ``bp-obs-np`` (BP's
+  ``bp-copy`` (the default readings but ``gaps="copy"`` and ``median=0``: every pixel as
+  filled), ``bp-obs-np`` (BP's
   observations completed by NP's fill, an option), and the baselines of
   :mod:`refsynth.evaluation.baselines` by name (``nearest``, ``linear``,
   ``harmonic``, ``colorization``, ``joint-bilateral``).
@@ -75,14 +76,14 @@ SYNTHESIS_METHODS: dict[str, dict] = {
     "bp": {"method": "bp"},
     "bp-noedges": {"method": "bp", "use_edges": False},
     # Fig. 6 as printed, readings="paper": BP's defaults complete the observations, widen
-    # the training disc, shift the copied labels and gate the gaps (departures measured on
-    # real data: refsynth.synthesis.readings lists them)
+    # the training disc, shift the copied labels, gate the gaps and take the median after
+    # (departures measured on real data: refsynth.synthesis.readings lists them)
     "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
                 "range_copy": "value", "missing_range": "ignore", "tolerance": 0.0,
-                "gaps": "copy"},
-    # refsynth's readings without the gap reading: every pixel as NP or BP filled it
-    "np-copy": {"gaps": "copy"},
-    "bp-copy": {"method": "bp", "gaps": "copy"},
+                "gaps": "copy", "median": 0},
+    # refsynth's readings without the post-passes: every pixel as NP or BP filled it
+    "np-copy": {"gaps": "copy", "median": 0},
+    "bp-copy": {"method": "bp", "gaps": "copy", "median": 0},
     # BP's observations completed by NP's fill, named: the same as "bp" (BP's default)
     "bp-obs-np": {"method": "bp", "observation": "np"},
     # completed by the colorization fill instead (no random choice)

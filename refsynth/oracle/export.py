@@ -3,7 +3,7 @@
 Layout::
 
     DIR/manifest.json        {"format": "refsynth-oracle", "version": 2, "contract": 1,
-                              "case_set": 8, "refsynth": "…", "numpy": "…",
+                              "case_set": 9, "refsynth": "…", "numpy": "…",
                               "cases": [{"name", "kind", "json", "npz", "sha256",
                                          "json_sha256"}, …]}
     DIR/schema.json          JSON Schema (draft 2020-12) of manifest.json; $defs.case is a
@@ -17,7 +17,7 @@ Layout::
 :data:`CONTRACT_VERSION` (the numeric contract, :mod:`refsynth.numeric`), ``case_set``
 :data:`~refsynth.oracle.cases.CASE_SET_VERSION` (the cases' inputs and options). ``sha256``
 and ``json_sha256`` are the SHA-256 of the case's NPZ and JSON: ``oracle check`` verifies
-them before any case runs. The whole set is 61 cases (``--large`` adds a 48×64 NP run);
+them before any case runs. The whole set is 64 cases (``--large`` adds a 48×64 NP run);
 ``--cases PATTERN …`` writes a subset. Every file is written atomically
 (:func:`refsynth._files.write_atomic`), and only into a new or empty folder or over an
 earlier export (:func:`~refsynth.oracle.files.check_export_target`).

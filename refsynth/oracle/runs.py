@@ -21,6 +21,7 @@ from refsynth.numeric import quantise_grey, quantise_intensity, quantise_range, 
 from refsynth.synthesis import reference as ref
 from refsynth.synthesis.api import normalise_intensity
 from refsynth.synthesis.gap_readings import gap_gate
+from refsynth.synthesis.median_pass import median_pass
 
 __all__ = ["run_outputs", "np_trace", "prepared_arrays", "KEPT_SWEEPS", "ALL_SWEEPS_UP_TO"]
 
@@ -143,18 +144,22 @@ def run_outputs(kind: str, inputs: dict, options: dict, seed, *, reference=None)
 
     With ``options["gaps"] == "gate"`` the output ``range`` is the fill's after
     :func:`~refsynth.synthesis.gap_readings.gap_gate` (the reading ``gaps``, a post-pass with
-    the case's edges); the trace stays the fill's. ``reference`` is the module whose
-    ``np_reference`` / ``bp_reference`` runs (default
+    the case's edges), and with ``options["median"]`` not 0 after
+    :func:`~refsynth.synthesis.median_pass.median_pass` too; the trace stays the fill's.
+    ``reference`` is the module whose ``np_reference`` / ``bp_reference`` runs (default
     :mod:`refsynth.synthesis.reference`): a Python port written in its image, or a
     deliberately perturbed copy, gets its trace in the oracle's layout this way.
     """
     reference = ref if reference is None else reference
     options = dict(options)
     gaps = options.pop("gaps", "copy")
+    median = options.pop("median", 0)
     prepared = prepared_arrays(inputs, options)
-    run = (_np_run if kind == "np" else _bp_run)(inputs, dict(options, gaps="copy"), seed,
-                                                 reference)
-    if gaps == "gate":  # the reading after the fill: the trace is the fill's
+    run = (_np_run if kind == "np" else _bp_run)(inputs, dict(options, gaps="copy", median=0),
+                                                 seed, reference)
+    if gaps == "gate":  # the readings after the fill: the trace is the fill's
         edges = inputs["edges"] & bool(options["use_edges"])
         run["range"] = gap_gate(run["range"], inputs["partial_range"], edges=edges)
+    if median:
+        run["range"] = median_pass(run["range"], inputs["partial_range"], median)
     return dict(prepared, **run)

@@ -58,6 +58,7 @@ from refsynth.synthesis.limits import (
     search_radius,
     validate_inputs,
 )
+from refsynth.synthesis.median_pass import median_pass
 from refsynth.synthesis.nonparametric import np_fill
 from refsynth.synthesis.options import (
     BP_OPTIONS,
@@ -103,7 +104,9 @@ class SynthesisResult:
     range : ndarray of shape (H, W), float64
         The dense range, finite everywhere; measured pixels are unchanged. With the
         reading ``gaps="gate"`` (the default) a column scan's gaps are the fill after
-        :func:`refsynth.synthesis.gap_readings.gap_gate`; ``bp.range`` keeps BP's MAP
+        :func:`refsynth.synthesis.gap_readings.gap_gate`, and with ``median=3`` (the
+        default) each synthesized pixel then takes the median of its 3 × 3 window
+        (:func:`refsynth.synthesis.median_pass.median_pass`); ``bp.range`` keeps BP's MAP
         labels as filled.
     confidence : ndarray of shape (H, W), float64
         In [0, 1]: 1 where the range was measured; for NP the confidence the
@@ -185,10 +188,13 @@ def synthesis_edges(image: np.ndarray, sigma: float = 0.8) -> np.ndarray:
     return canny(levels, sigma=sigma)
 
 
-def _gaps(filled: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
-          reading: str) -> np.ndarray:
-    """The reading ``gaps`` after the fill: as filled, or :func:`gap_gate` with the edges."""
-    return filled if reading == "copy" else gap_gate(filled, range_values, edges=edges)
+def _after_fill(filled: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
+                chosen: dict) -> np.ndarray:
+    """The readings ``gaps`` (as filled, or :func:`gap_gate` with the edges), then ``median``
+    (:func:`median_pass`)."""
+    gated = (filled if chosen["gaps"] == "copy"
+             else gap_gate(filled, range_values, edges=edges))
+    return median_pass(gated, range_values, chosen["median"]) if chosen["median"] else gated
 
 
 def synthesize(
@@ -449,7 +455,7 @@ def synthesize(
             image, range_values, edge_map, rng, **common, **options,
             range_copy=chosen["range_copy"], confidence_update=chosen["confidence_update"],
             edges_last=chosen["edges_last"])
-        gated = _gaps(filled, range_values, edge_map, chosen["gaps"])
+        gated = _after_fill(filled, range_values, edge_map, chosen)
         return SynthesisResult(range=gated, confidence=confidence, order=order,
                                edges=edge_map, method=method, params=params,
                                uncertainty=uncertainty_map(range_values, gated, raw=filled))
@@ -482,7 +488,7 @@ def synthesize(
         bp_options["observation_completed"] = observation.endswith("-completed")
     bp = bp_fill(image, range_values, edge_map, **bp_options,
                  **{**common, "progress": stages.stage(1)})
-    gated = _gaps(bp.range, range_values, edge_map, chosen["gaps"])
+    gated = _after_fill(bp.range, range_values, edge_map, chosen)
     return SynthesisResult(range=gated, confidence=bp.confidence, order=bp.order,
                            edges=edge_map, method=method, params=params,
                            iterations=bp.iterations, candidate_values=bp.candidate_values,

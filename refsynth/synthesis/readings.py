@@ -88,13 +88,18 @@ field                   ``paper``      ``refsynth``   the paper's text; the evid
                                                       gap, the copy clipped to the bounds across
                                                       a depth edge) won on every scene type
                                                       (``benchmarks/bench_gaps.py``).
+``median``              0              3              §3.2 leaves each pixel as NP or BP filled
+                                                      it; the 3 × 3 median of the result on the
+                                                      synthesized pixels won on every scene ×
+                                                      sampling (``benchmarks/bench_gaps.py``).
 ======================  =============  =============  ============================================
 
 The figures behind each line are on the documentation's departures page and in the docstring
 of the module that implements the departure (:mod:`refsynth.synthesis.similarity`,
 :mod:`refsynth.synthesis.range_copy`, :mod:`refsynth.synthesis.belief.observation`,
 :mod:`refsynth.synthesis.belief.gap_radius`, :mod:`refsynth.synthesis.belief.centres`,
-:mod:`refsynth.synthesis.belief.proposals`, :mod:`refsynth.synthesis.gap_readings`), each with the
+:mod:`refsynth.synthesis.belief.proposals`, :mod:`refsynth.synthesis.gap_readings`,
+:mod:`refsynth.synthesis.median_pass`), each with the
 command that prints them.
 
 References
@@ -115,6 +120,7 @@ from refsynth.synthesis.belief.observation import OBSERVATIONS
 from refsynth.synthesis.belief.proposals import PROPOSALS
 from refsynth.synthesis.gap_readings import GAPS
 from refsynth.synthesis.limits import PARAMETER_BOUNDS
+from refsynth.synthesis.median_pass import DEFAULT_MEDIAN, check_median
 from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
 from refsynth.synthesis.similarity import CHANNELS, MISSING_RANGE
@@ -127,12 +133,12 @@ PRODUCTS = ("max", "sum")
 
 #: The readings NP uses (§3.2.2, §3.2.4).
 NP_READINGS = ("range_weight", "missing_range", "colour", "channels", "range_copy",
-               "confidence_update", "edges_last", "gaps")
+               "confidence_update", "edges_last", "gaps", "median")
 #: The readings BP uses (§3.2.3, Fig. 6): Eq. 2's ranking shares NP's Eq. 2 readings.
 BP_READINGS = ("range_weight", "missing_range", "colour", "channels", "range_copy",
                "observation", "training_radius", "compatibility", "proximity", "sigma_i",
                "sigma_s", "product", "tolerance", "edge_rule", "offset_tolerance", "proposals",
-               "proposal_runs", "gaps")
+               "proposal_runs", "gaps", "median")
 
 
 def _bounded(name: str, value) -> float:
@@ -169,6 +175,7 @@ _CHECKS = {
     "proposals": lambda v: None if v is None else check_choice("proposals", v, PROPOSALS),
     "proposal_runs": _proposal_runs,
     "gaps": lambda v: check_choice("gaps", v, GAPS),
+    "median": check_median,
 }
 
 
@@ -184,7 +191,7 @@ class Readings:
     >>> Readings.paper().range_copy, Readings().range_copy
     ('value', 'offset')
     >>> sorted(Readings().departures())   # refsynth's departures from the paper
-    ['gaps', 'missing_range', 'observation', 'range_copy', 'tolerance', 'training_radius']
+    ['gaps', 'median', 'missing_range', 'observation', 'range_copy', 'tolerance', 'training_radius']
     >>> Readings.paper().replace(range_copy="offset").range_copy
     'offset'
     >>> Readings().replace(range_cpy="value")
@@ -193,7 +200,7 @@ class Readings:
     ValueError: Unknown reading `range_cpy`; the readings are: range_weight, missing_range, \
 colour, channels, range_copy, confidence_update, edges_last, observation, training_radius, \
 compatibility, proximity, sigma_i, sigma_s, product, tolerance, edge_rule, offset_tolerance, \
-proposals, proposal_runs, gaps
+proposals, proposal_runs, gaps, median
     """
 
     # Eq. 2 (NP, and BP's ranking)
@@ -222,6 +229,8 @@ proposals, proposal_runs, gaps
     proposal_runs: int = 1
     # after the fill (NP and BP): a column scan's gaps (refsynth.synthesis.gap_readings)
     gaps: str = "gate"
+    # after the gaps (NP and BP): a median of the synthesized pixels (synthesis.median_pass)
+    median: int = DEFAULT_MEDIAN
 
     def __post_init__(self) -> None:
         for name, check in _CHECKS.items():
@@ -243,9 +252,9 @@ proposals, proposal_runs, gaps
     @classmethod
     def paper(cls) -> Readings:
         """The paper as printed: Eq. 2 as written, Eq. 5's value copy, Fig. 6's BP, 50 sweeps,
-        every gap as filled."""
+        every pixel as filled."""
         return cls(missing_range="ignore", range_copy="value", observation="measured",
-                   training_radius="fixed", tolerance=0.0, gaps="copy")
+                   training_radius="fixed", tolerance=0.0, gaps="copy", median=0)
 
     @classmethod
     def preset(cls, name: str) -> Readings:

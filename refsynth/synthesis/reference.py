@@ -72,6 +72,7 @@ from refsynth.numeric import (
 )
 from refsynth.synthesis.completion import portable_colorization
 from refsynth.synthesis.gap_readings import gap_gate
+from refsynth.synthesis.median_pass import median_pass
 from refsynth.synthesis.similarity import eq2_distance
 
 __all__ = [
@@ -229,7 +230,7 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
                  use_edges=True, use_isophotes=True, ordering="priority", range_weight=1.0,
                  missing_range="mean", confidence_update="best", colour=True,
                  edges_last=True, channels="sum", range_copy="offset", gaps="gate",
-                 trace=False) -> NPReference:
+                 median=3, trace=False) -> NPReference:
     r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
 
     For the front voxel ``p`` of highest priority (Eq. 10; with ``edges_last``, edge voxels
@@ -274,6 +275,9 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
     gaps : {"copy", "gate"}
         After the fill (the range only, not the trace's steps): as filled, or
         :func:`~refsynth.synthesis.gap_readings.gap_gate` with the edges used (a departure).
+    median : int
+        After ``gaps``: 0, or the window side of
+        :func:`~refsynth.synthesis.median_pass.median_pass` (a departure).
     trace : bool
         Also record every step (pixel, priority, candidates, distances, Γ', draw, source).
 
@@ -347,16 +351,17 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
             steps.append(dict(pixel=p, terms=terms, candidates=candidates, distances=distances,
                               best=best, members=members, draw=float(draws[step]),
                               source=source, confidence=conf[r, c]))
-    out = _after_fill(out, range_values, edges, use_edges, gaps)
+    out = _after_fill(out, range_values, edges, use_edges, gaps, median)
     return NPReference(out, conf, np.array(order, dtype=np.int64).reshape(-1, 2), steps)
 
 
-def _after_fill(out, range_values, edges, use_edges, gaps):
-    """The reading ``gaps`` after the fill (both methods): as filled, or gated with the
-    edges the fill used (:func:`refsynth.synthesis.gap_readings.gap_gate`)."""
-    if gaps == "copy":
-        return out
-    return gap_gate(out, range_values, edges=np.asarray(edges, bool) & bool(use_edges))
+def _after_fill(out, range_values, edges, use_edges, gaps, median):
+    """The readings after the fill (both methods): ``gaps``, as filled or gated with the
+    edges the fill used (:func:`refsynth.synthesis.gap_readings.gap_gate`), then ``median``
+    (:func:`refsynth.synthesis.median_pass.median_pass`, when not 0)."""
+    if gaps == "gate":
+        out = gap_gate(out, range_values, edges=np.asarray(edges, bool) & bool(use_edges))
+    return median_pass(out, range_values, median) if median else out
 
 
 # -- BP: the algorithm of Fig. 6 (Eqs. 6–9) --------------------------------------------------
@@ -506,7 +511,8 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=0.0, colour=True, edge_rule="silent", channels="sum",
                  observation="np", training_radius="gap", range_copy="offset",
-                 offset_tolerance=None, gaps="gate", rng=None, trace=False) -> BPReference:
+                 offset_tolerance=None, gaps="gate", median=3, rng=None,
+                 trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
     1. Nodes: the unknown pixels; fixed nodes: the measured ones.
@@ -561,7 +567,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
         np_range = np_reference(image, range_values, edges, rng, neighbourhood=neighbourhood,
                                 radius=radius, use_edges=use_edges, range_weight=range_weight,
                                 missing_range=missing_range, colour=colour,
-                                channels=channels, gaps="copy").range
+                                channels=channels, gaps="copy", median=0).range
     observed = _observed_frame(frame, image, range_values, observation, colour, np_range)
     agreement = offset_tolerance
     if agreement is None:
@@ -678,7 +684,7 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
                 pooled += weights[label] / z
         confidence[r, c] = min(pooled, 1.0)
     order = np.array(nodes, dtype=np.int64).reshape(-1, 2)
-    out = _after_fill(out, range_values, edges, use_edges, gaps)
+    out = _after_fill(out, range_values, edges, use_edges, gaps, median)
     return BPReference(out, confidence, order, labels, cands, values, unary,
                        np.array([p[:2] for p in pairs], np.int64).reshape(-1, 2), log_psi,
                        messages, belief, done, sweeps,

@@ -42,13 +42,14 @@ method's per-pixel information only, so it stays right when the range is post-pr
 
 Calibration: on the choosing scenes — the Motorcycle and the five scenes of
 ``../shared/data`` — at x-stripes 78 %, 450 × 375, seed 0, NP's and BP's results as they are
-and after :func:`~refsynth.synthesis.gap_readings.gap_gate`'s post-pass, a grid of the
+and after the default post-passes (:func:`~refsynth.synthesis.gap_readings.gap_gate`, then
+:func:`~refsynth.synthesis.median_pass.median_pass`), a grid of the
 weights keeps those whose mean AUSE (a fraction of the MAR) is at most 0.15, and of these
 takes the one whose ``mean(map) / MAR`` varies least across the cases
-(``python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --gate --fit`` prints
-them). The scale is then set on :func:`refsynth.synthesize`'s default output, the gated one:
-it centres that ratio's range over the gated cases on 1 (the fit's scale divided by the
-geometric mean of the gated cases' lowest and highest ratio). Without ``--fit`` the command
+(``python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --default --fit`` prints
+them). The scale is then set on :func:`refsynth.synthesize`'s default output: it centres
+that ratio's range over the default output's cases on 1 (the fit's scale divided by the
+geometric mean of those cases' lowest and highest ratio). Without ``--fit`` the command
 prints the figures of ``docs/uncertainty.md``.
 
 The numeric contract (:mod:`refsynth.numeric`): the map is made of differences, maxima and
@@ -80,10 +81,10 @@ UNCERTAINTY_METHODS = ("np", "bp")
 #: The side of the window of the ``variation`` term, in pixels.
 WINDOW = 9
 #: Per method, the weights of the terms and the scale (see the module's docstring; re-fitted
-#: by ``python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --gate --fit``).
+#: by ``python benchmarks/bench_uncertainty.py ../shared/data --motorcycle --default --fit``).
 CALIBRATION = {
-    "np": {"spread": 1.0, "labels": 0.0, "variation": 0.25, "floor": 4.0, "scale": 0.264},
-    "bp": {"spread": 0.5, "labels": 0.25, "variation": 0.1, "floor": 2.0, "scale": 0.506},
+    "np": {"spread": 1.0, "labels": 0.0, "variation": 0.25, "floor": 4.0, "scale": 0.251},
+    "bp": {"spread": 0.5, "labels": 0.25, "variation": 0.1, "floor": 2.0, "scale": 0.482},
 }
 
 

@@ -15,6 +15,7 @@ from refsynth.scenes import motorcycle, synthetic_room
 from refsynth.synthesis import data_term, fill_front
 
 SEEDS = range(3)
+FILL = {"median": 0}  # NP's fill itself, without the median after it (tutorial 2, section 5)
 
 
 def exercise_1() -> None:
@@ -45,7 +46,8 @@ def exercise_1() -> None:
     scored = ~known & bike.has_truth
     means = {}
     for label, kwargs in [("NP", {}), ("no edges", {"use_edges": False})]:
-        results = [refsynth.synthesize(bike.intensity, partial, seed=s, **kwargs) for s in SEEDS]
+        results = [refsynth.synthesize(bike.intensity, partial, seed=s, **kwargs,
+                                       readings=FILL) for s in SEEDS]
         if label == "NP":  # the Canny edges NP used
             near_edge = ndimage.binary_dilation(results[0].edges, iterations=2)
         runs = [mar(result.range, bike.range, known) for result in results]
@@ -61,8 +63,8 @@ def exercise_1() -> None:
     room = synthetic_room((128, 128), seed=3)
     known = stripes(room.shape, 5, 25, axes="xy")
     partial = np.where(known, room.range, np.nan)
-    on, off = ([mar(refsynth.synthesize(room.intensity, partial, seed=s,
-                                        use_edges=flag).range, room.range, known)
+    on, off = ([mar(refsynth.synthesize(room.intensity, partial, seed=s, use_edges=flag,
+                                        readings=FILL).range, room.range, known)
                 for s in SEEDS] for flag in (True, False))
     print(f"1. {room.name}: NP {np.mean(on):.3f} ± {np.std(on, ddof=1):.3f} m, "
           f"no edges {np.mean(off):.3f} ± {np.std(off, ddof=1):.3f} m")
@@ -147,8 +149,8 @@ def vertical_streaks(bad: np.ndarray, length: int = 20) -> int:
 def exercise_3() -> None:
     """Make the fill run in onion order and look at the streaks.
 
-    The fills are read as filled (``gaps="copy"``: the gap reading, after the
-    fill, would draw the line across the stripes' smooth gaps). With Eq. 5's copy
+    The fills are read as filled (``gaps="copy"``, ``median=0``: the gap reading, after
+    the fill, would draw the line across the stripes' smooth gaps). With Eq. 5's copy
     of the drawn value (``range_copy="value"``, the paper's), on vertical stripes
     the priority order fills in chains: each filled pixel raises its neighbours'
     confidence (Eq. 11), so the fill runs down the front, copying from the pixel it
@@ -174,7 +176,8 @@ def exercise_3() -> None:
     for copy in ("value", "offset"):
         for ordering in ("priority", "onion"):
             fills = [refsynth.synthesize(scene.intensity, partial, seed=s, ordering=ordering,
-                                         readings={"range_copy": copy, "gaps": "copy"}).range
+                                         readings={"range_copy": copy, "gaps": "copy",
+                                                   **FILL}).range
                      for s in SEEDS]
             streaks[copy, ordering] = [
                 vertical_streaks(~known & (np.abs(f - scene.range) > threshold)) for f in fills]
