@@ -371,6 +371,25 @@ def test_synth_a_flag_overrides_one_reading_of_the_preset(files, capsys):
     np.testing.assert_array_equal(np.load(files / "o.npy"), direct)
 
 
+def test_synth_median_is_the_librarys_reading(files, capsys):
+    image, partial = np.load(files / "image.npy"), np.load(files / "partial.npy")
+    library = __import__("refsynth").synthesize
+    for size in (0, 5):
+        argv = ["synth", str(files / "image.npy"), str(files / "partial.npy"), "--median",
+                str(size), "--out", str(files / f"m{size}.npy")]
+        assert _run(argv, capsys)[0] == 0
+        direct = library(image, partial, readings={"median": size}).range
+        np.testing.assert_array_equal(np.load(files / f"m{size}.npy"), direct)
+
+
+@pytest.mark.parametrize(("value", "needle"), [
+    ("4", "`median` must be 0 or an odd number from 3 to 15, got 4"),
+    ("three", "argument --median: invalid integer 'three'")])
+def test_synth_refuses_a_bad_median_in_one_line(files, capsys, no_work, value, needle):
+    _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
+                 "--out", str(files / "o.npy"), "--median", value], capsys, needle)
+
+
 def test_synth_refuses_an_unknown_preset_in_one_line(files, capsys, no_work):
     _fails_with(["synth", str(files / "image.npy"), str(files / "partial.npy"),
                  "--out", str(files / "o.npy"), "--readings", "printed"], capsys,
