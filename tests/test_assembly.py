@@ -26,11 +26,13 @@ from refsynth.synthesis.readings import split_options
 def _one_hole(image, truth, hole, **options):
     """NP on a scene where only ``hole`` is unknown: returns the value it received.
 
-    With Eq. 5's value copy unless told otherwise, so that the value names its source.
+    With Eq. 5's value copy unless told otherwise, so that the value names its source, and
+    without the median after the fill.
     """
     partial = truth.copy()
     partial[hole] = np.nan
     options.setdefault("range_copy", "value")
+    options.setdefault("median", 0)
     keywords, readings = split_options(options)
     result = refsynth.synthesize(image, partial, use_edges=False, **keywords, readings=readings)
     return result.range[hole], result.confidence[hole]
@@ -313,7 +315,8 @@ def test_bp_on_a_chain_with_fixed_neighbours_finds_the_brute_force_map(seed):
                                  readings={"sigma_i": sigma_i, "sigma_s": sigma_s,
                                            "proximity": proximity, "tolerance": 0.0,
                                            "observation": "measured",
-                                           "training_radius": "fixed"})   # Fig. 6, brute-forced
+                                           "training_radius": "fixed",
+                                           "median": 0})   # Fig. 6, brute-forced
     scores = _brute_force_map(image, partial, result, sigma_i, sigma_s, proximity, radius)
     ranked = sorted(scores.values())
     if ranked[-1] - ranked[-2] < 1e-9 * max(1.0, abs(ranked[-1])):

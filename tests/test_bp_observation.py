@@ -502,7 +502,7 @@ def test_observation_np_is_bp_on_nps_fill_from_the_same_seed():
         out = refsynth.synthesize(image, partial, method="bp", radius=3.0, seed=seed,
                                   readings={"observation": "np"})
         nps = refsynth.synthesize(image, partial, method="np", radius=3.0, seed=seed,
-                                  readings={"gaps": "copy"})   # NP's fill as filled
+                                  readings={"gaps": "copy", "median": 0})   # NP's fill as filled
         want = bp_fill(image[:, :, None], partial, out.edges, radius=3.0,
                        observation=np_observation(nps.range, partial), training_radius="gap")
         np.testing.assert_array_equal(out.bp.range, want.range)

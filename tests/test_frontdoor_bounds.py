@@ -150,7 +150,7 @@ def _prepared(result):
 
 def test_np_runs_a_radius_beyond_the_image_as_given():
     result = refsynth.synthesize(IMAGE, PARTIAL, radius=40.0, seed=3,
-                                 readings={"gaps": "copy"})   # the fill as filled
+                                 readings={"gaps": "copy", "median": 0})   # the fill as filled
     image, values, edges = _prepared(result)
     filled, confidence, order = np_fill(image, values, edges, np.random.default_rng(3),
                                         radius=40.0)
@@ -163,7 +163,7 @@ def test_bp_with_a_radius_beyond_the_image_keeps_the_priors_scale_bit_for_bit(pr
     """BP's prior mu (|p - q| / r)^2 scales with r: it keeps the caller's r (Fig. 6's disc)."""
     result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=40.0,
                                  readings={"proximity": proximity, "observation": "measured",
-                                           "training_radius": "fixed", "gaps": "copy"})
+                                           "training_radius": "fixed", "gaps": "copy", "median": 0})
     image, values, edges = _prepared(result)
     direct = bp_fill(image, values, edges, radius=40.0, proximity=proximity)
     assert np.array_equal(result.range, direct.range)

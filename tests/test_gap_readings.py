@@ -275,8 +275,9 @@ def test_the_default_reading_gates_what_the_paper_copies(method):
     edges = np.zeros(shape, bool)
     edges[:, 5] = True
     copied = refsynth.synthesize(image, partial, method=method, seed=0, edges=edges,
-                                 readings={"gaps": "copy"})
-    gated = refsynth.synthesize(image, partial, method=method, seed=0, edges=edges)
+                                 readings={"gaps": "copy", "median": 0})
+    gated = refsynth.synthesize(image, partial, method=method, seed=0, edges=edges,
+                                readings={"median": 0})
     assert gated.params["gaps"] == "gate" and copied.params["gaps"] == "copy"
     assert np.array_equal(gated.range, gap_gate(copied.range, partial, edges=edges))
     np.testing.assert_allclose(gated.range[:, 12:21], truth[:, 12:21], atol=1e-12)

@@ -103,10 +103,11 @@ def test_a_slanted_plane_fills_as_a_plane_with_the_shift_and_as_steps_without():
     image, truth, partial = _ramp()
     unknown = np.isnan(partial)
     span = np.nanmax(partial) - np.nanmin(partial)
-    # the fill as filled (gaps="copy"): the gap reading would draw the line across the gaps
-    shifted = refsynth.synthesize(image, partial, seed=0, readings={"gaps": "copy"})
+    # the fill as filled (gaps="copy", median=0): the gap reading would draw the line across
+    # the gaps
+    shifted = refsynth.synthesize(image, partial, seed=0, readings={"gaps": "copy", "median": 0})
     copied = refsynth.synthesize(image, partial, seed=0,
-                                 readings={"range_copy": "value", "gaps": "copy"})
+                                 readings={"range_copy": "value", "gaps": "copy", "median": 0})
     error_shifted = np.abs(shifted.range - truth)[unknown]
     error_copied = np.abs(copied.range - truth)[unknown]
     assert error_shifted.max() <= 2 * span * 2.0**-RANGE_BITS  # the grid's rounding, twice
@@ -193,9 +194,10 @@ def test_bps_labels_fill_a_slanted_plane_as_a_plane_with_the_shift_and_as_steps_
     image, truth = 0.3 + 0.02 * rows, 2.0 + 0.05 * cols
     partial = np.where(cols % 9 < 3, truth, np.nan)
     unknown = np.isnan(partial)
-    shifted = refsynth.synthesize(image, partial, method="bp", readings={"gaps": "copy"})
+    shifted = refsynth.synthesize(image, partial, method="bp",
+                                  readings={"gaps": "copy", "median": 0})
     copied = refsynth.synthesize(image, partial, method="bp",
-                                 readings={"range_copy": "value", "gaps": "copy"})
+                                 readings={"range_copy": "value", "gaps": "copy", "median": 0})
     error_shifted = np.abs(shifted.range - truth)[unknown]
     error_copied = np.abs(copied.range - truth)[unknown]
     assert set(copied.range[unknown]) <= set(partial[~unknown])

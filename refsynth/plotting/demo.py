@@ -103,7 +103,7 @@ def run_demo(out: Path, size: int = 128, seed: int = 0, *,
     >>> written == sorted(DEMO_FIGURES), len(rows)  # 2 samplings × (4 methods + 5 baselines)
     (True, 18)
     >>> rows[0]["sampling"], rows[0]["method"], round(rows[0]["mar"], 3)
-    ('grid 5/25', 'NP', 0.767)
+    ('grid 5/25', 'NP', 0.797)
     """
     progress = progress or _no_progress
     scene = synthetic_room((size, size), seed=seed)

@@ -13,7 +13,8 @@ a pixel:
 ``spread``
     The spread ``max − min`` of the candidate estimates of the pixel: the final estimate, the
     method's own fill (``raw``; the same array unless the estimate was post-processed, e.g.
-    by :func:`~refsynth.synthesis.gap_readings.gap_gate`) and the row interpolation between
+    by :func:`~refsynth.synthesis.gap_readings.gap_gate` and
+    :func:`~refsynth.synthesis.median_pass.median_pass`) and the row interpolation between
     the measured columns bounding the pixel's gap
     (:func:`~refsynth.synthesis.gap_readings.row_interpolation`). Where the copy of Eq. 5 (or
     BP's label of Eq. 8) agrees with the straight line across the gap, the surface is smooth

@@ -92,6 +92,7 @@ from refsynth.numeric import (
     window_weights,
 )
 from refsynth.synthesis.gap_readings import gap_gate
+from refsynth.synthesis.median_pass import median_pass
 from refsynth.synthesis.neighbourhood import disc_offsets
 from refsynth.synthesis.similarity import eq2_distance
 
@@ -236,7 +237,7 @@ def np_reference(image: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
                  ordering: str = "priority", range_weight: float = 1.0,
                  missing_range: str = "ignore", confidence_update: str = "best",
                  colour: bool = True, edges_last: bool = True, channels: str = "sum",
-                 range_copy: str = "value", gaps: str = "copy") -> NPResult:
+                 range_copy: str = "value", gaps: str = "copy", median: int = 0) -> NPResult:
     """NP range synthesis, one voxel at a time (§3.2.2, §3.2.4; the steps above).
 
     Parameters
@@ -258,6 +259,9 @@ def np_reference(image: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
     gaps : {"copy", "gate"}
         The reading after the fill: as filled (the paper's), or refsynth's
         :func:`~refsynth.synthesis.gap_readings.gap_gate` with ``edges`` (when ``use_edges``).
+    median : int
+        The reading after ``gaps``: 0, none (the paper's), or refsynth's
+        :func:`~refsynth.synthesis.median_pass.median_pass` with that window.
 
     Returns
     -------
@@ -352,4 +356,6 @@ def np_reference(image: np.ndarray, range_values: np.ndarray, edges: np.ndarray,
         order.append(p)
     if gaps == "gate":  # a departure, after the fill: refsynth.synthesis.gap_readings
         out = gap_gate(out, range_values, edges=edges & use_edges)
+    if median:  # a departure, after the gaps: refsynth.synthesis.median_pass
+        out = median_pass(out, range_values, median)
     return NPResult(out, conf, np.array(order, dtype=np.int64).reshape(-1, 2))
