@@ -90,8 +90,9 @@ field                   ``paper``      ``refsynth``   the paper's text; the evid
                                                       (``benchmarks/bench_gaps.py``).
 ``median``              0              3              §3.2 leaves each pixel as NP or BP filled
                                                       it; the 3 × 3 median of the result on the
-                                                      synthesized pixels won on every scene ×
-                                                      sampling (``benchmarks/bench_gaps.py``).
+                                                      synthesized pixels won on every real scene
+                                                      × sampling (``benchmarks/bench_gaps.py``)
+                                                      and tied on the synthetic room.
 ======================  =============  =============  ============================================
 
 The figures behind each line are on the documentation's departures page and in the docstring
