@@ -98,11 +98,11 @@ def claims_01(text: str) -> None:
     for other in ("onion order", "no edges", "no isophotes"):
         verdict = tie_or(*scores["priority order"], *scores[other])
         assert re.search(rf"against {other} \([^)]*\): {verdict}$", text, flags=re.M)
-        # the text, under refsynth's defaults: the edge term wins beyond the spread, the
-        # onion order and the isophotes tie
+        # the text, under refsynth's readings of the fill: the edge term wins beyond the
+        # spread, the onion order and the isophotes tie
         assert verdict == ("better" if other == "no edges" else "a tie"), other
-    assert ("Under refsynth's defaults the edge term wins beyond the spread and the onion "
-            "order and the isophotes tie") in text_source("01")
+    assert ("Under refsynth's readings of the fill the edge term wins beyond the spread and "
+            "the onion order and the isophotes tie") in text_source("01")
     assert scores["no edges"][0] > scores["priority order"][0]
     small = {grid: (np_mar, nn) for grid, np_mar, nn in re.findall(
         r"64x64, grid (\d+/\d+) .*: NP MAR ([\d.]+) m \(3 seeds\), nearest ([\d.]+) m", text)}

@@ -302,11 +302,11 @@ for other, claim in [("onion order", "Fig. 7"), ("no edges", "Table 3, Fig. 13")
 
 # %% [markdown]
 # The last three lines check the paper's three claims about the order on this
-# case. Under refsynth's defaults the edge term wins beyond the spread and
-# the onion order and the isophotes tie. Two readings shape that. Eq. 2 sums
-# the colour channels (chosen on the full-size Motorcycle), which weighs the
-# colour about three times as much against the range already filled; with
-# Eq. 5's value copy (`range_copy="value"`) that leaves all three claims ties
+# case. Under refsynth's readings of the fill the edge term wins beyond the
+# spread and the onion order and the isophotes tie. Two readings shape that.
+# Eq. 2 sums the colour channels (chosen on the full-size Motorcycle), which
+# weighs the colour about three times as much against the range already filled;
+# with Eq. 5's value copy (`range_copy="value"`) that leaves all three claims ties
 # on this small grid case (the priority order scores 0.510 ± 0.032), and
 # with the value copy and the channel mean (`channels="mean"`) it scores
 # 0.463 ± 0.015 and beats both the onion order (0.524 ± 0.007) and the order

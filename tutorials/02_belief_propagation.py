@@ -340,9 +340,9 @@ print(f"the room's grid 5/25, NP: MAR {mar(as_filled, room.range, room_known):.4
 # The gain is largest where the gaps are narrow and the surfaces smooth: on
 # real rooms and on Fig. 2's distance-driven slices the paper's copy loses
 # to plain interpolation, and the gate and the median bring NP and BP to or
-# below the best classical fill (the documentation's *Distance-driven sampling and real
-# rooms* page has the diagnosis and the figures, with the command that prints
-# them).
+# below the best classical fill (the documentation's *Distance-driven sampling
+# and real rooms* page has the diagnosis and the figures, with the command that
+# prints them).
 #
 # ## Exercises
 #
