@@ -10,11 +10,12 @@ depth estimation from stereo (a 3 × 3 median of the disparity map).
 
 The reading ``median`` of :class:`refsynth.synthesis.readings.Readings` is the window's side:
 ``0`` (the paper's: no median, every pixel as the method filled it and the reading ``gaps``
-left it) or an odd size (refsynth's default 3). :func:`median_pass` applies it after the reading ``gaps``,
-the same way for NP and BP and on any sampling. Measured pixels are never changed, but they
-take part in the windows of their unknown neighbours; a window is cut at the image's border
-by repeating the border pixels (``scipy.ndimage.median_filter``'s ``mode="nearest"``). A
-median selects one of the window's values, so the result is bit-identical on every machine.
+left it) or an odd size (refsynth's default 3). :func:`median_pass` applies it after the
+reading ``gaps``, the same way for NP and BP and on any sampling. Measured pixels are never
+changed, but they take part in the windows of their unknown neighbours; a window is cut at
+the image's border by repeating the border pixels (``scipy.ndimage.median_filter``'s
+``mode="nearest"``). A median selects one of the window's values, so the result is
+bit-identical on every machine.
 
 ``python benchmarks/bench_gaps.py ../shared/data --motorcycle --seeds 0,1`` prints NP and BP
 with it (``np``, ``bp``: the default) and without it (``np-gate``, ``bp-gate``: the gate alone)
