@@ -303,7 +303,8 @@ def test_synthesize_passes_the_options_to_bp():
     assert plain.params["compatibility"] == "overlap"
     fig6 = refsynth.synthesize(image, partial, method="bp", radius=3.0,
                                readings={"observation": "measured", "training_radius": "fixed"})
-    want = bp_fill(image[:, :, None], partial, fig6.edges, radius=3.0)
+    want = bp_fill(image[:, :, None], partial, fig6.edges, radius=3.0,
+                   neighbourhood=fig6.params["neighbourhood"])   # the window reading's side
     np.testing.assert_array_equal(fig6.bp.range, want.range)
     np.testing.assert_array_equal(fig6.bp.beliefs, want.beliefs)
     assert fig6.params["observation"] == "measured"
@@ -316,7 +317,7 @@ def test_synthesize_passes_the_options_to_bp():
         edges = out.edges
         want = bp_fill(image[:, :, None], partial, edges, radius=3.0, observation=fill,
                        observation_completed=completed, compatibility="overlap-centres",
-                       training_radius="gap")
+                       training_radius="gap", neighbourhood=out.params["neighbourhood"])
         np.testing.assert_array_equal(out.bp.range, want.range)
         np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
         assert out.params["observation"] == name
@@ -473,7 +474,7 @@ def test_bp_fill_training_radius():
         out = refsynth.synthesize(image2, partial2, method="bp", radius=2.0,
                                   readings={"observation": "measured", "training_radius": name})
         want = bp_fill(image2[:, :, None], partial2, out.edges, radius=2.0,
-                       training_radius=name)
+                       training_radius=name, neighbourhood=out.params["neighbourhood"])
         np.testing.assert_array_equal(out.bp.range, want.range)
         np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
         assert out.params["training_radius"] == name
@@ -504,7 +505,8 @@ def test_observation_np_is_bp_on_nps_fill_from_the_same_seed():
         nps = refsynth.synthesize(image, partial, method="np", radius=3.0, seed=seed,
                                   readings={"gaps": "copy", "median": 0})   # NP's fill as filled
         want = bp_fill(image[:, :, None], partial, out.edges, radius=3.0,
-                       observation=np_observation(nps.range, partial), training_radius="gap")
+                       observation=np_observation(nps.range, partial), training_radius="gap",
+                       neighbourhood=out.params["neighbourhood"])
         np.testing.assert_array_equal(out.bp.range, want.range)
         np.testing.assert_array_equal(out.bp.beliefs, want.beliefs)
         assert out.params["observation"] == "np"
@@ -512,10 +514,10 @@ def test_observation_np_is_bp_on_nps_fill_from_the_same_seed():
     both = refsynth.synthesize(image, partial, method="bp", radius=3.0, seed=5,
                                readings={"observation": "np", "proposals": "np"})
     proposals = np_proposals(image[:, :, None], partial, both.edges, np.random.default_rng(5),
-                             neighbourhood=5, radius=3.0)
+                             neighbourhood=both.params["neighbourhood"], radius=3.0)
     want = bp_fill(image[:, :, None], partial, both.edges, radius=3.0, proposals=proposals,
                    proposal_phi="match", observation=np_observation(proposals[0], partial),
-                   training_radius="gap")
+                   training_radius="gap", neighbourhood=both.params["neighbourhood"])
     np.testing.assert_array_equal(both.bp.range, want.range)
     np.testing.assert_array_equal(both.bp.beliefs, want.beliefs)
 

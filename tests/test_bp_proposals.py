@@ -132,7 +132,8 @@ def test_np_proposals_are_nps_fills_from_the_same_seed():
     rng = np.random.default_rng(4)
     from refsynth.synthesis.api import validate_inputs
     image, rv = validate_inputs(IMAGE, PARTIAL)
-    both = np_proposals(image, rv, result.edges, rng, runs=2)
+    both = np_proposals(image, rv, result.edges, rng, runs=2,
+                        neighbourhood=result.params["neighbourhood"])   # the window reading's
     np.testing.assert_array_equal(both[0], first.range)
     np.testing.assert_array_equal(result.candidate_values[:, 9], both[1][rows, cols])
     again = refsynth.synthesize(IMAGE, PARTIAL, method="bp", seed=4,

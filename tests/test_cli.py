@@ -382,6 +382,23 @@ def test_synth_median_is_the_librarys_reading(files, capsys):
         np.testing.assert_array_equal(np.load(files / f"m{size}.npy"), direct)
 
 
+def test_synth_window_is_the_librarys_reading(tmp_path, capsys):
+    g = np.random.default_rng(1)
+    image = g.random((12, 20))
+    partial = np.where(np.arange(20) % 3 == 0, 2.0 + g.random((12, 20)), np.nan)  # gaps of 2
+    np.save(tmp_path / "image.npy", image)
+    np.save(tmp_path / "partial.npy", partial)
+    library = __import__("refsynth").synthesize
+    for flags, side in (([], 3), (["--window", "fixed"], 5), (["--neighbourhood", "5"], 5)):
+        out = tmp_path / f"w{len(flags)}{side}.npy"
+        argv = ["synth", str(tmp_path / "image.npy"), str(tmp_path / "partial.npy"), *flags,
+                "--out", str(out)]
+        assert _run(argv, capsys)[0] == 0
+        np.testing.assert_array_equal(np.load(out), library(image, partial,
+                                                            neighbourhood=side).range)
+    assert not np.array_equal(np.load(tmp_path / "w03.npy"), np.load(tmp_path / "w25.npy"))
+
+
 @pytest.mark.parametrize(("value", "needle"), [
     ("4", "`median` must be 0 or an odd number from 3 to 15, got 4"),
     ("three", "argument --median: invalid integer 'three'")])

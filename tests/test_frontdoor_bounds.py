@@ -124,7 +124,7 @@ def test_bp_runs_a_radius_beyond_the_image_as_the_whole_image(radius):
     _sane(refsynth.synthesize(IMAGE, PARTIAL, radius=radius, **fill))
     with pytest.raises(ValueError, match=r"synthesize\(method='bp'\) runs NP first "
                        r"\(`observation='np'`, BP's default\) on a 12x12 image with "
-                       r"neighbourhood=5, radius=[0-9e+]+ would need about .*; lower "
+                       r"neighbourhood=3, radius=[0-9e+]+ would need about .*; lower "
                        r"`neighbourhood`, `radius` \(radius 16 already reaches the whole "
                        r"image\), or take `observation='colorization'`$"):
         refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=radius)
@@ -137,7 +137,7 @@ def test_bp_runs_a_radius_beyond_the_image_as_the_whole_image(radius):
 def test_np_refuses_a_radius_whose_frame_does_not_fit_naming_the_reach(radius):
     """Unchecked: the same allocations; NP keeps its radius (the frame of its tie-break draws)."""
     with pytest.raises(ValueError, match=r"synthesize\(method='np'\) on a 12x12 image with "
-                       r"neighbourhood=5, radius=[0-9e+]+ would need about .* of memory, more "
+                       r"neighbourhood=3, radius=[0-9e+]+ would need about .* of memory, more "
                        r"than this machine's .*; lower `neighbourhood`, `radius` \(radius 16 "
                        r"already reaches the whole image\)"):
         refsynth.synthesize(IMAGE, PARTIAL, radius=radius)
@@ -150,7 +150,7 @@ def _prepared(result):
 
 def test_np_runs_a_radius_beyond_the_image_as_given():
     result = refsynth.synthesize(IMAGE, PARTIAL, radius=40.0, seed=3,
-                                 readings={"gaps": "copy", "median": 0})   # the fill as filled
+                                 readings={"gaps": "copy", "median": 0, "window": "fixed"})
     image, values, edges = _prepared(result)
     filled, confidence, order = np_fill(image, values, edges, np.random.default_rng(3),
                                         radius=40.0)
@@ -163,7 +163,8 @@ def test_bp_with_a_radius_beyond_the_image_keeps_the_priors_scale_bit_for_bit(pr
     """BP's prior mu (|p - q| / r)^2 scales with r: it keeps the caller's r (Fig. 6's disc)."""
     result = refsynth.synthesize(IMAGE, PARTIAL, method="bp", radius=40.0,
                                  readings={"proximity": proximity, "observation": "measured",
-                                           "training_radius": "fixed", "gaps": "copy", "median": 0})
+                                           "training_radius": "fixed", "gaps": "copy", "median": 0,
+                                           "window": "fixed"})
     image, values, edges = _prepared(result)
     direct = bp_fill(image, values, edges, radius=40.0, proximity=proximity)
     assert np.array_equal(result.range, direct.range)

@@ -146,11 +146,15 @@ def _slices() -> tuple[np.ndarray, np.ndarray]:
     return image, np.where(known, truth, np.nan)
 
 
-#: A column scan, where the reading ``gaps`` acts: the defaults (``gaps="gate"``, then
-#: ``median=3``), the gate alone, the fill as copied, and the paper's readings.
+#: A column scan with gaps of 3 columns, where the readings ``gaps`` and ``window`` act: the
+#: defaults (the 3 × 3 window, ``gaps="gate"``, then ``median=3``), the same with the 5 × 5
+#: window (``window="fixed"``), with it the gate alone and the fill as copied, and the
+#: paper's readings.
 GOLDEN_SLICES = {
-    ("defaults", "np"): "aa06077a49cbbb2345e4197d",
-    ("defaults", "bp"): "28674185b085226b965fade4",
+    ("defaults", "np"): "c3d801559645bea1639a14e4",
+    ("defaults", "bp"): "80988b26060fd31609cd560c",
+    ("window", "np"): "aa06077a49cbbb2345e4197d",
+    ("window", "bp"): "28674185b085226b965fade4",
     ("gate", "np"): "ec82aacc92c738591faf839d",
     ("gate", "bp"): "14ecc224a7a51af26676c268",
     ("copy", "np"): "63f6b732228ddfbb249592ca",
@@ -158,8 +162,9 @@ GOLDEN_SLICES = {
     ("paper", "np"): "aed0483601aeebd1e591b18a",
     ("paper", "bp"): "00c268bab03e14d49124972f",
 }
-SLICE_READINGS = {"defaults": {}, "gate": FILL, "copy": {"gaps": "copy", **FILL},
-                  "paper": "paper"}
+FIXED = {"window": "fixed"}
+SLICE_READINGS = {"defaults": {}, "window": FIXED, "gate": {**FILL, **FIXED},
+                  "copy": {"gaps": "copy", **FILL, **FIXED}, "paper": "paper"}
 
 
 @pytest.mark.parametrize(("reading", "method"), sorted(GOLDEN_SLICES))

@@ -75,7 +75,7 @@ def test_np_memory_bounds_the_traced_peak_with_either_rows(wide, monkeypatch):
     tracemalloc.start()
     try:
         before = tracemalloc.get_traced_memory()[0]
-        refsynth.synthesize(image, partial, method="np", seed=0)
+        refsynth.synthesize(image, partial, method="np", seed=0, neighbourhood=5)
         peak = tracemalloc.get_traced_memory()[1] - before
     finally:
         tracemalloc.stop()

@@ -21,6 +21,7 @@ import refsynth
 from refsynth.synthesis.limits import normalise_intensity
 from refsynth.synthesis.nonparametric import reference as npref
 from refsynth.synthesis.readings import NP_READINGS, Readings
+from refsynth.synthesis.window_reading import choose_neighbourhood
 
 MANY = settings(max_examples=120, deadline=None, phases=[Phase.explicit, Phase.generate],
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
@@ -78,7 +79,12 @@ def _same(fast, slow):
 def test_the_references_defaults_are_the_papers_readings():
     defaults = {name: p.default for name, p in inspect.signature(npref.np_reference).parameters
                 .items() if name in NP_READINGS}
-    assert defaults == Readings.paper().for_method("np")
+    # the reading `window` chooses the neighbourhood beside the reference, which takes it as
+    # given: its default is the paper's 5 x 5
+    paper = Readings.paper().for_method("np")
+    assert paper.pop("window") == "fixed"
+    assert defaults == paper
+    assert inspect.signature(npref.np_reference).parameters["neighbourhood"].default == 5
 
 
 @MANY
@@ -113,9 +119,12 @@ def test_refsynths_readings_give_the_default_synthesize():
     rows, cols = np.mgrid[:10, :12]
     partial = np.where(cols % 4 == 0, 1.0 + 0.1 * rows + 0.05 * cols, np.nan)
     fast = refsynth.synthesize(image, partial, seed=4, radius=4.0)
+    readings = Readings.refsynth().for_method("np")
+    side = choose_neighbourhood(partial, readings.pop("window"))   # beside the reference
+    assert side == fast.params["neighbourhood"] == 3
     slow = npref.np_reference(normalise_intensity(image), partial, fast.edges,
-                              np.random.default_rng(4), radius=4.0,
-                              **Readings.refsynth().for_method("np"))
+                              np.random.default_rng(4), radius=4.0, neighbourhood=side,
+                              **readings)
     _same(fast, slow)
 
 

@@ -24,10 +24,11 @@ PAPER = {"range_weight": 1.0, "missing_range": "ignore", "colour": True, "channe
          "observation": "measured", "training_radius": "fixed", "compatibility": "overlap",
          "proximity": 0.0, "sigma_i": 0.1, "sigma_s": 0.2, "product": "max", "tolerance": 0.0,
          "edge_rule": "silent", "offset_tolerance": None, "proposals": None,
-         "proposal_runs": 1, "gaps": "copy", "median": 0}
+         "proposal_runs": 1, "gaps": "copy", "median": 0, "window": "fixed"}
 #: refsynth's departures from it (the default preset).
 DEPARTURES = {"missing_range": "mean", "range_copy": "offset", "observation": "np",
-              "training_radius": "gap", "tolerance": 1e-4, "gaps": "gate", "median": 3}
+              "training_radius": "gap", "tolerance": 1e-4, "gaps": "gate", "median": 3,
+              "window": "gaps"}
 
 
 def test_the_paper_preset_is_the_paper_as_printed():
@@ -63,7 +64,7 @@ def test_replace_turns_one_departure_on_and_checks_it():
 def test_an_unknown_reading_is_named_with_the_valid_ones(make):
     with pytest.raises(ValueError, match=r"Unknown reading `rangecopy`; the readings are: "
                                          r"range_weight, missing_range, .*, proposal_runs, gaps, "
-                                         r"median$"):
+                                         r"median, window$"):
         make()
 
 

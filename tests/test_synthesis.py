@@ -115,7 +115,7 @@ BP_READINGS_CHANGED = {"proximity": 1.0, "sigma_i": 0.3, "sigma_s": 0.1, "tolera
                        "compatibility": "overlap-centres", "proposals": "np"}
 #: Both methods' readings, changed from the default.
 SHARED = {"range_copy": "value", "missing_range": "ignore", "channels": "mean",
-          "range_weight": 2.0, "colour": False, "gaps": "copy", "median": 0}
+          "range_weight": 2.0, "colour": False, "gaps": "copy", "median": 0, "window": "fixed"}
 
 
 def test_synthesize_takes_at_most_fourteen_keyword_options():

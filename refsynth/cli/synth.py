@@ -67,6 +67,7 @@ from refsynth.synthesis.belief.observation import OBSERVATIONS
 from refsynth.synthesis.gap_readings import GAPS
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
 from refsynth.synthesis.readings import DEFAULT_PRESET, PRESETS, Readings, split_options
+from refsynth.synthesis.window_reading import WINDOWS
 
 __all__ = ["pixel_progress", "add_synth_parser"]
 
@@ -211,7 +212,7 @@ _METHOD_OPTIONS = {
     "--compatibility": ("compatibility", "bp"), "--offset-tolerance": ("offset_tolerance", "bp"),
 }
 #: Options of both methods that are not Eq. 2's: passed on only when given.
-_BOTH_OPTIONS = ("range_copy", "gaps", "median")
+_BOTH_OPTIONS = ("range_copy", "gaps", "median", "window")
 #: Eq. 2's readings, for both methods: passed on only when given.
 _EQ2_OPTIONS = ("channels", "range_weight", "missing_range", "colour")
 _DEFAULT_RADIUS = 10.0
@@ -273,7 +274,7 @@ def _check_limits(args, shape: tuple[int, int]) -> None:
             f"{reach} already reaches every pixel; give at most {max(reach, 10)}"
         )
     side = 2 * max(height, width) - 1  # a window of this side covers the image from any pixel
-    if args.neighbourhood > max(side, _DEFAULT_NEIGHBOURHOOD):
+    if args.neighbourhood is not None and args.neighbourhood > max(side, _DEFAULT_NEIGHBOURHOOD):
         raise ValueError(
             f"--neighbourhood {args.neighbourhood} is larger than the {width}x{height} image "
             f"needs: {side} already covers it from every pixel; give at most "
@@ -380,8 +381,8 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                        help="seed of NP's random draws (BP's too: NP's fill completes its "
                        "observations by default); the same seed gives the same output "
                        "(default 0)")
-    synth.add_argument("--neighbourhood", type=integer, default=_DEFAULT_NEIGHBOURHOOD,
-                       metavar="N", help="odd side of the NxN MRF neighbourhood (default 5)")
+    synth.add_argument("--neighbourhood", type=integer, default=None, metavar="N",
+                       help="odd side of the NxN MRF neighbourhood (default: --window's)")
     synth.add_argument("--radius", type=real, default=_DEFAULT_RADIUS, metavar="R",
                        help="search radius of Eq. 3 in pixels, at most the image's diagonal "
                        "(default 10)")
@@ -444,6 +445,10 @@ def add_synth_parser(subparsers) -> argparse.ArgumentParser:
                       help="after the gaps, each synthesized pixel the median of its N x N "
                       "window: 0, none (default: paper), or an odd N from 3 to 15 (default: "
                       "3, refsynth)")
+    both.add_argument("--window", choices=list(WINDOWS),
+                      help="the neighbourhood without --neighbourhood: fixed, 5 x 5 (default: "
+                      "paper), or gaps, 3 x 3 on a column scan whose gaps are at most 5 "
+                      "columns wide and 5 x 5 otherwise (default: refsynth)")
     np_group = synth.add_argument_group("NP only (--method np)")
     np_group.add_argument("--epsilon", type=real, metavar="E",
                           help="tolerance of Eq. 5 (default 0.1)")

@@ -76,11 +76,12 @@ SYNTHESIS_METHODS: dict[str, dict] = {
     "bp": {"method": "bp"},
     "bp-noedges": {"method": "bp", "use_edges": False},
     # Fig. 6 as printed, readings="paper": BP's defaults complete the observations, widen
-    # the training disc, shift the copied labels, gate the gaps and take the median after
-    # (departures measured on real data: refsynth.synthesis.readings lists them)
+    # the training disc, shift the copied labels, gate the gaps, take the median after and
+    # narrow the window on narrow gaps (departures measured on real data:
+    # refsynth.synthesis.readings lists them)
     "bp-fig6": {"method": "bp", "observation": "measured", "training_radius": "fixed",
                 "range_copy": "value", "missing_range": "ignore", "tolerance": 0.0,
-                "gaps": "copy", "median": 0},
+                "gaps": "copy", "median": 0, "window": "fixed"},
     # refsynth's readings without the post-passes: every pixel as NP or BP filled it
     "np-copy": {"gaps": "copy", "median": 0},
     "bp-copy": {"method": "bp", "gaps": "copy", "median": 0},

@@ -72,6 +72,7 @@ from refsynth.synthesis.progress import StagedProgress
 from refsynth.synthesis.range_copy import default_offset_tolerance
 from refsynth.synthesis.readings import DEFAULT_PRESET, Readings, resolve_readings
 from refsynth.synthesis.uncertainty import uncertainty_map
+from refsynth.synthesis.window_reading import choose_neighbourhood
 
 __all__ = [
     "SynthesisResult",
@@ -203,7 +204,7 @@ def synthesize(
     *,
     method: str = "np",
     seed: int | np.random.Generator | None = 0,
-    neighbourhood: int = 5,
+    neighbourhood: int | None = None,
     radius: float = 10.0,
     epsilon: float | None = None,
     iterations: int | None = None,
@@ -244,8 +245,12 @@ def synthesize(
         default preset's ``observation="np"``) or proposes labels
         (``proposals``); otherwise BP makes no random choice and the seed does
         not matter.
-    neighbourhood : int, default 5
-        Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1).
+    neighbourhood : int, optional
+        Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1). Without it, the
+        reading ``window`` chooses: 5 (§3.3's "windows of 5 × 5 pixels"), or
+        3 on a column scan whose gaps are at most 5 columns wide
+        (:mod:`refsynth.synthesis.window_reading`; ``readings="paper"``: 5).
+        ``params["neighbourhood"]`` records the side used.
     radius : float, default 10
         Search radius ``r`` of Eq. 3 (NP) and of BP's training set, in
         pixels, at least 1. A radius beyond the image's diagonal,
@@ -323,7 +328,7 @@ def synthesize(
     option                   NP           BP           default
     =======================  ===========  ===========  ================================
     ``seed``                 yes          (NP first)   0
-    ``neighbourhood``        yes          yes          5
+    ``neighbourhood``        yes          yes          5 or 3 (``window``)
     ``radius``               yes          yes          10
     ``epsilon``              Eq. 5        —            0.1
     ``iterations``           —            Eq. 9        50
@@ -389,6 +394,8 @@ def synthesize(
     chosen = resolve_readings(readings, method).for_method(method)
     if method == "bp" and chosen["offset_tolerance"] is None:  # by the observation
         chosen["offset_tolerance"] = default_offset_tolerance(chosen["observation"])
+    if neighbourhood is None:  # the reading `window` (synthesis.window_reading)
+        neighbourhood = choose_neighbourhood(range_values, chosen["window"])
     neighbourhood = at_least("neighbourhood", neighbourhood, 1)
     if neighbourhood % 2 == 0:
         raise ValueError(f"The parameter `neighbourhood` must be odd, got {neighbourhood}")

@@ -93,6 +93,12 @@ field                   ``paper``      ``refsynth``   the paper's text; the evid
                                                       synthesized pixels won on every real scene
                                                       × sampling (``benchmarks/bench_gaps.py``)
                                                       and tied on the synthetic room.
+``window``              ``fixed``      ``gaps``       §3.3: "windows of 5 × 5 pixels, unless
+                                                      otherwise indicated"; Fig. 11's sparsest
+                                                      case takes 3 × 3. 3 × 3 on a column scan
+                                                      whose gaps are at most 5 columns wide won
+                                                      on Fig. 2's slices and 63 % stripes
+                                                      (``benchmarks/bench_gaps.py --windows``).
 ======================  =============  =============  ============================================
 
 The figures behind each line are on the documentation's departures page and in the docstring
@@ -100,8 +106,8 @@ of the module that implements the departure (:mod:`refsynth.synthesis.similarity
 :mod:`refsynth.synthesis.range_copy`, :mod:`refsynth.synthesis.belief.observation`,
 :mod:`refsynth.synthesis.belief.gap_radius`, :mod:`refsynth.synthesis.belief.centres`,
 :mod:`refsynth.synthesis.belief.proposals`, :mod:`refsynth.synthesis.gap_readings`,
-:mod:`refsynth.synthesis.median_pass`), each with the
-command that prints them.
+:mod:`refsynth.synthesis.median_pass`, :mod:`refsynth.synthesis.window_reading`), each with
+the command that prints them.
 
 References
 ----------
@@ -125,6 +131,7 @@ from refsynth.synthesis.median_pass import DEFAULT_MEDIAN, check_median
 from refsynth.synthesis.nonparametric import CONFIDENCE_UPDATES
 from refsynth.synthesis.range_copy import RANGE_COPIES, check_offset_tolerance
 from refsynth.synthesis.similarity import CHANNELS, MISSING_RANGE
+from refsynth.synthesis.window_reading import WINDOWS
 
 __all__ = ["Readings", "PRESETS", "DEFAULT_PRESET", "NP_READINGS", "BP_READINGS",
            "resolve_readings", "split_options"]
@@ -134,12 +141,12 @@ PRODUCTS = ("max", "sum")
 
 #: The readings NP uses (§3.2.2, §3.2.4).
 NP_READINGS = ("range_weight", "missing_range", "colour", "channels", "range_copy",
-               "confidence_update", "edges_last", "gaps", "median")
+               "confidence_update", "edges_last", "gaps", "median", "window")
 #: The readings BP uses (§3.2.3, Fig. 6): Eq. 2's ranking shares NP's Eq. 2 readings.
 BP_READINGS = ("range_weight", "missing_range", "colour", "channels", "range_copy",
                "observation", "training_radius", "compatibility", "proximity", "sigma_i",
                "sigma_s", "product", "tolerance", "edge_rule", "offset_tolerance", "proposals",
-               "proposal_runs", "gaps", "median")
+               "proposal_runs", "gaps", "median", "window")
 
 
 def _bounded(name: str, value) -> float:
@@ -177,6 +184,7 @@ _CHECKS = {
     "proposal_runs": _proposal_runs,
     "gaps": lambda v: check_choice("gaps", v, GAPS),
     "median": check_median,
+    "window": lambda v: check_choice("window", v, WINDOWS),
 }
 
 
@@ -192,7 +200,8 @@ class Readings:
     >>> Readings.paper().range_copy, Readings().range_copy
     ('value', 'offset')
     >>> sorted(Readings().departures())   # refsynth's departures from the paper
-    ['gaps', 'median', 'missing_range', 'observation', 'range_copy', 'tolerance', 'training_radius']
+    ['gaps', 'median', 'missing_range', 'observation', 'range_copy', 'tolerance', \
+'training_radius', 'window']
     >>> Readings.paper().replace(range_copy="offset").range_copy
     'offset'
     >>> Readings().replace(range_cpy="value")
@@ -201,7 +210,7 @@ class Readings:
     ValueError: Unknown reading `range_cpy`; the readings are: range_weight, missing_range, \
 colour, channels, range_copy, confidence_update, edges_last, observation, training_radius, \
 compatibility, proximity, sigma_i, sigma_s, product, tolerance, edge_rule, offset_tolerance, \
-proposals, proposal_runs, gaps, median
+proposals, proposal_runs, gaps, median, window
     """
 
     # Eq. 2 (NP, and BP's ranking)
@@ -232,6 +241,8 @@ proposals, proposal_runs, gaps, median
     gaps: str = "gate"
     # after the gaps (NP and BP): a median of the synthesized pixels (synthesis.median_pass)
     median: int = DEFAULT_MEDIAN
+    # the neighbourhood's side when synthesize() is given none (synthesis.window_reading)
+    window: str = "gaps"
 
     def __post_init__(self) -> None:
         for name, check in _CHECKS.items():
@@ -253,9 +264,10 @@ proposals, proposal_runs, gaps, median
     @classmethod
     def paper(cls) -> Readings:
         """The paper as printed: Eq. 2 as written, Eq. 5's value copy, Fig. 6's BP, 50 sweeps,
-        every pixel as filled."""
+        every pixel as filled, the 5 × 5 window on every sampling."""
         return cls(missing_range="ignore", range_copy="value", observation="measured",
-                   training_radius="fixed", tolerance=0.0, gaps="copy", median=0)
+                   training_radius="fixed", tolerance=0.0, gaps="copy", median=0,
+                   window="fixed")
 
     @classmethod
     def preset(cls, name: str) -> Readings:

@@ -74,6 +74,7 @@ from refsynth.synthesis.completion import portable_colorization
 from refsynth.synthesis.gap_readings import gap_gate
 from refsynth.synthesis.median_pass import median_pass
 from refsynth.synthesis.similarity import eq2_distance
+from refsynth.synthesis.window_reading import choose_neighbourhood
 
 __all__ = [
     "quantise_intensity", "quantise_grey", "quantise_range", "window_weights", "portable_exp",
@@ -226,11 +227,11 @@ def _onion_schedule(known, rng):
     return [unknown[i] for i in sorted(range(len(unknown)), key=lambda i: (layer[i], tie[i]))]
 
 
-def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.0, epsilon=0.1,
+def np_reference(image, range_values, edges, rng, *, neighbourhood=None, radius=10.0, epsilon=0.1,
                  use_edges=True, use_isophotes=True, ordering="priority", range_weight=1.0,
                  missing_range="mean", confidence_update="best", colour=True,
                  edges_last=True, channels="sum", range_copy="offset", gaps="gate",
-                 median=3, trace=False) -> NPReference:
+                 median=3, window="gaps", trace=False) -> NPReference:
     r"""NP range synthesis, one voxel at a time (§3.2.2, §3.2.4).
 
     For the front voxel ``p`` of highest priority (Eq. 10; with ``edges_last``, edge voxels
@@ -278,6 +279,10 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
     median : int
         After ``gaps``: 0, or the window side of
         :func:`~refsynth.synthesis.median_pass.median_pass` (a departure).
+    window : {"gaps", "fixed"}
+        Without a ``neighbourhood``, its side by the reading ``window``
+        (:func:`~refsynth.synthesis.window_reading.choose_neighbourhood`, a departure: 3 on a
+        column scan with narrow gaps, else 5).
     trace : bool
         Also record every step (pixel, priority, candidates, distances, Γ', draw, source).
 
@@ -287,6 +292,8 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=5, radius=10.
         ``range``, ``confidence``, ``order`` ((N, 2) int64) and ``trace`` (list of dicts).
     """
     H, W = range_values.shape
+    if neighbourhood is None:
+        neighbourhood = choose_neighbourhood(range_values, window)
     n, h = neighbourhood, neighbourhood // 2
     frame = _Frame(image, range_values, n, colour)
     known = np.isfinite(range_values)
@@ -506,12 +513,12 @@ def gap_depth_reference(known, r, c) -> int:
     return math.isqrt(int(np.min((rows - r) ** 2 + (cols - c) ** 2)))   # integers: exact
 
 
-def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=8,
+def bp_reference(image, range_values, edges, *, neighbourhood=None, radius=10.0, k=8,
                  sigma_i=0.1, sigma_s=0.2, iterations=50, tolerance=1e-4, product="max",
                  damping=0.0, use_edges=True, range_weight=1.0, missing_range="mean",
                  proximity=0.0, colour=True, edge_rule="silent", channels="sum",
                  observation="np", training_radius="gap", range_copy="offset",
-                 offset_tolerance=None, gaps="gate", median=3, rng=None,
+                 offset_tolerance=None, gaps="gate", median=3, window="gaps", rng=None,
                  trace=False) -> BPReference:
     r"""BP range synthesis, the algorithm of Fig. 6, node by node (§3.2.3).
 
@@ -555,9 +562,12 @@ def bp_reference(image, range_values, edges, *, neighbourhood=5, radius=10.0, k=
     Parameters are :func:`refsynth.synthesize`'s (``k`` is ``candidates``); ``image``,
     ``range_values``, ``edges`` and ``colour`` as in :func:`np_reference`; ``edge_rule`` is
     ``"silent"`` or ``"deaf"`` (above); ``rng`` (a ``numpy.random.Generator``, used with
-    ``observation="np"`` only) as in :func:`np_reference`. Returns :class:`BPReference`.
+    ``observation="np"`` only) as in :func:`np_reference`; without a ``neighbourhood``,
+    ``window`` chooses it as there. Returns :class:`BPReference`.
     """
     H, W = range_values.shape
+    if neighbourhood is None:
+        neighbourhood = choose_neighbourhood(range_values, window)
     h = neighbourhood // 2
     frame = _Frame(image, range_values, neighbourhood, colour)
     np_range = None
