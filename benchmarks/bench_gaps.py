@@ -17,6 +17,9 @@ are applied to that one result, so the rows differ by the post-passes only:
   no line);
 - ``np-jump<J>`` (``--jumps``): the default with the gate's ``jump=J``;
 - ``np-median<K>`` (``--medians``): the gate, then a ``K × K`` median;
+- ``np-fixed`` (``--windows``): the default with the reading ``window="fixed"`` (the 5 × 5
+  neighbourhood on every sampling, :mod:`refsynth.synthesis.window_reading`): its own fill
+  where the default's window is 3 × 3, the default's fill where it is 5 × 5 already;
 - ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` of the completed
   slices (:func:`~refsynth.synthesis.gap_readings.complete_slices`) alone;
 
@@ -30,8 +33,9 @@ Run::
         --samplings x63,x78,distance60,g5_25 --arrays /tmp/gaps --json /tmp/gaps.json
 
 ``--arrays DIR`` keeps each NP / BP fill as
-``DIR/<scene>_<sampling>_<size>_<method>-copy_<seed>.npy`` (a classical fill's without the
-seed) and reuses it on the next run (its seconds are then not measured: NaN).
+``DIR/<scene>_<sampling>_<size>_<method>-copy_<seed>.npy`` (``-fixed_`` for ``--windows``'
+fills; a classical fill's without the seed) and reuses it on the next run (its seconds are then
+not measured: NaN).
 """
 
 from __future__ import annotations
@@ -68,15 +72,36 @@ from refsynth.synthesis.gap_readings import (  # noqa: E402
     row_interpolation,
 )
 from refsynth.synthesis.median_pass import check_median, median_pass  # noqa: E402
+from refsynth.synthesis.window_reading import (  # noqa: E402
+    DEFAULT_NEIGHBOURHOOD,
+    choose_neighbourhood,
+)
 
 #: The choosing cases (the gate leaves grids alone: add g5_25 to see it).
 DEFAULT_SAMPLINGS = ("x63", "x78", "distance60")
 
 
-def readings(base: str, jumps: Sequence[float], medians: Sequence[int] = ()) -> list[str]:
+def readings(base: str, jumps: Sequence[float], medians: Sequence[int] = (),
+             windows: bool = False) -> list[str]:
     """The post-pass readings' labels of one base method."""
     return [f"{base}-copy", f"{base}-gate", base, f"{base}-clip",
-            *[f"{base}-jump{j:g}" for j in jumps], *[f"{base}-median{k}" for k in medians]]
+            *[f"{base}-jump{j:g}" for j in jumps], *[f"{base}-median{k}" for k in medians],
+            *([f"{base}-fixed"] if windows else [])]
+
+
+def _fill(scene, partial, base, seed, path, stored_only, window="gaps"):
+    """One NP / BP fill without the post-passes (from ``path`` when stored) and its seconds."""
+    if path is not None and path.is_file():
+        return np.load(path), math.nan
+    if stored_only:
+        return None, math.nan
+    start = time.perf_counter()
+    estimate = synthesize(scene.intensity, partial, method=base, seed=seed,
+                          readings={"gaps": "copy", "median": 0, "window": window}).range
+    seconds = time.perf_counter() - start
+    if path is not None:
+        write_atomic(path, _npy(estimate))
+    return estimate, seconds
 
 
 def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) -> dict:
@@ -88,7 +113,8 @@ def _row(scene, name, size, sampling, method, seed, estimate, known, seconds) ->
 
 def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str],
              seeds: Sequence[int], jumps: Sequence[float], arrays: str | None, have: set,
-             progress=None, stored_only: bool = False, medians: Sequence[int] = ()) -> list[dict]:
+             progress=None, stored_only: bool = False, medians: Sequence[int] = (),
+             windows: bool = False) -> list[dict]:
     """Every row of one scene × sampling (the classical fills once, the bases per seed)."""
     scene = scenes.load(spec, size)
     known = known_mask(scene, sampling)
@@ -116,19 +142,11 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
         for seed in seeds:
             if (name, size, sampling, f"{base}-copy", seed) in have:
                 continue
-            path = (Path(arrays) / f"{name}_{sampling}_{size}_{base}-copy_{seed}.npy"
-                    if arrays else None)
-            if path is not None and path.is_file():
-                estimate, seconds = np.load(path), math.nan
-            elif stored_only:
+            stored = Path(arrays) / f"{name}_{sampling}_{size}_{base}" if arrays else None
+            path = Path(f"{stored}-copy_{seed}.npy") if arrays else None
+            estimate, seconds = _fill(scene, partial, base, seed, path, stored_only)
+            if estimate is None:
                 continue
-            else:
-                start = time.perf_counter()
-                estimate = synthesize(scene.intensity, partial, method=base, seed=seed,
-                                      readings={"gaps": "copy", "median": 0}).range
-                seconds = time.perf_counter() - start
-                if path is not None:
-                    write_atomic(path, _npy(estimate))
             start = time.perf_counter()
             gated = gap_gate(estimate, partial, edges=edges)
             final = median_pass(gated, partial)
@@ -149,6 +167,15 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
             for k in medians:
                 rows.append(_row(scene, name, size, sampling, f"{base}-median{k}", seed,
                                  median_pass(gated, partial, k), known, seconds))
+            if windows:
+                fixed, fixed_seconds = estimate, seconds
+                if choose_neighbourhood(partial) != DEFAULT_NEIGHBOURHOOD:
+                    fixed, fixed_seconds = _fill(
+                        scene, partial, base, seed,
+                        Path(f"{stored}-fixed_{seed}.npy") if arrays else None, False, "fixed")
+                rows.append(_row(scene, name, size, sampling, f"{base}-fixed", seed,
+                                 median_pass(gap_gate(fixed, partial, edges=edges), partial),
+                                 known, fixed_seconds))
             if progress is not None:
                 progress(f"{name} {sampling} {base} seed {seed}: MAR {default['mar']:.4g} "
                          f"(copy {copied['mar']:.4g}; {seconds:.1f} s, post-passes {post:.3f} s)")
@@ -197,6 +224,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--bases", default="np,bp", help="np, bp or np,bp (default)")
     parser.add_argument("--jumps", default="", help="other jumps of the gate to print")
     parser.add_argument("--medians", default="", help="other median windows to print (odd)")
+    parser.add_argument("--windows", action="store_true",
+                        help="also the default with the 5 x 5 window on every sampling")
     parser.add_argument("--seeds", default="0", help="comma-separated seeds (default 0)")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse NP, BP results")
     parser.add_argument("--stored-only", action="store_true",
@@ -236,13 +265,14 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     if args.resume and Path(args.json).is_file():
         rows = [r for r in json.loads(Path(args.json).read_text())["runs"] if r["size"] == size]
     have = {(r["scene"], r["size"], r["sampling"], r["method"], r["seed"]) for r in rows}
-    methods = [m for b in bases for m in readings(b, jumps, medians)]
+    methods = [m for b in bases for m in readings(b, jumps, medians, args.windows)]
     methods += ["row-linear", *scenes.CLASSICAL]
     progress = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     for name, spec in specs:
         for sampling in samplings:
             rows += run_case(name, spec, size, sampling, bases, seeds, jumps, args.arrays, have,
-                             progress, stored_only=args.stored_only, medians=medians)
+                             progress, stored_only=args.stored_only, medians=medians,
+                             windows=args.windows)
             if args.json:
                 write_atomic(args.json, json.dumps(dict(command=" ".join(sys.argv), runs=rows),
                                                    indent=1, allow_nan=True).encode())

@@ -83,11 +83,15 @@ from refsynth.synthesis.priority import FillFront  # noqa: E402
 from refsynth.synthesis.readings import split_options  # noqa: E402
 
 MAX_GAP = 6
+#: The fill the diagnosis reads: as filled, with the paper's 5 × 5 window.
+AS_FILLED = {"gaps": "copy", "median": 0, "window": "fixed"}
 #: NP's readings compared by ``gaps``: label -> synthesize() keywords. Each runs the fill as
-#: filled (``gaps="copy"``, ``median=0``) unless it names them: ``np-gate`` is the default.
+#: filled (``gaps="copy"``, ``median=0``) with the paper's 5 × 5 window (``window="fixed"``)
+#: unless it names them: ``np-gate`` adds the post-passes, ``np-default`` is the default.
 GAP_VARIANTS = {
     "np": {},
     "np-gate": {"gaps": "gate", "median": 3},
+    "np-default": {"gaps": "gate", "median": 3, "window": "gaps"},
     "onion": {"ordering": "onion"},
     "value-copy": {"range_copy": "value"},
     "lambda0": {"range_weight": 0.0},
@@ -223,7 +227,8 @@ def traced_synthesize(intensity, partial, *, seed=0, check=True, override=None,
     """NP as ``refsynth.synthesize(intensity, partial, seed=seed, **options)`` fills it, traced.
 
     With ``check`` (and no ``override``) the range is compared bit for bit with
-    ``refsynth.synthesize``'s with ``gaps="copy"``; a difference raises ``AssertionError``.
+    ``refsynth.synthesize``'s with :data:`AS_FILLED`'s readings (the 5 × 5 window unless
+    ``neighbourhood`` is given); a difference raises ``AssertionError``.
     """
     image, range_values = validate_inputs(intensity, partial)
     edges = (synthesis_edges(image, sigma=canny_sigma) if use_edges
@@ -236,7 +241,7 @@ def traced_synthesize(intensity, partial, *, seed=0, check=True, override=None,
         keywords, readings = split_options(options)
         reference = synthesize(intensity, partial, seed=seed, use_edges=use_edges,
                                canny_sigma=canny_sigma, **keywords,
-                               readings={"gaps": "copy", "median": 0, **readings}).range
+                               readings={**AS_FILLED, **readings}).range
         if not np.array_equal(reference, trace.range):
             raise AssertionError("the traced NP differs from refsynth.synthesize: "
                                  "update the trace below to the package's np_fill")
@@ -483,7 +488,7 @@ def command_gaps(args, out) -> dict:
                 if not args.variants or k in args.variants.split(",")}
     fills = {label: (lambda image, partial, options=options: synthesize(
         image, partial, seed=args.seed, **split_options(options)[0],
-        readings={"gaps": "copy", "median": 0, **split_options(options)[1]}).range)
+        readings={**AS_FILLED, **split_options(options)[1]}).range)
         for label, options in variants.items()}
     fills.update(nearest=nearest_fill, linear=linear_fill)
     for name, scene in _scenes(args):
@@ -523,7 +528,7 @@ def command_prototypes(args, out) -> dict:
                 return float(np.abs(estimate - truth)[scored].mean())
 
             row = {"np": mar(synthesize(scene.intensity, partial, seed=args.seed,
-                                        readings={"gaps": "copy", "median": 0}).range)}
+                                        readings=AS_FILLED).range)}
             for label in PROTOTYPES:
                 row[label] = mar(prototype(label)(scene, known, args.seed))
             row["linear"] = mar(linear_fill(scene.intensity, partial))
