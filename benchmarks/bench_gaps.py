@@ -17,9 +17,10 @@ are applied to that one result, so the rows differ by the post-passes only:
   no line);
 - ``np-jump<J>`` (``--jumps``): the default with the gate's ``jump=J``;
 - ``np-median<K>`` (``--medians``): the gate, then a ``K × K`` median;
-- ``np-fixed`` (``--windows``): the default with the reading ``window="fixed"`` (the 5 × 5
-  neighbourhood on every sampling, :mod:`refsynth.synthesis.window_reading`): its own fill
-  where the default's window is 3 × 3, the default's fill where it is 5 × 5 already;
+- ``np-fixed``, ``np-narrow`` (``--windows``): the default with the 5 × 5 neighbourhood on
+  every sampling (the reading ``window="fixed"``, :mod:`refsynth.synthesis.window_reading`),
+  and with the 3 × 3 one on every sampling: each its own fill where the default's window
+  differs, the default's fill where it is the same;
 - ``row-linear``: :func:`~refsynth.synthesis.gap_readings.row_interpolation` of the completed
   slices (:func:`~refsynth.synthesis.gap_readings.complete_slices`) alone;
 
@@ -33,9 +34,9 @@ Run::
         --samplings x63,x78,distance60,g5_25 --arrays /tmp/gaps --json /tmp/gaps.json
 
 ``--arrays DIR`` keeps each NP / BP fill as
-``DIR/<scene>_<sampling>_<size>_<method>-copy_<seed>.npy`` (``-fixed_`` for ``--windows``'
-fills; a classical fill's without the seed) and reuses it on the next run (its seconds are then
-not measured: NaN).
+``DIR/<scene>_<sampling>_<size>_<method>-copy_<seed>.npy`` (``-fixed_``, ``-narrow_`` for
+``--windows``' fills; a classical fill's without the seed) and reuses it on the next run (its
+seconds are then not measured: NaN).
 """
 
 from __future__ import annotations
@@ -74,6 +75,7 @@ from refsynth.synthesis.gap_readings import (  # noqa: E402
 from refsynth.synthesis.median_pass import check_median, median_pass  # noqa: E402
 from refsynth.synthesis.window_reading import (  # noqa: E402
     DEFAULT_NEIGHBOURHOOD,
+    NARROW_NEIGHBOURHOOD,
     choose_neighbourhood,
 )
 
@@ -86,10 +88,10 @@ def readings(base: str, jumps: Sequence[float], medians: Sequence[int] = (),
     """The post-pass readings' labels of one base method."""
     return [f"{base}-copy", f"{base}-gate", base, f"{base}-clip",
             *[f"{base}-jump{j:g}" for j in jumps], *[f"{base}-median{k}" for k in medians],
-            *([f"{base}-fixed"] if windows else [])]
+            *([f"{base}-fixed", f"{base}-narrow"] if windows else [])]
 
 
-def _fill(scene, partial, base, seed, path, stored_only, window="gaps"):
+def _fill(scene, partial, base, seed, path, stored_only, neighbourhood=None):
     """One NP / BP fill without the post-passes (from ``path`` when stored) and its seconds."""
     if path is not None and path.is_file():
         return np.load(path), math.nan
@@ -97,7 +99,7 @@ def _fill(scene, partial, base, seed, path, stored_only, window="gaps"):
         return None, math.nan
     start = time.perf_counter()
     estimate = synthesize(scene.intensity, partial, method=base, seed=seed,
-                          readings={"gaps": "copy", "median": 0, "window": window}).range
+                          neighbourhood=neighbourhood, readings={"gaps": "copy", "median": 0}).range
     seconds = time.perf_counter() - start
     if path is not None:
         write_atomic(path, _npy(estimate))
@@ -167,15 +169,16 @@ def run_case(name: str, spec: str, size: str, sampling: str, bases: Sequence[str
             for k in medians:
                 rows.append(_row(scene, name, size, sampling, f"{base}-median{k}", seed,
                                  median_pass(gated, partial, k), known, seconds))
-            if windows:
-                fixed, fixed_seconds = estimate, seconds
-                if choose_neighbourhood(partial) != DEFAULT_NEIGHBOURHOOD:
-                    fixed, fixed_seconds = _fill(
+            for label, side in (("fixed", DEFAULT_NEIGHBOURHOOD),
+                                ("narrow", NARROW_NEIGHBOURHOOD)) if windows else ():
+                other, other_seconds = estimate, seconds
+                if choose_neighbourhood(partial) != side:
+                    other, other_seconds = _fill(
                         scene, partial, base, seed,
-                        Path(f"{stored}-fixed_{seed}.npy") if arrays else None, False, "fixed")
-                rows.append(_row(scene, name, size, sampling, f"{base}-fixed", seed,
-                                 median_pass(gap_gate(fixed, partial, edges=edges), partial),
-                                 known, fixed_seconds))
+                        Path(f"{stored}-{label}_{seed}.npy") if arrays else None, False, side)
+                rows.append(_row(scene, name, size, sampling, f"{base}-{label}", seed,
+                                 median_pass(gap_gate(other, partial, edges=edges), partial),
+                                 known, other_seconds))
             if progress is not None:
                 progress(f"{name} {sampling} {base} seed {seed}: MAR {default['mar']:.4g} "
                          f"(copy {copied['mar']:.4g}; {seconds:.1f} s, post-passes {post:.3f} s)")
@@ -225,7 +228,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--jumps", default="", help="other jumps of the gate to print")
     parser.add_argument("--medians", default="", help="other median windows to print (odd)")
     parser.add_argument("--windows", action="store_true",
-                        help="also the default with the 5 x 5 window on every sampling")
+                        help="also the default with the 5 x 5, and the 3 x 3, window on every "
+                        "sampling")
     parser.add_argument("--seeds", default="0", help="comma-separated seeds (default 0)")
     parser.add_argument("--arrays", default=None, help="a folder to keep / reuse NP, BP results")
     parser.add_argument("--stored-only", action="store_true",

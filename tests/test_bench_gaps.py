@@ -85,3 +85,30 @@ def test_bad_arguments_exit_2(bench, folder, bad, capsys):
     assert bench.main([str(folder), *bad], out=io.StringIO()) == 2
     err = capsys.readouterr().err
     assert err.startswith("bench_gaps.py: ") and err.count("\n") == 1
+
+
+def test_windows_rows_are_the_default_with_either_side(bench, folder, tmp_path):
+    from refsynth import synthesize
+    from refsynth.synthesis.window_reading import choose_neighbourhood
+
+    arrays = tmp_path / "arrays"
+    arrays.mkdir()
+    target = tmp_path / "runs.json"
+    argv = [str(folder), "--size", "48x40", "--samplings", "distance60", "--bases", "np",
+            "--windows", "--arrays", str(arrays), "--json", str(target), "--quiet"]
+    assert bench.main(argv, out=io.StringIO()) == 0
+    mar = {r["method"]: r["mar"] for r in json.loads(target.read_text())["runs"]}
+    scene = bench.scenes.load(str(folder / "step"), "48x40")
+    known = bench.known_mask(scene, "distance60")
+    partial = np.where(known, scene.range, np.nan)
+    assert choose_neighbourhood(partial) == 3        # narrow gaps: the default is 3 x 3
+    assert mar["np-narrow"] == mar["np"]
+    assert not (arrays / "step_distance60_48x40_np-narrow_0.npy").exists()
+    fixed = np.load(arrays / "step_distance60_48x40_np-fixed_0.npy")
+    np.testing.assert_array_equal(fixed, synthesize(
+        scene.intensity, partial, seed=0, readings={"gaps": "copy", "median": 0,
+                                                    "window": "fixed"}).range)
+    edges = bench.synthesis_edges(bench.validate_inputs(scene.intensity, partial)[0], sigma=0.8)
+    assert mar["np-fixed"] == pytest.approx(evaluate(
+        median_pass(gap_gate(fixed, partial, edges=edges), partial), scene.range, known)["mar"],
+        rel=1e-12)
