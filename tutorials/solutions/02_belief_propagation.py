@@ -15,13 +15,13 @@ from refsynth.synthesis import belief_propagation
 
 
 def fill(intensity, partial, **kwargs):
-    """NP's or BP's fill as filled (``gaps="copy"``, ``median=0``): each pixel keeps its copy
-    or MAP label.
+    """NP's or BP's fill as filled (``gaps="copy"``, ``median=0``), with §3.3's 5 × 5 window
+    (``window="fixed"``): each pixel keeps its copy or MAP label.
 
     These exercises read the fill itself; the default post-passes after it (the gap reading,
-    the median) are tutorial 2's last section.
+    the median) and the 3 × 3 window on narrow gaps are tutorial 2's last section.
     """
-    readings = {"gaps": "copy", "median": 0, **kwargs.pop("readings", {})}
+    readings = {"gaps": "copy", "median": 0, "window": "fixed", **kwargs.pop("readings", {})}
     return refsynth.synthesize(intensity, partial, readings=readings, **kwargs)
 
 
