@@ -280,9 +280,8 @@ def np_reference(image, range_values, edges, rng, *, neighbourhood=None, radius=
         After ``gaps``: 0, or the window side of
         :func:`~refsynth.synthesis.median_pass.median_pass` (a departure).
     window : {"gaps", "fixed"}
-        Without a ``neighbourhood``, its side by the reading ``window``
-        (:func:`~refsynth.synthesis.window_reading.choose_neighbourhood`, a departure: 3 on a
-        column scan with narrow gaps, else 5).
+        Without a ``neighbourhood``: :func:`~refsynth.synthesis.window_reading.choose_neighbourhood`
+        (a departure: 3 on a column scan with narrow gaps, else 5).
     trace : bool
         Also record every step (pixel, priority, candidates, distances, Γ', draw, source).
 
