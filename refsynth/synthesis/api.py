@@ -248,7 +248,7 @@ def synthesize(
     neighbourhood : int, optional
         Odd side ``n`` of the n×n MRF neighbourhood (§3.2.1). Without it, the
         reading ``window`` chooses: 5 (§3.3's "windows of 5 × 5 pixels"), or
-        3 on a column scan whose gaps are at most 5 columns wide
+        3 on a column scan whose typical gap is at most 5 columns wide
         (:mod:`refsynth.synthesis.window_reading`; ``readings="paper"``: 5).
         ``params["neighbourhood"]`` records the side used.
     radius : float, default 10

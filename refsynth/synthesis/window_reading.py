@@ -17,17 +17,19 @@ stripes), where the unknown range lies in gaps between scanned columns:
   :func:`typical_gap` is at most :data:`NARROW_GAP` columns (no wider than the default 5 × 5
   window), 5 on any other sampling. A ``neighbourhood`` given explicitly is always used.
 
-Why: in a gap no wider than the window, every unknown pixel is at most two columns from a
-measured one, and a 5 × 5 window centred there reaches over the measured columns on both
-sides: Eq. 2 then ranks the candidates mostly by the measured range around the gap and the
-intensity of its far side, not by what lies at the pixel. The 3 × 3 window keeps the match to
-the pixel's own surroundings. In a wider gap, the larger window's context wins.
+Why it can help (the measurements below decide, not this): on Fig. 2's slices most gaps are
+one to three columns wide, and a 5 × 5 window centred in such a gap reaches over the measured
+columns on both sides, so that Eq. 2 ranks the candidates mostly by the range around the gap
+rather than by the pixel's own surroundings, which the 3 × 3 window keeps to. In a wider gap
+the larger window's context wins.
 
 Measured on the choosing scenes (Table 4's protocol at 450 × 375, NP and BP after the default
 post-passes, seeds 0 and 1; ``python benchmarks/bench_gaps.py ../shared/data --motorcycle
---seeds 0,1 --windows`` prints the table of docs/distance_sampling.md): the 3 × 3 window won
-on Fig. 2's slices at 60 % (typical gap 2) and on x-stripes at 63 % (gap 5), and lost on
-x-stripes at 70 % (gap 7, on three of the four indoor frames) and at 78 % (gap 11).
+--seeds 0,1 --samplings x63,x70,x78,distance60 --windows`` prints the table of
+docs/distance_sampling.md): the 3 × 3 window won on every scene type on Fig. 2's slices at
+60 % (typical gap 2) and on x-stripes at 63 % (gap 5), losing on one case (an NYU frame's
+slices, 0.93 → 0.97 of the best classical fill); on x-stripes at 70 and 78 % (gaps of 7 and
+11) it won on the Middlebury scenes and lost on three of the four indoor frames.
 
 The typical gap is a median of integers and the test an integer comparison, so the choice is
 the same on every machine.
@@ -117,7 +119,7 @@ def choose_neighbourhood(partial_range: np.ndarray, window: str = "gaps") -> int
     >>> stripes = np.full((8, 24), np.nan); stripes[:, ::12] = 1.0   # gaps of 11
     >>> choose_neighbourhood(slices), choose_neighbourhood(stripes)
     (3, 5)
-    >>> choose_neighbourhood(slices, "fixed"), choose_neighbourhood(slices.T)   # a grid
+    >>> choose_neighbourhood(slices, "fixed"), choose_neighbourhood(slices.T)   # rows scanned
     (5, 5)
     """
     window = check_choice("window", window, WINDOWS)
