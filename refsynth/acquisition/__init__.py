@@ -33,8 +33,8 @@ fraction of the tables (:func:`unknown_fraction`).
   :mod:`~refsynth.acquisition.assembly`).
 
 **Active sensing** (§5): :func:`next_slices` ranks the unmeasured columns by
-the expected error their measurement removes, from one synthesis
-(:mod:`~refsynth.acquisition.active`).
+the expected error their measurement removes from the line across their gap,
+from one synthesis and its uncertainty map (:mod:`~refsynth.acquisition.active`).
 
 References
 ----------

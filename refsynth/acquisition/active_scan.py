@@ -54,7 +54,7 @@ __all__ = ["ROUND_ROWS", "ROUND_METHOD", "slice_grid", "choose_round"]
 
 #: The most rows of the grid a round synthesizes on (every k-th encoder position).
 ROUND_ROWS = 60
-#: The synthesis whose uncertainty chooses a round (with seed 0).
+#: The synthesis (its range and uncertainty map) that chooses a round (with seed 0).
 ROUND_METHOD = "bp"
 
 
