@@ -19,8 +19,9 @@ measured (the rig's vertical slices, §4), at each fraction of the columns:
 
 ``--active-error truth`` is a probe of how far the choice can go, not a
 strategy a rig can run: each round's columns are chosen by the same greedy
-rule from the fill's *true* error (``|fill − truth|`` where there is truth, the
-uncertainty map elsewhere) instead of its uncertainty map.
+rule with the truth in place of the fill, no uncertainty, and the pixels with
+truth counted (what the MAR scores), so each gain is the true error the
+measurement removes from the lines across the gaps.
 
 Each fill (NP, BP, the classical fills of :mod:`refsynth.evaluation.baselines`)
 is scored with MAR (Eq. 13) over the unknown pixels that have ground truth. The
@@ -51,6 +52,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from scipy import ndimage
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # bench_scenes
 import bench_scenes  # noqa: E402  (puts the checkout on the path if refsynth is not installed)
@@ -93,13 +95,16 @@ def fixed_mask(scene, strategy: str, fraction: float) -> np.ndarray:
     return mask & scene.has_truth
 
 
-def truth_slices(scene, partial: np.ndarray, n: int, method: str, seed: int) -> np.ndarray:
-    """next_slices's greedy choice from the fill's true error (the ``truth`` probe)."""
-    result = synthesize(scene.intensity, partial, method=method, seed=seed)
-    measured = np.isfinite(partial)
-    error = np.where(scene.has_truth & ~measured, np.abs(result.range - scene.range),
-                     np.where(scene.has_truth, 0.0, result.uncertainty))
-    return _greedy(error.sum(axis=0), measured_columns(partial), n)
+def truth_slices(scene, partial: np.ndarray, n: int) -> np.ndarray:
+    """next_slices's greedy choice with the truth in place of the fill (the ``truth`` probe):
+    the estimate is the truth, the uncertainty 0 and the pixels that count those with truth
+    (what the MAR scores), so each gain is the true error the measurement removes from the
+    lines. A line ending on a pixel without truth takes the nearest pixel's truth."""
+    nearest = ndimage.distance_transform_edt(~scene.has_truth, return_distances=False,
+                                             return_indices=True)
+    estimate = scene.range[nearest[0], nearest[1]]
+    return _greedy(estimate, np.zeros_like(estimate), measured_columns(partial), n,
+                   scene.has_truth)
 
 
 def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: int,
@@ -123,7 +128,7 @@ def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: 
         partial = np.where(mask, scene.range, np.nan)
         began = time.perf_counter()
         if error == "truth":
-            picks = truth_slices(scene, partial, max(wanted, 1), method, seed)
+            picks = truth_slices(scene, partial, max(wanted, 1))
         else:
             picks = next_slices(scene.intensity, partial, max(wanted, 1), method=method,
                                 seed=seed)
@@ -314,7 +319,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                                                     active_error=active_error),
                                                indent=1).encode())
     chooser = ("next_slices" if active_error == "uncertainty"
-               else "greedy choice from the true error (a probe)")
+               else "greedy choice with the truth in place of the fill (a probe)")
     print(f"bench_active: size {size}, seed {args.seed}, {len(scenes)} scenes, active: "
           f"{active_method.upper()}'s {chooser}, +{args.step} % per call; MAR (Eq. 13)",
           file=out)

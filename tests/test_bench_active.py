@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from refsynth.acquisition.active import expected_gain, measured_columns
+
 
 @pytest.fixture(scope="module")
 def bench(benchmark_script):
@@ -57,18 +59,44 @@ def test_the_cost_of_a_call_is_given_in_fills_of_the_run(bench, folder):
     assert line.startswith("next_slices: 2 calls, mean ") and "of the mean NP fill" in line
 
 
-def test_the_truth_probe_chooses_where_the_fill_is_wrong(bench, folder):
-    """``--active-error truth``: the greedy choice from |fill − truth|, on measured columns
-    never; it equals next_slices's greedy step fed that error."""
+def test_the_truth_probe_chooses_where_the_truth_leaves_the_line(bench, folder):
+    """``--active-error truth``: next_slices's greedy step with the truth in place of the
+    fill and no uncertainty, on measured columns never; its first pick is the column whose
+    measurement removes the most true error of the lines (whichever method fills)."""
     scene = bench.bench_scenes.load(str(folder / "box"), "48x40")
     masks, _ = bench.active_masks(scene, [20, 25], 5, "np", 0, error="truth")
     first, last = (set(np.flatnonzero(masks[f].any(axis=0))) for f in (20, 25))
     added = sorted(last - first)
-    partial = np.where(masks[20], scene.range, np.nan)
-    fill = bench.synthesize(scene.intensity, partial, method="np", seed=0).range
-    error = np.where(np.isnan(partial), np.abs(fill - scene.range), 0.0).sum(axis=0)
-    assert added == sorted(bench._greedy(error, masks[20].any(axis=0), 2).tolist())
+    assert scene.has_truth.all()
+    measured = masks[20].any(axis=0)
+    truth = scene.range
+    every = np.ones(truth.shape, dtype=bool)
+    assert added == sorted(bench._greedy(truth, np.zeros_like(truth), measured, 2,
+                                         every).tolist())
+    gain = expected_gain(truth, np.zeros_like(truth), measured)
+    assert gain.max() > 0 and int(np.argmax(gain)) in added
     assert not first & set(added)
+    again, _ = bench.active_masks(scene, [20, 25], 5, "bp", 0, error="truth")
+    assert np.array_equal(again[25], masks[25])
+
+
+def test_the_truth_probe_counts_only_pixels_with_truth(bench):
+    """Pixels without truth do not count (the MAR does not score them), and a line ending on
+    one takes the nearest pixel's truth."""
+    from types import SimpleNamespace
+
+    truth = np.tile(np.where(np.arange(21) < 13, 1.0, 3.0), (4, 1))
+    holed = truth.copy()
+    holed[:, 14:17] = np.nan                      # no truth; the nearest truth is 3.0
+    holed[0, 20] = np.nan                         # and none at one end of a line
+    scene = SimpleNamespace(range=holed, has_truth=np.isfinite(holed))
+    partial = np.full((4, 21), np.nan)
+    partial[:, [0, 20]] = holed[:, [0, 20]]
+    measured = measured_columns(partial)
+    expected = bench._greedy(truth, np.zeros_like(truth), measured, 3, np.isfinite(holed))
+    assert np.array_equal(bench.truth_slices(scene, partial, 3), expected)
+    every = bench._greedy(truth, np.zeros_like(truth), measured, 3, np.ones((4, 21), bool))
+    assert not np.array_equal(expected, every)    # the holes change the choice
 
 
 def test_table_ratio_json_and_from_json(bench, folder, tmp_path):
