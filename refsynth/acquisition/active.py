@@ -49,11 +49,10 @@ in the nearest measured column on its left or on its right
 likely to return nothing from the columns between, and the error of a pixel
 no measurement reaches is not removed by measuring.
 
-The picks are greedy: after choosing
-the best column it is taken as measured and the gains of the two gaps it
-leaves are computed again; a pick therefore lowers the gains of the columns
-near it (their lines are already shorter), so the picks spread over the sites
-with depth profiles rather than bunch.
+The picks are greedy: after choosing the best column it is taken as measured
+and the gains of the two gaps it leaves are computed again; a pick therefore
+lowers the gains of the columns near it (their lines are already shorter), so
+the picks spread over the sites with depth profiles rather than bunch.
 
 Every sum is exactly rounded (``math.fsum``) and the exponential is
 :func:`refsynth.numeric.portable_exp`: the same picks on every machine.
@@ -102,7 +101,7 @@ def measured_columns(partial_range: np.ndarray) -> np.ndarray:
 
 
 def line_error(deviation: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """The expected absolute error of a line ``δ`` from the synthesis: ``E|δ − ε|``.
+    """The expected absolute error of a line that is ``δ`` off the synthesis: ``E|δ − ε|``.
 
     ``ε`` Laplace-distributed with mean absolute value ``scale`` (the module's ``e(p)``):
     ``|δ| + scale · exp(−|δ| / scale)``, and ``|δ|`` where ``scale`` is 0.
