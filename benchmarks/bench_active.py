@@ -258,8 +258,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                         "first of --fractions)")
     parser.add_argument("--active-method", default="bp", choices=("np", "bp"))
     parser.add_argument("--active-error", default="uncertainty", choices=("uncertainty", "truth"),
-                        help="active: choose from the uncertainty map (default) or, as a probe "
-                        "of how far the choice can go, from the fill's true error")
+                        help="active: choose with next_slices (default) or, as a probe of how "
+                        "far the choice can go, with the truth in place of the fill")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="write the runs here")
     parser.add_argument("--figure", default=None, metavar="PATH", help="write the curves here")
@@ -335,7 +335,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
             print(f"  {'geometric mean':>24s}  {math.exp(np.mean(np.log(finite))):.3f}"
                   f"   largest {max(finite):.3f}", file=out)
     every = [s for seconds in calls.values() for s in seconds]
-    if every:
+    if every and active_error == "uncertainty":  # the probe's calls are not next_slices's
         fills = [r["seconds"] for r in rows if r["method"] == active_method]
         cost = (f" = {np.mean(every) / np.mean(fills):.2f} of the mean "
                 f"{active_method.upper()} fill of the run ({np.mean(fills):.1f} s)"

@@ -99,6 +99,16 @@ def test_the_truth_probe_counts_only_pixels_with_truth(bench):
     assert not np.array_equal(expected, every)    # the holes change the choice
 
 
+def test_the_truth_probe_prints_no_next_slices_cost(bench, folder):
+    out = io.StringIO()
+    assert bench.main([str(folder), "--size", "48x40", "--fractions", "20,25", "--methods",
+                       "bp", "--strategies", "active", "--active-method", "np",
+                       "--active-error", "truth", "--quiet"], out=out) == 0
+    text = out.getvalue()
+    assert "with the truth in place of the fill (a probe)" in text
+    assert "next_slices:" not in text
+
+
 def test_table_ratio_json_and_from_json(bench, folder, tmp_path):
     out, target = io.StringIO(), tmp_path / "runs.json"
     argv = [str(folder), "--size", "48x40", "--fractions", "20,40", "--methods",
