@@ -206,6 +206,12 @@ def test_returning_pixels_look_at_the_nearest_measured_column_each_side(returned
     assert np.array_equal(returning_pixels(partial), expected)
 
 
+@pytest.mark.parametrize("partial", [np.full((3, 4), np.nan), np.ones(4)])
+def test_returning_pixels_refuses_bad_input_by_name(partial):
+    with pytest.raises(ValueError, match="`partial_range`"):
+        returning_pixels(partial)
+
+
 def test_next_slices_counts_only_the_pixels_a_measurement_reaches():
     """next_slices is _greedy on the synthesis, its uncertainty and returning_pixels: rows
     that returned nothing in the measured columns of the right half do not count there."""

@@ -152,6 +152,11 @@ def returning_pixels(partial_range: np.ndarray) -> np.ndarray:
     ndarray of shape (H, W), bool
         False on measured columns.
 
+    Raises
+    ------
+    ValueError
+        Naming ``partial_range``: not 2-D, or no pixel measured.
+
     Examples
     --------
     Columns 0 and 4 are measured; row 1 returned nothing in either of them, row 0
@@ -164,6 +169,9 @@ def returning_pixels(partial_range: np.ndarray) -> np.ndarray:
     [[0, 1, 1, 1, 0], [0, 0, 0, 0, 0], [0, 1, 1, 1, 0]]
     """
     values = np.asarray(partial_range, dtype=np.float64)
+    if values.ndim != 2 or not np.isfinite(values).any():
+        raise ValueError("The parameter `partial_range` must be an (H, W) array with at least "
+                         f"one measured (finite) pixel, got shape {values.shape}")
     measured = measured_columns(values)
     known = np.flatnonzero(measured)
     where = np.searchsorted(known, np.arange(measured.size))
