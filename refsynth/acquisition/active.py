@@ -128,13 +128,19 @@ def line_error(deviation: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return size + np.where(sure, 0.0, safe * portable_exp(-size / safe))
 
 
+def _nearest_measured(measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each column's nearest measured column on its left and on its right (itself if
+    measured; beyond the outermost measured column, that column on both sides)."""
+    known = np.flatnonzero(measured)
+    where = np.searchsorted(known, np.arange(measured.size))
+    return (known[np.clip(where - 1, 0, known.size - 1)],
+            known[np.clip(where, 0, known.size - 1)])
+
+
 def _distances(measured: np.ndarray) -> np.ndarray:
     """Each column's distance (in columns) to the nearest measured one (0 on measured ones)."""
     columns = np.arange(measured.size)
-    known = np.flatnonzero(measured)
-    where = np.searchsorted(known, columns)
-    left = known[np.clip(where - 1, 0, known.size - 1)]
-    right = known[np.clip(where, 0, known.size - 1)]
+    left, right = _nearest_measured(measured)
     return np.minimum(np.abs(columns - left), np.abs(columns - right)).astype(np.float64)
 
 
@@ -173,12 +179,9 @@ def returning_pixels(partial_range: np.ndarray) -> np.ndarray:
         raise ValueError("The parameter `partial_range` must be an (H, W) array with at least "
                          f"one measured (finite) pixel, got shape {values.shape}")
     measured = measured_columns(values)
-    known = np.flatnonzero(measured)
-    where = np.searchsorted(known, np.arange(measured.size))
+    left, right = _nearest_measured(measured)
     returned = np.isfinite(values)
-    left = returned[:, known[np.clip(where - 1, 0, known.size - 1)]]
-    right = returned[:, known[np.clip(where, 0, known.size - 1)]]
-    return (left | right) & ~measured[None, :]
+    return (returned[:, left] | returned[:, right]) & ~measured[None, :]
 
 
 class _Gaps:
