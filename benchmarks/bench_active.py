@@ -17,11 +17,26 @@ measured (the rig's vertical slices, §4), at each fraction of the columns:
     :func:`refsynth.acquisition.next_slices` (``--active-method``, default BP)
     per ``--step`` (5 %) of the columns, each on what is measured so far.
 
-``--active-error truth`` is a probe of how far the choice can go, not a
-strategy a rig can run: each round's columns are chosen by the same greedy
-rule with the truth in place of the fill, no uncertainty, and the pixels with
-truth counted (what the MAR scores), so each gain is the true error the
-measurement removes from the lines across the gaps.
+``--active-error`` chooses what the greedy rule of ``next_slices`` knows; every
+value but the default is a probe of what a piece of knowledge is worth, not a
+strategy a rig can run (it reads the truth):
+
+``uncertainty``
+    ``next_slices`` itself: the fill, its uncertainty map, and the pixels whose
+    rows returned a range in the measured columns bounding their gap.
+``fill-error``
+    the same with the fill's true absolute error in place of its uncertainty
+    map: what a perfect uncertainty map would buy.
+``truth-counts``
+    the same with the pixels that have truth counted (what the MAR scores) in
+    place of the returning pixels: what knowing where the rangefinder returns
+    would buy.
+``truth``
+    the truth in place of the fill, no uncertainty, and the pixels with truth
+    counted, so each gain is the true error the measurement removes from the
+    lines across the gaps: how far the rule can go.
+
+A pixel without truth takes the nearest pixel's truth in the probes.
 
 Each fill (NP, BP, the classical fills of :mod:`refsynth.evaluation.baselines`)
 is scored with MAR (Eq. 13) over the unknown pixels that have ground truth. The
@@ -59,7 +74,11 @@ import bench_scenes  # noqa: E402  (puts the checkout on the path if refsynth is
 
 from refsynth._files import write_atomic  # noqa: E402
 from refsynth.acquisition import next_slices, x_stripes_for_fraction  # noqa: E402
-from refsynth.acquisition.active import _greedy, measured_columns  # noqa: E402
+from refsynth.acquisition.active import (  # noqa: E402
+    _greedy,
+    measured_columns,
+    returning_pixels,
+)
 from refsynth.evaluation.baselines import BASELINES  # noqa: E402
 from refsynth.evaluation.cases import known_mask, parse_size  # noqa: E402
 from refsynth.evaluation.metrics import evaluate  # noqa: E402
@@ -69,6 +88,8 @@ STRATEGIES = ("even", "x-stripes", "distance", "active")
 CLASSICAL = bench_scenes.CLASSICAL
 DEFAULT_METHODS = ("np", "bp", *CLASSICAL)
 DEFAULT_FRACTIONS = (20, 30, 40, 50, 60)
+#: What next_slices's greedy rule knows (``--active-error``; all but the first are probes).
+ACTIVE_ERRORS = ("uncertainty", "fill-error", "truth-counts", "truth")
 
 
 def even_columns(width: int, fraction: float) -> np.ndarray:
@@ -95,24 +116,48 @@ def fixed_mask(scene, strategy: str, fraction: float) -> np.ndarray:
     return mask & scene.has_truth
 
 
+def nearest_truth(scene) -> np.ndarray:
+    """The truth, each pixel without truth taking the nearest pixel's."""
+    nearest = ndimage.distance_transform_edt(~scene.has_truth, return_distances=False,
+                                             return_indices=True)
+    return scene.range[nearest[0], nearest[1]]
+
+
 def truth_slices(scene, partial: np.ndarray, n: int) -> np.ndarray:
     """next_slices's greedy choice with the truth in place of the fill (the ``truth`` probe):
     the estimate is the truth, the uncertainty 0 and the pixels that count those with truth
     (what the MAR scores), so each gain is the true error the measurement removes from the
     lines. A line ending on a pixel without truth takes the nearest pixel's truth."""
-    nearest = ndimage.distance_transform_edt(~scene.has_truth, return_distances=False,
-                                             return_indices=True)
-    estimate = scene.range[nearest[0], nearest[1]]
+    estimate = nearest_truth(scene)
     return _greedy(estimate, np.zeros_like(estimate), measured_columns(partial), n,
                    scene.has_truth)
+
+
+def probe_slices(scene, partial: np.ndarray, n: int, error: str, method: str,
+                 seed: int) -> np.ndarray:
+    """next_slices's choice with one piece of its knowledge replaced by the truth's
+    (``--active-error``): ``fill-error``, the fill's true absolute error in place of its
+    uncertainty map; ``truth-counts``, the pixels with truth in place of the returning ones;
+    ``truth``, :func:`truth_slices`."""
+    if error == "truth":
+        return truth_slices(scene, partial, n)
+    result = synthesize(scene.intensity, partial, method=method, seed=seed)
+    measured = np.isfinite(partial)
+    if error == "fill-error":
+        uncertainty = np.where(measured, 0.0, np.abs(result.range - nearest_truth(scene)))
+        counts = returning_pixels(partial)
+    else:
+        uncertainty = result.uncertainty
+        counts = scene.has_truth & ~measured_columns(partial)[None, :]
+    return _greedy(result.range, uncertainty, measured_columns(partial), n, counts)
 
 
 def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: int,
                  progress=None, start: int | None = None, error: str = "uncertainty"
                  ) -> tuple[dict[int, np.ndarray], list[float]]:
     """``{percent: mask}`` of the active strategy (from ``even`` at ``start`` %, default the
-    first fraction), and the seconds of each next_slices call (``error="truth"``: the
-    probe, :func:`truth_slices`)."""
+    first fraction), and the seconds of each next_slices call (another ``error``: a probe,
+    :func:`probe_slices`)."""
     width = scene.range.shape[1]
     start = min(fractions) if start is None else start
     columns = set(even_columns(width, start / 100).tolist())
@@ -127,8 +172,8 @@ def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: 
         wanted = int(round(percent / 100 * width)) - len(columns)
         partial = np.where(mask, scene.range, np.nan)
         began = time.perf_counter()
-        if error == "truth":
-            picks = truth_slices(scene, partial, max(wanted, 1))
+        if error != "uncertainty":
+            picks = probe_slices(scene, partial, max(wanted, 1), error, method, seed)
         else:
             picks = next_slices(scene.intensity, partial, max(wanted, 1), method=method,
                                 seed=seed)
@@ -257,9 +302,11 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                         help="active: the evenly spread columns it starts from (default: the "
                         "first of --fractions)")
     parser.add_argument("--active-method", default="bp", choices=("np", "bp"))
-    parser.add_argument("--active-error", default="uncertainty", choices=("uncertainty", "truth"),
-                        help="active: choose with next_slices (default) or, as a probe of how "
-                        "far the choice can go, with the truth in place of the fill")
+    parser.add_argument("--active-error", default="uncertainty", choices=ACTIVE_ERRORS,
+                        help="active: choose with next_slices (default) or, as a probe of what "
+                        "a piece of its knowledge is worth, with the truth's in its place: "
+                        "the fill's error for its uncertainty (fill-error), the pixels with "
+                        "truth for the returning ones (truth-counts), or all (truth)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="write the runs here")
     parser.add_argument("--figure", default=None, metavar="PATH", help="write the curves here")
@@ -318,8 +365,12 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                                                     active_method=active_method,
                                                     active_error=active_error),
                                                indent=1).encode())
-    chooser = ("next_slices" if active_error == "uncertainty"
-               else "greedy choice with the truth in place of the fill (a probe)")
+    chooser = {"uncertainty": "next_slices",
+               "fill-error": "greedy choice with the fill's true error in place of its "
+                             "uncertainty (a probe)",
+               "truth-counts": "greedy choice counting the pixels with truth (a probe)",
+               "truth": "greedy choice with the truth in place of the fill (a probe)"
+               }[active_error]
     print(f"bench_active: size {size}, seed {args.seed}, {len(scenes)} scenes, active: "
           f"{active_method.upper()}'s {chooser}, +{args.step} % per call; MAR (Eq. 13)",
           file=out)

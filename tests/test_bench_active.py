@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from refsynth.acquisition.active import expected_gain, measured_columns
+from refsynth.acquisition.active import expected_gain, measured_columns, returning_pixels
 
 
 @pytest.fixture(scope="module")
@@ -99,13 +99,66 @@ def test_the_truth_probe_counts_only_pixels_with_truth(bench):
     assert not np.array_equal(expected, every)    # the holes change the choice
 
 
-def test_the_truth_probe_prints_no_next_slices_cost(bench, folder):
+def _holed_box(bench, folder):
+    """The box scene with a narrow hole in its truth between two measured columns (a shadow
+    by the box's left edge): the returning pixels count it, the pixels with truth do not."""
+    from types import SimpleNamespace
+
+    scene = bench.bench_scenes.load(str(folder / "box"), "48x40")
+    measured = bench.even_columns(48, 0.20)
+    left = int(measured[np.searchsorted(measured, 28) - 1])
+    has_truth = scene.has_truth.copy()
+    has_truth[5:35, left + 1:left + 4] = False
+    scene = SimpleNamespace(name="holed", range=np.where(has_truth, scene.range, np.nan),
+                            has_truth=has_truth, intensity=scene.intensity)
+    partial = np.where(bench.column_mask((40, 48), measured) & has_truth, scene.range, np.nan)
+    return scene, partial
+
+
+def test_the_fill_error_probe_replaces_only_the_uncertainty(bench, folder):
+    """``--active-error fill-error``: next_slices's fill and returning pixels, with the fill's
+    true absolute error (the nearest truth where there is none) in place of its uncertainty."""
+    from refsynth.synthesis.api import synthesize
+
+    scene, partial = _holed_box(bench, folder)
+    result = synthesize(scene.intensity, partial, method="np", seed=0)
+    measured, counts = measured_columns(partial), returning_pixels(partial)
+    error = np.abs(result.range - bench.nearest_truth(scene))
+    assert np.isfinite(error).all() and error[~scene.has_truth].max() > 0
+    picks = bench.probe_slices(scene, partial, 6, "fill-error", "np", 0)
+    assert np.array_equal(picks, bench._greedy(
+        result.range, np.where(np.isfinite(partial), 0.0, error), measured, 6, counts))
+    assert not np.array_equal(picks, bench._greedy(result.range, result.uncertainty,
+                                                   measured, 6, counts))
+
+
+def test_the_truth_counts_probe_replaces_only_the_counted_pixels(bench, folder):
+    """``--active-error truth-counts``: next_slices's fill and uncertainty, counting the
+    pixels with truth (what the MAR scores) instead of the returning ones."""
+    from refsynth.synthesis.api import synthesize
+
+    scene, partial = _holed_box(bench, folder)
+    result = synthesize(scene.intensity, partial, method="np", seed=0)
+    measured = measured_columns(partial)
+    picks = bench.probe_slices(scene, partial, 3, "truth-counts", "np", 0)
+    assert np.array_equal(picks, bench._greedy(result.range, result.uncertainty, measured, 3,
+                                               scene.has_truth))
+    assert not np.array_equal(picks, bench._greedy(result.range, result.uncertainty,
+                                                   measured, 3, returning_pixels(partial)))
+
+
+@pytest.mark.parametrize("error, header", [
+    ("truth", "with the truth in place of the fill (a probe)"),
+    ("fill-error", "with the fill's true error in place of its uncertainty (a probe)"),
+    ("truth-counts", "counting the pixels with truth (a probe)"),
+])
+def test_a_probe_says_so_and_prints_no_next_slices_cost(bench, folder, error, header):
     out = io.StringIO()
     assert bench.main([str(folder), "--size", "48x40", "--fractions", "20,25", "--methods",
                        "bp", "--strategies", "active", "--active-method", "np",
-                       "--active-error", "truth", "--quiet"], out=out) == 0
+                       "--active-error", error, "--quiet"], out=out) == 0
     text = out.getvalue()
-    assert "with the truth in place of the fill (a probe)" in text
+    assert header in text
     assert "next_slices:" not in text
 
 
