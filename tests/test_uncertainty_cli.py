@@ -3,6 +3,8 @@
 import numpy as np
 import plyfile
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import refsynth
 from refsynth.cli.main import main
@@ -133,7 +135,51 @@ def test_build_model_carries_and_thresholds_the_uncertainty():
     assert cut.subset(np.ones(cut.n_vertices, bool)).uncertainty is not None
 
 
+def test_build_model_drops_the_most_uncertain_fraction_of_the_synthesized_points():
+    """drop_uncertain = 0.25 of the 16 synthesized pixels: the 4 most uncertain, the tie at
+    the cut broken in raster order; measured pixels (uncertainty 0) stay."""
+    depth = np.full((4, 6), 3.0)
+    unc = np.zeros(depth.shape)
+    unc[:, 1:5] = np.array([[0.1, 0.2, 0.3, 0.4],
+                            [0.9, 0.1, 0.5, 0.2],
+                            [0.5, 0.1, 0.1, 0.3],
+                            [0.2, 0.5, 0.1, 0.7]])
+    camera = PinholeCamera(100.0, 3.0, 2.0)
+    cut = build_model(depth, camera, uncertainty=unc, drop_uncertain=0.25)
+    gone = {(r, c) for r in range(4) for c in range(6)} - set(map(tuple, cut.pixels.tolist()))
+    assert gone == {(1, 1), (3, 4), (1, 3), (2, 1)}    # 0.9, 0.7, then the first two 0.5s
+    assert cut.n_vertices == 20
+    assert build_model(depth, camera, uncertainty=unc, drop_uncertain=1.0).n_vertices == 8
+    none = build_model(depth, camera, uncertainty=unc, drop_uncertain=0.0)
+    assert none.n_vertices == 24 and none.n_faces == build_model(depth, camera).n_faces
+    both = build_model(depth, camera, uncertainty=unc, drop_uncertain=0.25,
+                       max_uncertainty=0.35)
+    assert both.n_vertices == 24 - 6                   # the 4 above and 0.4, the last 0.5
+    flat = build_model(np.full((12, 12), 3.0), camera, uncertainty=np.full((12, 12), 0.2),
+                       drop_uncertain=0.5)
+    assert flat.pixels[:, 0].min() == 6               # all tied: the first half in raster order
+
+
+@given(st.integers(0, 2**32 - 1), st.floats(0.0, 1.0))
+def test_drop_uncertain_keeps_no_point_more_uncertain_than_one_it_drops(seed, fraction):
+    """The dropped pixels are the first round(fraction · n) of the synthesized ones in
+    Python's (stable) sort by decreasing uncertainty."""
+    rng = np.random.default_rng(seed)
+    depth = np.full((12, 15), 2.0)
+    unc = np.where(rng.random(depth.shape) < 0.3, 0.0, rng.integers(1, 5, depth.shape) / 4)
+    cut = build_model(depth, PinholeCamera(50.0, 7.0, 6.0), uncertainty=unc,
+                      drop_uncertain=fraction)
+    kept = np.zeros(depth.shape, bool)
+    kept[cut.pixels[:, 0], cut.pixels[:, 1]] = True
+    synthesized = [i for i, u in enumerate(unc.ravel()) if u > 0]
+    order = sorted(synthesized, key=lambda i: -unc.ravel()[i])
+    assert set(np.flatnonzero(~kept.ravel())) == set(order[:round(fraction * len(order))])
+
+
 @pytest.mark.parametrize(("kwargs", "error", "needle"), [
+    (dict(drop_uncertain=0.1), ValueError, "needs `uncertainty`"),
+    (dict(uncertainty=np.zeros((6, 8)), drop_uncertain=1.5), ValueError, "drop_uncertain"),
+    (dict(uncertainty=np.zeros((6, 8)), drop_uncertain="0.1"), TypeError, "drop_uncertain"),
     (dict(max_uncertainty=0.1), ValueError, "needs `uncertainty`"),
     (dict(uncertainty=np.zeros((2, 2))), ValueError, "uncertainty"),
     (dict(uncertainty=np.full((6, 8), -1.0)), ValueError, ">= 0"),
@@ -182,9 +228,13 @@ def test_model_cli_reads_the_map_and_drops_above_the_threshold(tmp_path, capsys)
                 capsys)[0] == 0
     assert _run([*common, "--uncertainty", tmp_path / "u.npy", "--max-uncertainty", "0.1",
                  "--out", tmp_path / "b.ply"], capsys)[0] == 0
+    assert _run([*common, "--uncertainty", tmp_path / "u.npy", "--drop-uncertain", "0.5",
+                 "--out", tmp_path / "c.ply"], capsys)[0] == 0
     a, b = read_ply(tmp_path / "a.ply"), read_ply(tmp_path / "b.ply")
     assert a.n_vertices == depth.size and b.n_vertices == depth.size - 6
     assert np.allclose(np.sort(a.uncertainty), np.sort(unc.ravel()).astype(np.float32))
+    c = read_ply(tmp_path / "c.ply")                    # half the 12 synthesized: column 3
+    assert c.n_vertices == depth.size - 6 and c.uncertainty.max() == np.float32(0.05)
 
 
 @pytest.mark.parametrize(("extra", "needle"), [
@@ -193,6 +243,8 @@ def test_model_cli_reads_the_map_and_drops_above_the_threshold(tmp_path, capsys)
     (["--uncertainty", "small.npy"], "differs from the range's"),
     (["--uncertainty", "negative.npy"], "must be finite and >= 0"),
     (["--uncertainty", "u.npy", "--max-uncertainty", "-1"], "--max-uncertainty must be >= 0"),
+    (["--drop-uncertain", "0.1"], "--drop-uncertain needs --uncertainty"),
+    (["--uncertainty", "u.npy", "--drop-uncertain", "2"], "--drop-uncertain must be a fraction"),
 ])
 def test_model_cli_bad_uncertainty_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch, extra,
                                                           needle):

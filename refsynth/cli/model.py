@@ -4,7 +4,8 @@ Two forms::
 
     python -m refsynth model DENSE.npy --intensity IMAGE --camera cylindrical --focal 300 \\
         --out room.ply [--confidence CONF.npy] [--partial PARTIAL.npy] \\
-        [--uncertainty UNC.npy [--max-uncertainty U]] [--max-jump FRACTION] [--ascii]
+        [--uncertainty UNC.npy [--max-uncertainty U] [--drop-uncertain FRACTION]]
+        [--max-jump FRACTION] [--ascii]
     python -m refsynth model DENSE.npy --camera-file REGISTERED/camera.json --out room.ply
     python -m refsynth model DISP.npy --camera pinhole --focal F --cx CX --cy CY \\
         [--disparity --baseline B --doffs D] --out model.ply
@@ -33,7 +34,9 @@ nothing.
 in the range's unit, 0 where measured) gives every vertex an ``uncertainty`` property beside
 its ``confidence``; ``--max-uncertainty U`` drops the points whose uncertainty exceeds ``U``
 (in the range's unit; the range's own unit even with ``--disparity``) and the triangles that
-use them.
+use them; ``--drop-uncertain FRACTION`` drops that fraction of the synthesized points, the most
+uncertain first, which uses only the map's ranking (on column samplings the map's scale
+overstates the error, its ranking holds: ``docs/uncertainty.md``).
 
 The camera file
 ---------------
@@ -282,12 +285,15 @@ def _cmd_build(args) -> int:
     inputs = (args.dense, args.intensity, args.confidence, args.partial, args.camera_file,
               args.uncertainty)
     out = check_output(args.out, "--out", (".ply",), inputs=inputs)
-    if args.max_uncertainty is not None:
-        if args.uncertainty is None:
-            raise ValueError("--max-uncertainty needs --uncertainty UNC.npy (synth "
-                             "--uncertainty-out)")
-        if not args.max_uncertainty >= 0:
-            raise ValueError(f"--max-uncertainty must be >= 0, got {args.max_uncertainty:g}")
+    for flag, value in (("--max-uncertainty", args.max_uncertainty),
+                        ("--drop-uncertain", args.drop_uncertain)):
+        if value is not None and args.uncertainty is None:
+            raise ValueError(f"{flag} needs --uncertainty UNC.npy (synth --uncertainty-out)")
+    if args.max_uncertainty is not None and not args.max_uncertainty >= 0:
+        raise ValueError(f"--max-uncertainty must be >= 0, got {args.max_uncertainty:g}")
+    if args.drop_uncertain is not None and not 0 <= args.drop_uncertain <= 1:
+        raise ValueError(f"--drop-uncertain must be a fraction in [0, 1], got "
+                         f"{args.drop_uncertain:g}")
     _check_png_scale(args, [args.dense, args.partial])
     dense = _single(_read_range(args.dense, "range", args), "range")
     if not args.disparity and (args.baseline is not None or args.doffs != 0.0):
@@ -322,7 +328,8 @@ def _cmd_build(args) -> int:
                         measured=measured, max_jump=args.max_jump,
                         min_confidence=args.min_confidence,
                         wrap=False if args.no_wrap else None, uncertainty=uncertainty,
-                        max_uncertainty=args.max_uncertainty)
+                        max_uncertainty=args.max_uncertainty,
+                        drop_uncertain=args.drop_uncertain or 0.0)
     write_ply(make_parent(out), model, ascii=args.ascii,
               coordinates="float32" if args.float32 else "float64",
               comments=[f"camera {kind} focal {camera.focal}"])
@@ -411,9 +418,10 @@ def read_poses(path) -> list[np.ndarray]:
 
 def _cmd_merge(args) -> int:
     if (args.dense is not None or args.intensity or args.confidence or args.partial
-            or args.uncertainty or args.max_uncertainty is not None):
+            or args.uncertainty or args.max_uncertainty is not None
+            or args.drop_uncertain is not None):
         raise ValueError("--merge takes PLY files only (no DENSE, --intensity, --confidence, "
-                         "--partial, --uncertainty, --max-uncertainty)")
+                         "--partial, --uncertainty, --max-uncertainty, --drop-uncertain)")
     if not args.poses:
         raise ValueError("--merge needs --poses poses.json")
     if args.png_scale is not None or args.allow_nonpositive:
@@ -515,6 +523,10 @@ def add_model_parser(subparsers) -> argparse.ArgumentParser:
     mesh.add_argument("--max-uncertainty", type=real, default=None, metavar="U",
                       help="drop points whose uncertainty (--uncertainty, in the range's "
                       "unit) exceeds U, with their triangles (default: none dropped)")
+    mesh.add_argument("--drop-uncertain", type=real, default=None, metavar="FRACTION",
+                      help="drop this fraction (0-1) of the synthesized points, the most "
+                      "uncertain (--uncertainty) first, with their triangles: the map's "
+                      "ranking, not its scale (default: none dropped)")
     _add_camera_options(parser.add_argument_group(
         "camera (of DENSE: --camera-file, or --focal and the rest)"))
     _add_disparity_options(parser.add_argument_group(

@@ -167,7 +167,7 @@ def _check_shape(name: str, array: np.ndarray, shape) -> np.ndarray:
 def build_model(range_image, camera, *, intensity=None, confidence=None, measured=None,
                 max_jump: float | None = DEFAULT_MAX_JUMP, min_confidence: float = 0.0,
                 wrap: bool | None = None, uncertainty=None,
-                max_uncertainty: float | None = None) -> Model:
+                max_uncertainty: float | None = None, drop_uncertain: float = 0.0) -> Model:
     """One scan position's model: coloured points and a mesh that does not bridge depth jumps.
 
     Parameters
@@ -208,6 +208,14 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
     max_uncertainty : float, optional
         Vertices whose uncertainty exceeds this (in the range's unit) are dropped, with
         their triangles; needs ``uncertainty``. Default: none dropped.
+    drop_uncertain : float, default 0
+        The fraction, in [0, 1], of the synthesized vertices (uncertainty > 0) to drop
+        with their triangles, the most uncertain first (ties: in raster order): the
+        ``round(drop_uncertain · n)`` of the ``n`` synthesized pixels with range (and
+        ``min_confidence``). It uses the map's ranking only, which holds on the
+        samplings where its scale does not (``docs/uncertainty.md``); needs
+        ``uncertainty`` when > 0. With ``max_uncertainty`` too, a vertex that either
+        drops goes.
 
     Returns
     -------
@@ -259,6 +267,12 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
     if min_confidence > 0:
         valid &= conf >= min_confidence
     unc = _check_uncertainty(uncertainty, max_uncertainty, shape, valid)
+    drop_uncertain = check_real("drop_uncertain", drop_uncertain, minimum=0.0, maximum=1.0)
+    if drop_uncertain > 0 and unc is None:
+        raise ValueError("The parameter `drop_uncertain` needs `uncertainty` (the map of "
+                         "SynthesisResult.uncertainty)")
+    if drop_uncertain > 0:
+        valid &= ~_most_uncertain(unc, valid & (unc > 0), drop_uncertain)
     if max_uncertainty is not None:
         valid &= unc <= max_uncertainty
     wrap = _check_wrap(wrap, camera, shape[1])
@@ -277,6 +291,24 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
         pixels=np.stack([rows, cols], axis=1),
         uncertainty=None if unc is None else unc.ravel()[flat],
     )
+
+
+def _most_uncertain(uncertainty: np.ndarray, among: np.ndarray, fraction: float) -> np.ndarray:
+    """The ``round(fraction · n)`` pixels of ``among`` (``n`` of them) with the largest
+    uncertainty, ties in raster order: a bool mask of ``uncertainty``'s shape.
+
+    Examples
+    --------
+    >>> unc = np.array([[0.0, 0.3, 0.1], [0.3, 0.2, 0.0]])
+    >>> _most_uncertain(unc, unc > 0, 0.5).astype(int).tolist()
+    [[0, 1, 0], [1, 0, 0]]
+    """
+    flat = np.flatnonzero(among)
+    count = round(fraction * flat.size)
+    order = np.argsort(-uncertainty.ravel()[flat], kind="stable")
+    chosen = np.zeros(uncertainty.size, dtype=bool)
+    chosen[flat[order[:count]]] = True
+    return chosen.reshape(uncertainty.shape)
 
 
 def _check_uncertainty(uncertainty, max_uncertainty, shape, valid) -> np.ndarray | None:
