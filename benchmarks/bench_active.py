@@ -142,9 +142,9 @@ def probe_slices(scene, partial: np.ndarray, n: int, error: str, method: str,
     if error == "truth":
         return truth_slices(scene, partial, n)
     result = synthesize(scene.intensity, partial, method=method, seed=seed)
-    measured = np.isfinite(partial)
     if error == "fill-error":
-        uncertainty = np.where(measured, 0.0, np.abs(result.range - nearest_truth(scene)))
+        uncertainty = np.where(np.isfinite(partial), 0.0,
+                               np.abs(result.range - nearest_truth(scene)))
         counts = returning_pixels(partial)
     else:
         uncertainty = result.uncertainty
