@@ -228,8 +228,9 @@ def test_model_cli_reads_the_map_and_drops_above_the_threshold(tmp_path, capsys)
                 capsys)[0] == 0
     assert _run([*common, "--uncertainty", tmp_path / "u.npy", "--max-uncertainty", "0.1",
                  "--out", tmp_path / "b.ply"], capsys)[0] == 0
-    assert _run([*common, "--uncertainty", tmp_path / "u.npy", "--drop-uncertain", "0.5",
-                 "--out", tmp_path / "c.ply"], capsys)[0] == 0
+    status, out, _ = _run([*common, "--uncertainty", tmp_path / "u.npy", "--drop-uncertain",
+                           "0.5", "--out", tmp_path / "c.ply"], capsys)
+    assert status == 0 and "(42 synthesized; 6 dropped as too uncertain)" in out
     a, b = read_ply(tmp_path / "a.ply"), read_ply(tmp_path / "b.ply")
     assert a.n_vertices == depth.size and b.n_vertices == depth.size - 6
     assert np.allclose(np.sort(a.uncertainty), np.sort(unc.ravel()).astype(np.float32))

@@ -339,9 +339,16 @@ def _cmd_build(args) -> int:
     every = len(grid_faces(dense, valid=kept, max_jump=None, wrap=wrap))
     if partial is None:
         print(NO_PARTIAL_NOTE, file=sys.stderr)
+    uncertain = ""
+    if args.max_uncertainty is not None or args.drop_uncertain:
+        with np.errstate(invalid="ignore"):
+            reachable = np.isfinite(dense) & (dense > 0)
+        if confidence is not None and args.min_confidence > 0:
+            reachable &= confidence >= args.min_confidence
+        uncertain = f"; {int(reachable.sum()) - model.n_vertices} dropped as too uncertain"
     print(f"wrote {out}: {model.n_vertices} vertices ({int(model.synthesized.sum())} "
-          f"synthesized), {model.n_faces} triangles ({every - model.n_faces} dropped at depth "
-          f"jumps), {'ascii' if args.ascii else 'binary'}")
+          f"synthesized{uncertain}), {model.n_faces} triangles ({every - model.n_faces} dropped "
+          f"at depth jumps), {'ascii' if args.ascii else 'binary'}")
     return 0
 
 
