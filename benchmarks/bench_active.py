@@ -142,14 +142,15 @@ def probe_slices(scene, partial: np.ndarray, n: int, error: str, method: str,
     if error == "truth":
         return truth_slices(scene, partial, n)
     result = synthesize(scene.intensity, partial, method=method, seed=seed)
+    measured = measured_columns(partial)
     if error == "fill-error":
         uncertainty = np.where(np.isfinite(partial), 0.0,
                                np.abs(result.range - nearest_truth(scene)))
         counts = returning_pixels(partial)
     else:
         uncertainty = result.uncertainty
-        counts = scene.has_truth & ~measured_columns(partial)[None, :]
-    return _greedy(result.range, uncertainty, measured_columns(partial), n, counts)
+        counts = scene.has_truth & ~measured[None, :]
+    return _greedy(result.range, uncertainty, measured, n, counts)
 
 
 def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: int,

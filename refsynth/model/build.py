@@ -268,10 +268,10 @@ def build_model(range_image, camera, *, intensity=None, confidence=None, measure
         valid &= conf >= min_confidence
     unc = _check_uncertainty(uncertainty, max_uncertainty, shape, valid)
     drop_uncertain = check_real("drop_uncertain", drop_uncertain, minimum=0.0, maximum=1.0)
-    if drop_uncertain > 0 and unc is None:
-        raise ValueError("The parameter `drop_uncertain` needs `uncertainty` (the map of "
-                         "SynthesisResult.uncertainty)")
     if drop_uncertain > 0:
+        if unc is None:
+            raise ValueError("The parameter `drop_uncertain` needs `uncertainty` (the map "
+                             "of SynthesisResult.uncertainty)")
         valid &= ~_most_uncertain(unc, valid & (unc > 0), drop_uncertain)
     if max_uncertainty is not None:
         valid &= unc <= max_uncertainty
