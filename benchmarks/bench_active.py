@@ -17,13 +17,20 @@ measured (the rig's vertical slices, §4), at each fraction of the columns:
     :func:`refsynth.acquisition.next_slices` (``--active-method``, default BP)
     per ``--step`` (5 %) of the columns, each on what is measured so far.
 
-``--active-error`` chooses what the greedy rule of ``next_slices`` knows; every
-value but the default is a probe of what a piece of knowledge is worth, not a
-strategy a rig can run (it reads the truth):
+``--active-error`` chooses what the greedy rule of ``next_slices`` knows. Two
+values take a piece of its knowledge away (ablations: what that piece buys);
+three put the truth's version of a piece in its place (probes of what a better
+version would buy, not strategies a rig can run: they read the truth):
 
 ``uncertainty``
     ``next_slices`` itself: the fill, its uncertainty map, and the pixels whose
     rows returned a range in the measured columns bounding their gap.
+``no-uncertainty``
+    the same with an uncertainty map of 0 (each gain is the line's distance
+    from the fill alone): what the uncertainty map buys.
+``all-pixels``
+    the same counting every unmeasured pixel in place of the returning ones:
+    what knowing where the rangefinder returned buys.
 ``fill-error``
     the same with the fill's true absolute error in place of its uncertainty
     map: what a perfect uncertainty map would buy.
@@ -88,8 +95,10 @@ STRATEGIES = ("even", "x-stripes", "distance", "active")
 CLASSICAL = bench_scenes.CLASSICAL
 DEFAULT_METHODS = ("np", "bp", *CLASSICAL)
 DEFAULT_FRACTIONS = (20, 30, 40, 50, 60)
-#: What next_slices's greedy rule knows (``--active-error``; all but the first are probes).
-ACTIVE_ERRORS = ("uncertainty", "fill-error", "truth-counts", "truth")
+#: What next_slices's greedy rule knows (``--active-error``): next_slices itself, two
+#: ablations, three probes.
+ACTIVE_ERRORS = ("uncertainty", "no-uncertainty", "all-pixels", "fill-error", "truth-counts",
+                 "truth")
 
 
 def even_columns(width: int, fraction: float) -> np.ndarray:
@@ -135,20 +144,24 @@ def truth_slices(scene, partial: np.ndarray, n: int) -> np.ndarray:
 
 def probe_slices(scene, partial: np.ndarray, n: int, error: str, method: str,
                  seed: int) -> np.ndarray:
-    """next_slices's choice with one piece of its knowledge replaced by the truth's
-    (``--active-error``): ``fill-error``, the fill's true absolute error in place of its
-    uncertainty map; ``truth-counts``, the pixels with truth in place of the returning ones;
-    ``truth``, :func:`truth_slices`."""
+    """next_slices's choice with one piece of its knowledge taken away or replaced by the
+    truth's (``--active-error``): ``no-uncertainty``, an uncertainty map of 0;
+    ``all-pixels``, every unmeasured pixel counted; ``fill-error``, the fill's true absolute
+    error in place of its uncertainty map; ``truth-counts``, the pixels with truth in place
+    of the returning ones; ``truth``, :func:`truth_slices`."""
     if error == "truth":
         return truth_slices(scene, partial, n)
     result = synthesize(scene.intensity, partial, method=method, seed=seed)
     measured = measured_columns(partial)
-    if error == "fill-error":
+    uncertainty, counts = result.uncertainty, returning_pixels(partial)
+    if error == "no-uncertainty":
+        uncertainty = np.zeros_like(uncertainty)
+    elif error == "fill-error":
         uncertainty = np.where(np.isfinite(partial), 0.0,
                                np.abs(result.range - nearest_truth(scene)))
-        counts = returning_pixels(partial)
+    elif error == "all-pixels":
+        counts = np.broadcast_to(~measured[None, :], counts.shape)
     else:
-        uncertainty = result.uncertainty
         counts = scene.has_truth & ~measured[None, :]
     return _greedy(result.range, uncertainty, measured, n, counts)
 
@@ -157,8 +170,8 @@ def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: 
                  progress=None, start: int | None = None, error: str = "uncertainty"
                  ) -> tuple[dict[int, np.ndarray], list[float]]:
     """``{percent: mask}`` of the active strategy (from ``even`` at ``start`` %, default the
-    first fraction), and the seconds of each next_slices call (another ``error``: a probe,
-    :func:`probe_slices`)."""
+    first fraction), and the seconds of each next_slices call (another ``error``: an ablation or
+    a probe, :func:`probe_slices`)."""
     width = scene.range.shape[1]
     start = min(fractions) if start is None else start
     columns = set(even_columns(width, start / 100).tolist())
@@ -230,10 +243,13 @@ def target_ratios(rows, scenes, methods, at: int = 40) -> dict[str, float]:
     rivals = [m for m in ("bp", *CLASSICAL) if m in methods]
     ratios = {}
     for scene in scenes:
-        best = min((_mar(rows, scene, s, at, m) for s in ("even", "distance") for m in rivals),
-                   default=math.nan)
+        fixed = [_mar(rows, scene, s, at, m) for s in ("even", "distance") for m in rivals]
+        best = min((mar for mar in fixed if not math.isnan(mar)), default=math.nan)
         active = _mar(rows, scene, "active", at, "bp")
-        ratios[scene] = active / best if best > 0 else (math.inf if active > 0 else math.nan)
+        if math.isnan(best) or math.isnan(active):
+            ratios[scene] = math.nan
+        else:
+            ratios[scene] = active / best if best > 0 else (math.inf if active > 0 else math.nan)
     return ratios
 
 
@@ -304,10 +320,12 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                         "first of --fractions)")
     parser.add_argument("--active-method", default="bp", choices=("np", "bp"))
     parser.add_argument("--active-error", default="uncertainty", choices=ACTIVE_ERRORS,
-                        help="active: choose with next_slices (default) or, as a probe of what "
-                        "a piece of its knowledge is worth, with the truth's in its place: "
-                        "the fill's error for its uncertainty (fill-error), the pixels with "
-                        "truth for the returning ones (truth-counts), or all (truth)")
+                        help="active: choose with next_slices (default); without a piece of "
+                        "its knowledge (ablations): an uncertainty of 0 (no-uncertainty), "
+                        "every unmeasured pixel counted (all-pixels); or, as a probe of what "
+                        "a piece is worth, with the truth's in its place: the fill's error "
+                        "for its uncertainty (fill-error), the pixels with truth for the "
+                        "returning ones (truth-counts), or all (truth)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="write the runs here")
     parser.add_argument("--figure", default=None, metavar="PATH", help="write the curves here")
@@ -367,6 +385,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                                                     active_error=active_error),
                                                indent=1).encode())
     chooser = {"uncertainty": "next_slices",
+               "no-uncertainty": "greedy choice with an uncertainty of 0 (an ablation)",
+               "all-pixels": "greedy choice counting every unmeasured pixel (an ablation)",
                "fill-error": "greedy choice with the fill's true error in place of its "
                              "uncertainty (a probe)",
                "truth-counts": "greedy choice counting the pixels with truth (a probe)",
@@ -382,12 +402,13 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         print("\nactive BP at 40 % / best of BP and the classical fills on even and distance "
               "at 40 % (target <= 0.8):", file=out)
         for scene, ratio in ratios.items():
-            print(f"  {scene:>24s}  {ratio:.3f}", file=out)
+            shown = "n/a (no even or distance run)" if math.isnan(ratio) else f"{ratio:.3f}"
+            print(f"  {scene:>24s}  {shown}", file=out)
         if finite:
             print(f"  {'geometric mean':>24s}  {math.exp(np.mean(np.log(finite))):.3f}"
                   f"   largest {max(finite):.3f}", file=out)
     every = [s for seconds in calls.values() for s in seconds]
-    if every and active_error == "uncertainty":  # the probe's calls are not next_slices's
+    if every and active_error == "uncertainty":  # only next_slices's own calls
         fills = [r["seconds"] for r in rows if r["method"] == active_method]
         cost = (f" = {np.mean(every) / np.mean(fills):.2f} of the mean "
                 f"{active_method.upper()} fill of the run ({np.mean(fills):.1f} s)"

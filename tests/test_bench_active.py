@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 
 import numpy as np
 import pytest
@@ -147,7 +148,78 @@ def test_the_truth_counts_probe_replaces_only_the_counted_pixels(bench, folder):
                                                    measured, 3, returning_pixels(partial)))
 
 
+def _shadowed_box(bench, folder):
+    """The box scene whose upper rows 10–19 returned nothing in the measured columns from 26
+    on (a dark band across the box): the returning pixels leave them out between those
+    columns, every unmeasured pixel counts them."""
+    from types import SimpleNamespace
+
+    scene = bench.bench_scenes.load(str(folder / "box"), "48x40")
+    measured = bench.even_columns(48, 0.20)
+    has_truth = scene.has_truth.copy()
+    has_truth[10:20, measured[measured >= 26]] = False
+    scene = SimpleNamespace(name="shadowed", range=np.where(has_truth, scene.range, np.nan),
+                            has_truth=has_truth, intensity=scene.intensity)
+    partial = np.where(bench.column_mask((40, 48), measured) & has_truth, scene.range, np.nan)
+    return scene, partial
+
+
+def test_the_no_uncertainty_ablation_takes_away_only_the_uncertainty(bench, folder):
+    """``--active-error no-uncertainty``: next_slices's fill and returning pixels, an
+    uncertainty of 0 (each gain the line's distance from the fill alone)."""
+    from refsynth.synthesis.api import synthesize
+
+    scene, partial = _holed_box(bench, folder)
+    result = synthesize(scene.intensity, partial, method="np", seed=0)
+    measured, counts = measured_columns(partial), returning_pixels(partial)
+    picks = bench.probe_slices(scene, partial, 6, "no-uncertainty", "np", 0)
+    assert np.array_equal(picks, bench._greedy(result.range, np.zeros((40, 48)), measured, 6,
+                                               counts))
+    assert not np.array_equal(picks, bench._greedy(result.range, result.uncertainty,
+                                                   measured, 6, counts))
+
+
+def test_the_all_pixels_ablation_counts_every_unmeasured_pixel(bench, folder):
+    """``--active-error all-pixels``: next_slices's fill and uncertainty, counting every
+    unmeasured pixel instead of the returning ones."""
+    from refsynth.synthesis.api import synthesize
+
+    scene, partial = _shadowed_box(bench, folder)
+    result = synthesize(scene.intensity, partial, method="np", seed=0)
+    measured, counts = measured_columns(partial), returning_pixels(partial)
+    assert not counts[10:20, 27:47].any() and counts[20:30, 27:31].all()
+    picks = bench.probe_slices(scene, partial, 3, "all-pixels", "np", 0)
+    every = np.broadcast_to(~measured[None, :], (40, 48))
+    assert np.array_equal(picks, bench._greedy(result.range, result.uncertainty, measured, 3,
+                                               every))
+    assert not np.array_equal(picks, bench._greedy(result.range, result.uncertainty,
+                                                   measured, 3, counts))
+
+
+def test_the_target_ratio_skips_missing_runs(bench):
+    """A missing rival run does not count as the best, nor a missing active one as inf."""
+    rows = [dict(scene="s", strategy="even", fraction=40, method="bp", mar=0.2),
+            dict(scene="s", strategy="distance", fraction=40, method="bp", mar=math.nan),
+            dict(scene="s", strategy="active", fraction=40, method="bp", mar=0.1),
+            dict(scene="t", strategy="active", fraction=40, method="bp", mar=0.1)]
+    ratios = bench.target_ratios(rows, ["s", "t", "u"], ["bp", "linear"])
+    assert ratios["s"] == pytest.approx(0.5)
+    assert math.isnan(ratios["t"]) and math.isnan(ratios["u"])
+
+
+def test_an_active_run_alone_prints_no_ratio(bench, folder):
+    out = io.StringIO()
+    assert bench.main([str(folder), "--size", "48x40", "--fractions", "20,40", "--methods",
+                       "bp", "--strategies", "active", "--active-method", "np",
+                       "--quiet"], out=out) == 0
+    text = out.getvalue()
+    assert "n/a (no even or distance run)" in text
+    assert "inf" not in text and "geometric mean" not in text
+
+
 @pytest.mark.parametrize("error, header", [
+    ("no-uncertainty", "with an uncertainty of 0 (an ablation)"),
+    ("all-pixels", "counting every unmeasured pixel (an ablation)"),
     ("truth", "with the truth in place of the fill (a probe)"),
     ("fill-error", "with the fill's true error in place of its uncertainty (a probe)"),
     ("truth-counts", "counting the pixels with truth (a probe)"),
