@@ -197,9 +197,10 @@ def test_the_all_pixels_ablation_counts_every_unmeasured_pixel(bench, folder):
 
 
 def test_the_target_ratio_skips_missing_runs(bench):
-    """A missing rival run does not count as the best, nor a missing active one as inf."""
-    rows = [dict(scene="s", strategy="even", fraction=40, method="bp", mar=0.2),
-            dict(scene="s", strategy="distance", fraction=40, method="bp", mar=math.nan),
+    """A missing rival run (here the first, even BP) is not the best, nor a missing active
+    one inf."""
+    rows = [dict(scene="s", strategy="even", fraction=40, method="linear", mar=0.2),
+            dict(scene="s", strategy="distance", fraction=40, method="bp", mar=0.3),
             dict(scene="s", strategy="active", fraction=40, method="bp", mar=0.1),
             dict(scene="t", strategy="active", fraction=40, method="bp", mar=0.1)]
     ratios = bench.target_ratios(rows, ["s", "t", "u"], ["bp", "linear"])
