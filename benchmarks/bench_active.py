@@ -96,9 +96,16 @@ CLASSICAL = bench_scenes.CLASSICAL
 DEFAULT_METHODS = ("np", "bp", *CLASSICAL)
 DEFAULT_FRACTIONS = (20, 30, 40, 50, 60)
 #: What next_slices's greedy rule knows (``--active-error``): next_slices itself, two
-#: ablations, three probes.
-ACTIVE_ERRORS = ("uncertainty", "no-uncertainty", "all-pixels", "fill-error", "truth-counts",
-                 "truth")
+#: ablations, three probes; each with the chooser the run's header names.
+ACTIVE_ERRORS = {
+    "uncertainty": "next_slices",
+    "no-uncertainty": "greedy choice with an uncertainty of 0 (an ablation)",
+    "all-pixels": "greedy choice counting every unmeasured pixel (an ablation)",
+    "fill-error": "greedy choice with the fill's true error in place of its uncertainty "
+                  "(a probe)",
+    "truth-counts": "greedy choice counting the pixels with truth (a probe)",
+    "truth": "greedy choice with the truth in place of the fill (a probe)",
+}
 
 
 def even_columns(width: int, fraction: float) -> np.ndarray:
@@ -319,7 +326,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                         help="active: the evenly spread columns it starts from (default: the "
                         "first of --fractions)")
     parser.add_argument("--active-method", default="bp", choices=("np", "bp"))
-    parser.add_argument("--active-error", default="uncertainty", choices=ACTIVE_ERRORS,
+    parser.add_argument("--active-error", default="uncertainty", choices=tuple(ACTIVE_ERRORS),
                         help="active: choose with next_slices (default); without a piece of "
                         "its knowledge (ablations): an uncertainty of 0 (no-uncertainty), "
                         "every unmeasured pixel counted (all-pixels); or, as a probe of what "
@@ -384,14 +391,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
                                                     active_method=active_method,
                                                     active_error=active_error),
                                                indent=1).encode())
-    chooser = {"uncertainty": "next_slices",
-               "no-uncertainty": "greedy choice with an uncertainty of 0 (an ablation)",
-               "all-pixels": "greedy choice counting every unmeasured pixel (an ablation)",
-               "fill-error": "greedy choice with the fill's true error in place of its "
-                             "uncertainty (a probe)",
-               "truth-counts": "greedy choice counting the pixels with truth (a probe)",
-               "truth": "greedy choice with the truth in place of the fill (a probe)"
-               }[active_error]
+    chooser = ACTIVE_ERRORS[active_error]
     print(f"bench_active: size {size}, seed {args.seed}, {len(scenes)} scenes, active: "
           f"{active_method.upper()}'s {chooser}, +{args.step} % per call; MAR (Eq. 13)",
           file=out)
