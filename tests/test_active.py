@@ -13,6 +13,7 @@ from refsynth import synthesize
 from refsynth.acquisition import next_slices
 from refsynth.acquisition.active import (
     _greedy,
+    bending,
     expected_gain,
     line_error,
     measured_columns,
@@ -63,19 +64,52 @@ def test_inputs_are_not_modified():
                                                                     equal_nan=True)
 
 
-def interp_fill_error(estimate, uncertainty, measured, distance0, counts):
+def naive_bend(estimate, measured):
+    """``B`` per pixel by loops: the mean |second divided difference| at the measured
+    columns bounding the pixel's gap that have a measured column on each side (beyond the
+    outermost columns, the nearest one); NaN on measured columns or with < 3 columns."""
+    known = np.flatnonzero(measured).tolist()
+    bend = np.full(estimate.shape, np.nan)
+    if len(known) < 3:
+        return bend
+    for row in range(estimate.shape[0]):
+        f = estimate[row]
+        second = {}
+        for k0, k1, k2 in zip(known, known[1:], known[2:]):
+            second[k1] = abs(((f[k2] - f[k1]) / (k2 - k1) - (f[k1] - f[k0]) / (k1 - k0))
+                             / (k2 - k0))
+        for c in np.flatnonzero(~measured):
+            left = [k for k in known if k < c]
+            right = [k for k in known if k > c]
+            if not left:
+                ends = [second[known[1]]]
+            elif not right:
+                ends = [second[known[-2]]]
+            else:
+                ends = [second[k] for k in (left[-1], right[0]) if k in second]
+            bend[row, c] = sum(ends) / len(ends)
+    return bend
+
+
+def interp_fill_error(estimate, uncertainty, measured, distance0, counts, bend0):
     """Σ over unmeasured pixels of E|line − truth|, the line from ``np.interp`` per row
     (constant beyond the outermost measured column), the uncertainty scaled by the
-    distance to the nearest measured column over ``distance0``: an independent reading
-    of the module's model."""
+    distance to the nearest measured column over ``distance0`` and combined with the bend
+    term (``bend0`` times (c − a)(b − c) between measured columns a and b, d² beyond them)
+    by their geometric mean: an independent reading of the module's model."""
     columns = np.arange(measured.size)
     known = np.flatnonzero(measured)
     distance = np.min(np.abs(columns[:, None] - known[None, :]), axis=1).astype(float)
     total = 0.0
-    for row, scale_row, count_row in zip(estimate, uncertainty, counts):
+    for row, scale_row, count_row, bend_row in zip(estimate, uncertainty, counts, bend0):
         line = np.interp(columns, known, row[known])
         for c in np.flatnonzero(~measured & count_row):
             scale = scale_row[c] * distance[c] / distance0[c]
+            left, right = known[known < c], known[known > c]
+            span = ((c - left[-1]) * (right[0] - c) if left.size and right.size
+                    else distance[c] ** 2)
+            if not np.isnan(bend_row[c]):
+                scale = np.sqrt(scale * bend_row[c] * span)
             size = abs(line[c] - row[c])
             total += size + (scale * np.exp(-size / scale) if scale > 0 else 0.0)
     return total
@@ -93,7 +127,7 @@ def distances(measured):
 def test_gain_equals_the_error_removed(seed, height, width, sure, every):
     """g(c) = the expected error of the per-row lines before measuring c less after, over
     the pixels that count, computed with np.interp (edges: the outermost measured column's
-    value)."""
+    value) and the bend of the measured columns before c."""
     rng = np.random.default_rng(seed)
     estimate = rng.normal(size=(height, width)).cumsum(axis=1)
     measured = rng.random(width) < 0.3
@@ -101,14 +135,50 @@ def test_gain_equals_the_error_removed(seed, height, width, sure, every):
     uncertainty = np.where(measured, 0.0, rng.random((height, width)) * (not sure))
     counts = np.ones((height, width), bool) if every else rng.random((height, width)) < 0.6
     gain = expected_gain(estimate, uncertainty, measured, None if every else counts)
-    before = distances(measured)
+    before, bend = distances(measured), naive_bend(estimate, measured)
     for c in np.flatnonzero(~measured):
         now = measured.copy()
         now[c] = True
-        removed = (interp_fill_error(estimate, uncertainty, measured, before, counts)
-                   - interp_fill_error(estimate, uncertainty, now, before, counts))
+        removed = (interp_fill_error(estimate, uncertainty, measured, before, counts, bend)
+                   - interp_fill_error(estimate, uncertainty, now, before, counts, bend))
         assert gain[c] == pytest.approx(removed, rel=1e-9, abs=1e-9)
     assert np.all(np.isneginf(gain[measured]))
+
+
+@settings(max_examples=60)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 3), st.integers(3, 16))
+def test_bending_matches_a_loop_over_the_divided_differences(seed, height, width):
+    rng = np.random.default_rng(seed)
+    estimate = rng.normal(size=(height, width)).cumsum(axis=1)
+    measured = rng.random(width) < 0.4
+    np.testing.assert_allclose(bending(estimate, measured), naive_bend(estimate, measured),
+                               rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("arguments, match", [
+    ((np.zeros(5), np.ones(5, bool)), "`estimate`"),
+    ((np.zeros((2, 5)), np.ones(4, bool)), "`measured`"),
+    ((np.zeros((2, 5)), np.ones(5)), "`measured`"),
+])
+def test_bending_refuses_bad_input_by_name(arguments, match):
+    with pytest.raises(ValueError, match=match):
+        bending(*arguments)
+
+
+@settings(max_examples=60)
+@given(st.floats(-3.0, 3.0), st.floats(-3.0, 3.0), st.floats(-3.0, 3.0),
+       hnp.arrays(np.bool_, st.integers(3, 20)))
+def test_bending_of_a_quadratic_row_is_its_half_second_derivative(alpha, beta, gamma, measured):
+    """Eq. f[k0, k1, k2] = f''/2 on any three columns of α x² + β x + γ: B = |α| on every
+    unmeasured column (NaN on measured ones), for any spacing of at least three columns."""
+    x = np.arange(measured.size, dtype=float)
+    estimate = np.tile(alpha * x ** 2 + beta * x + gamma, (2, 1))
+    bend = bending(estimate, measured)
+    if np.count_nonzero(measured) < 3:
+        assert np.all(np.isnan(bend))
+    else:
+        assert np.all(np.isnan(bend[:, measured]))
+        np.testing.assert_allclose(bend[:, ~measured], abs(alpha), rtol=1e-9, atol=1e-9)
 
 
 @pytest.mark.parametrize("arguments, match", [
@@ -145,7 +215,8 @@ def test_line_error_is_the_laplace_expectation(deviation, scale):
 @given(st.integers(0, 2**32 - 1), st.integers(1, 6))
 def test_greedy_is_each_pick_taken_as_measured(seed, n):
     """_greedy (which recomputes only the two gaps a pick leaves) equals recomputing every
-    gain after each pick, the uncertainty scaled by the new distance over the first."""
+    gain after each pick, the uncertainty scaled by the new distance over the first, the
+    bend that of the first measured columns."""
     rng = np.random.default_rng(seed)
     estimate = rng.normal(size=(4, 25)).cumsum(axis=1)
     measured = rng.random(25) < 0.2
@@ -154,9 +225,10 @@ def test_greedy_is_each_pick_taken_as_measured(seed, n):
     counts = rng.random((4, 25)) < 0.7
     n = min(n, int(np.count_nonzero(~measured)))
     first, now, naive = distances(measured), measured.copy(), []
+    bend = bending(estimate, measured)       # fixed for the call, as the uncertainty
     for _ in range(n):
         scaled = np.where(first > 0, uncertainty * distances(now) / np.maximum(first, 1), 0.0)
-        pick = int(np.argmax(expected_gain(estimate, scaled, now, counts)))
+        pick = int(np.argmax(expected_gain(estimate, scaled, now, counts, bend)))
         naive.append(pick)
         now[pick] = True
     assert _greedy(estimate, uncertainty, measured, n, counts).tolist() == naive
@@ -174,6 +246,26 @@ def test_greedy_halves_a_bend_then_its_halves():
     spread = _greedy(estimate, np.where(measured, 0.0, np.full((3, 33), 0.5)), measured, 3,
                      every)
     assert spread[0] == 16 and min(spread[1:]) < 16 < max(spread[1:])
+
+
+def test_the_bend_sends_the_picks_where_the_measured_columns_curve():
+    """The fill is the line in every gap (as the gap gate leaves a smooth one), with the same
+    uncertainty everywhere: without the bend every gap offers the same gain. The measured
+    columns lie on a plane on the left, on a parabola on the right: the picks go right."""
+    columns = np.arange(41)
+    truth = np.where(columns < 20, 2 + 0.01 * columns,
+                     2.2 + 0.01 * (columns - 20) + 0.02 * (columns - 20.0) ** 2)
+    measured = columns % 4 == 0
+    known = np.flatnonzero(measured)
+    estimate = np.tile(np.interp(columns, known, truth[known]), (3, 1))
+    uncertainty = np.where(measured, 0.0, 0.1) * np.ones((3, 1))
+    flat = expected_gain(estimate, uncertainty, measured, bend=np.full((3, 41), np.nan))
+    assert np.allclose(flat[1:4], flat[37:40]) and flat[1] > 0     # U alone: a tie
+    gain = expected_gain(estimate, uncertainty, measured)
+    plane, curve = ~measured & (columns < 16), ~measured & (columns > 20)
+    assert np.allclose(gain[plane], 0.0) and np.all(gain[curve] > 0.1)
+    picks = _greedy(estimate, uncertainty, measured, 4, np.ones((3, 41), bool))
+    assert np.all(picks > 20), picks
 
 
 def test_greedy_goes_where_the_range_leaves_the_line():
@@ -216,6 +308,7 @@ def test_next_slices_counts_only_the_pixels_a_measurement_reaches():
     """next_slices is _greedy on the synthesis, its uncertainty and returning_pixels: rows
     that returned nothing in the measured columns of the right half do not count there."""
     intensity, partial = wall_and_object()
+    partial += 0.01 * (np.arange(40) - 20.0) ** 2         # the wall bends (seen from inside)
     partial[4:12, 20:] = np.nan                           # the object's rows: no return
     result = synthesize(intensity, partial, method="np", seed=0)
     measured = measured_columns(partial)

@@ -41,6 +41,40 @@ error measuring ``c`` removes is
 
 Columns outside the gap keep their error.
 
+The bend of the range between columns
+-------------------------------------
+Where the range is a plane the line is exact; where the surface bends between
+``a`` and ``b`` it leaves the line, to second order, by the classical error of
+linear interpolation, ``f''/2 · (x − a)(b − x)``. The measured columns say how
+much each row bends: the second divided difference across three consecutive
+measured columns ``k₀ < k₁ < k₂``,
+
+.. math::
+
+    f[k_0, k_1, k_2] = \\frac{s_{12} - s_{01}}{k_2 - k_0},
+    \\qquad s_{ij} = \\frac{R(k_j) - R(k_i)}{k_j - k_i},
+
+is ``f''/2`` of a quadratic row exactly. A gap's bend ``B`` is the mean of
+``|f[·]|`` at its two bounds (one at a gap beside the outermost columns)
+(:func:`bending`), and the bend term of a pixel ``p`` of the gap ``(a, b)`` is
+
+.. math::
+
+    b(p) = B(p)\\, (x_p - a)(b - x_p),
+
+which falls as a measurement splits the gap (quadratically, where the
+uncertainty falls linearly). The scale of ``ε`` in a gap between two measured
+columns is the geometric mean ``√(U_s(p) · b(p))`` of the two witnesses,
+``U_s`` the uncertainty scaled by the distance as above: large only where the
+synthesis is unsure *and* the range bends at the scale of the columns. The
+uncertainty map alone is large over whole textured regions, the bend alone at
+every depth edge the synthesis already places. Beyond the outermost measured
+column, ``b(p) = B(p) d²``, ``d`` the distance to that column (the bend of the
+nearest divided difference; the slope a constant misses is not modelled: the
+evenly spread first pass of the rig and of the benchmark measures the first and
+the last column, which leaves no such gap). With fewer than three measured
+columns there is no bend to read, and the scale is ``U_s`` alone.
+
 Only the pixels a measurement can reach count in the sums. A rangefinder
 returns nothing from some directions (glass, black surfaces, beyond its range),
 and a measured column says which: a pixel counts when its row returned a range
@@ -54,8 +88,9 @@ and the gains of the two gaps it leaves are computed again; a pick therefore
 lowers the gains of the columns near it (their lines are already shorter), so
 the picks spread over the sites with depth profiles rather than bunch.
 
-Every sum is exactly rounded (``math.fsum``) and the exponential is
-:func:`refsynth.numeric.portable_exp`: the same picks on every machine.
+Every sum is exactly rounded (``math.fsum``), the exponential is
+:func:`refsynth.numeric.portable_exp` and the square root is correctly rounded
+(IEEE 754): the same picks on every machine.
 
 References
 ----------
@@ -74,7 +109,7 @@ from refsynth._checks import check_choice, check_int
 from refsynth.numeric import portable_exp
 from refsynth.synthesis import synthesize, validate_inputs
 
-__all__ = ["next_slices", "measured_columns", "returning_pixels", "line_error",
+__all__ = ["next_slices", "measured_columns", "returning_pixels", "line_error", "bending",
            "expected_gain"]
 
 
@@ -184,20 +219,83 @@ def returning_pixels(partial_range: np.ndarray) -> np.ndarray:
     return (returned[:, left] | returned[:, right]) & ~measured[None, :]
 
 
+def bending(estimate: np.ndarray, measured: np.ndarray) -> np.ndarray:
+    """Each unmeasured pixel's bend ``B``: how far its row bends between the measured columns.
+
+    The mean of ``|f[k₀, k₁, k₂]|``, the second divided difference of the row across three
+    consecutive measured columns (the module's notes), at the two measured columns bounding
+    the pixel's gap (at one of them for a gap beside the outermost measured columns; beyond
+    the outermost columns, the one nearest). A quadratic row ``α x² + β x + γ`` has
+    ``B = |α|`` everywhere.
+
+    Parameters
+    ----------
+    estimate : ndarray of shape (H, W)
+        The range ``R``; only its measured columns are read.
+    measured : ndarray of shape (W,), bool
+        The measured columns.
+
+    Returns
+    -------
+    ndarray of shape (H, W), float64
+        ``B`` on every unmeasured column; NaN (no estimate) on measured columns, and
+        everywhere with fewer than three measured columns.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: ``estimate`` not a 2-D array, ``measured`` not a bool array
+        of shape (W,).
+
+    Examples
+    --------
+    A row that is flat, then climbs by 1 a column from column 4: ``|f| = 1/8`` at the kink,
+    0 at column 8. The gap (0, 4) is bounded by the kink alone (one divided difference), the
+    gap (4, 8) takes the mean of both, the gap (8, 12) the 0 at column 8.
+
+    >>> import numpy as np
+    >>> row = np.maximum(np.arange(13.0) - 4.0, 0.0)[None, :]
+    >>> bending(row, np.isin(np.arange(13), [0, 4, 8, 12]))[0, 1:12:2].tolist()
+    [0.125, 0.125, 0.0625, 0.0625, 0.0, 0.0]
+    """
+    estimate = np.asarray(estimate, dtype=np.float64)
+    measured = np.asarray(measured)
+    if estimate.ndim != 2:
+        raise ValueError("The parameter `estimate` must be an (H, W) array, got shape "
+                         f"{estimate.shape}")
+    if measured.dtype != bool or measured.shape != estimate.shape[1:]:
+        raise ValueError(f"The parameter `measured` must be a ({estimate.shape[1]},) bool "
+                         f"array, got {measured.dtype} of shape {measured.shape}")
+    known = np.flatnonzero(measured)
+    bend = np.full(estimate.shape, np.nan)
+    if known.size < 3:
+        return bend
+    slopes = np.diff(estimate[:, known], axis=1) / np.diff(known)
+    second = np.abs(np.diff(slopes, axis=1)) / (known[2:] - known[:-2])  # at known[1:-1]
+    for j, (left, right) in enumerate(zip(known[:-1], known[1:])):
+        ends = second[:, max(j - 1, 0):min(j + 1, second.shape[1])]
+        bend[:, left + 1:right] = ends.mean(axis=1, keepdims=True)
+    bend[:, :known[0]] = second[:, :1]      # beyond the outermost columns: the nearest
+    bend[:, known[-1] + 1:] = second[:, -1:]
+    return bend
+
+
 class _Gaps:
     """The expected error of the lines across the gaps between measured columns.
 
     ``left = -1`` / ``right = W`` stand for "no measured column on that side": beyond the
     outermost measured column the line is that column's value. Only the pixels where
-    ``counts`` is True enter the sums.
+    ``counts`` is True enter the sums. The uncertainty, the distances and the bend are those
+    of the measured columns the call started from.
     """
 
     def __init__(self, estimate: np.ndarray, uncertainty: np.ndarray, measured: np.ndarray,
-                 counts: np.ndarray):
+                 counts: np.ndarray, bend: np.ndarray):
         self.counts = counts
         self.estimate = estimate
         self.uncertainty = uncertainty
         self.distance = _distances(measured)  # when the uncertainty was estimated
+        self.bend = bend
         self.width = measured.size
 
     def error(self, left: int, right: int) -> float:
@@ -205,15 +303,20 @@ class _Gaps:
         columns = np.arange(left + 1, right)
         if columns.size == 0:
             return 0.0
-        if left < 0:
+        if left < 0:  # a constant beyond the outermost column: the bend term B d²
             line, near = self.estimate[:, [right]], right - columns
+            span = near * near
         elif right >= self.width:
             line, near = self.estimate[:, [left]], columns - left
-        else:
+            span = near * near
+        else:  # the line between two columns: B (x − a)(b − x)
             t = (columns - left) / (right - left)
             line = self.estimate[:, [left]] * (1.0 - t) + self.estimate[:, [right]] * t
             near = np.minimum(columns - left, right - columns)
+            span = (columns - left) * (right - columns)
+        bend = self.bend[:, columns] * span
         scale = self.uncertainty[:, columns] * (near / self.distance[columns])
+        scale = np.where(np.isnan(bend), scale, np.sqrt(scale * bend))
         error = line_error(line - self.estimate[:, columns], scale)
         return math.fsum(error[self.counts[:, columns]].tolist())
 
@@ -231,7 +334,8 @@ def _gaps_of(measured: np.ndarray) -> list[tuple[int, int]]:
 
 
 def expected_gain(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.ndarray,
-                  counts: np.ndarray | None = None) -> np.ndarray:
+                  counts: np.ndarray | None = None, bend: np.ndarray | None = None
+                  ) -> np.ndarray:
     """The expected error that measuring each column removes (the module's ``g(c)``).
 
     Parameters
@@ -245,6 +349,8 @@ def expected_gain(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.nd
     counts : ndarray of shape (H, W), bool, optional
         The pixels that enter the sums (:func:`returning_pixels` in
         :func:`next_slices`); default every pixel.
+    bend : ndarray of shape (H, W), optional
+        ``B`` (NaN: no estimate); default :func:`bending` of ``estimate`` and ``measured``.
 
     Returns
     -------
@@ -256,7 +362,7 @@ def expected_gain(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.nd
     ValueError
         Naming the argument: ``estimate`` not a finite 2-D array, ``uncertainty`` of
         another shape or negative, ``measured`` not of shape (W,) or all False, ``counts``
-        not of the shape of ``estimate``.
+        or ``bend`` not of the shape of ``estimate``.
 
     Examples
     --------
@@ -287,7 +393,12 @@ def expected_gain(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.nd
     if counts.shape != estimate.shape:
         raise ValueError("The parameter `counts` must be a bool array of the shape of "
                          f"`estimate` {estimate.shape}, got shape {counts.shape}")
-    gaps = _Gaps(estimate, uncertainty, measured, counts)
+    bend = (bending(estimate, measured) if bend is None
+            else np.asarray(bend, dtype=np.float64))
+    if bend.shape != estimate.shape:
+        raise ValueError("The parameter `bend` must be an array of the shape of `estimate` "
+                         f"{estimate.shape}, got shape {bend.shape}")
+    gaps = _Gaps(estimate, uncertainty, measured, counts, bend)
     gain = np.full(gaps.width, -np.inf)
     for left, right in _gaps_of(measured):
         gain[left + 1:right] = gaps.gains(left, right)
@@ -309,8 +420,9 @@ def next_slices(
     measured. The columns are then picked greedily by the error their
     measurement is expected to remove from the line across their gap (see the
     module's notes): the synthesis says where the range leaves that line, its
-    uncertainty map how sure it is, and the rows that returned a range in the
-    measured columns which pixels a measurement can reach. Each pick is taken as measured before the
+    uncertainty map how sure it is, the measured columns how much the range bends
+    between them, and the rows that returned a range in the measured columns which
+    pixels a measurement can reach. Each pick is taken as measured before the
     next, so that the picks spread over the sites with depth profiles rather
     than bunch.
 
@@ -347,16 +459,19 @@ def next_slices(
     Notes
     -----
     1. Synthesize the dense range ``R`` (NP or BP) and its uncertainty ``U``
-       (``result.uncertainty``, 0 where measured).
+       (``result.uncertainty``, 0 where measured); the bend ``B`` of each gap
+       from the measured columns (:func:`bending`).
     2. For every unmeasured column ``c`` of the gap ``(a, b)`` compute the error
        its measurement removes, ``g(c)`` (the module's notes): the expected error
-       of the line ``L_ab`` against ``R``, ``U`` over the gap, less that of the
+       of the line ``L_ab`` against ``R``, with ``ε``'s scale ``√(U · b)`` between
+       two measured columns (``U`` beyond them), less that of the
        lines ``L_ac`` and ``L_cb``, summed over the pixels a measurement can
        reach (:func:`returning_pixels`: those whose row returned a range in a
        measured column bounding their gap).
     3. Pick ``argmax g`` (ties: the leftmost); take it as measured (the gap
        splits in two, the uncertainty of its columns scales by their new
-       distance to a measured column over the old) and compute ``g`` again on
+       distance to a measured column over the old, their bend term by the new
+       gap's ``(x − a)(b − x)``) and compute ``g`` again on
        the two new gaps; repeat until ``n`` columns are picked.
 
     The gains of a gap of ``L`` unmeasured columns cost ``O(H · L²)``: from a
@@ -392,17 +507,21 @@ def next_slices(
 
 
 def _greedy(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.ndarray,
-            n: int, counts: np.ndarray) -> np.ndarray:
+            n: int, counts: np.ndarray, bend: np.ndarray | None = None) -> np.ndarray:
     """Step 3 of :func:`next_slices`: ``n`` picks, each taken as measured before the next.
 
     A pick splits its gap; the uncertainty of the gap's columns scales by their new
     distance to a measured column over the one they had when ``uncertainty`` was
-    estimated, so only the two new gaps' gains change. ``counts``: the pixels that enter
-    the sums, fixed for the call.
+    estimated, and its bend term falls with the new gap's span (the bend ``B`` is fixed
+    for the call), so only the two new gaps' gains change. ``counts``: the pixels that
+    enter the sums, fixed for the call; ``bend``: default :func:`bending` of ``estimate``
+    and ``measured`` (all NaN: no bend term).
     """
-    gaps = _Gaps(np.asarray(estimate, dtype=np.float64),
-                 np.asarray(uncertainty, dtype=np.float64), np.asarray(measured, dtype=bool),
-                 np.asarray(counts, dtype=bool))
+    estimate = np.asarray(estimate, dtype=np.float64)
+    measured = np.asarray(measured, dtype=bool)
+    bend = bending(estimate, measured) if bend is None else np.asarray(bend, np.float64)
+    gaps = _Gaps(estimate, np.asarray(uncertainty, dtype=np.float64), measured,
+                 np.asarray(counts, dtype=bool), bend)
     gain = np.full(gaps.width, -np.inf)
     owner = np.full(gaps.width, -1, dtype=np.int64)  # each unmeasured column's gap's left bound
     bounds: dict[int, int] = {}
