@@ -17,20 +17,24 @@ measured (the rig's vertical slices, §4), at each fraction of the columns:
     :func:`refsynth.acquisition.next_slices` (``--active-method``, default BP)
     per ``--step`` (5 %) of the columns, each on what is measured so far.
 
-``--active-error`` chooses what the greedy rule of ``next_slices`` knows. Two
+``--active-error`` chooses what the greedy rule of ``next_slices`` knows. Three
 values take a piece of its knowledge away (ablations: what that piece buys);
 three put the truth's version of a piece in its place (probes of what a better
 version would buy, not strategies a rig can run: they read the truth):
 
 ``uncertainty``
-    ``next_slices`` itself: the fill, its uncertainty map, and the pixels whose
-    rows returned a range in the measured columns bounding their gap.
+    ``next_slices`` itself: the fill, its uncertainty map, the bend of the
+    measured columns, and the pixels whose rows returned a range in the
+    measured columns bounding their gap.
 ``no-uncertainty``
     the same with an uncertainty map of 0 (each gain is the line's distance
     from the fill alone): what the uncertainty map buys.
 ``all-pixels``
     the same counting every unmeasured pixel in place of the returning ones:
     what knowing where the rangefinder returned buys.
+``no-bend``
+    the same without the bend of the measured columns (the scale of the line's
+    error is the uncertainty alone): what the bend term buys.
 ``fill-error``
     the same with the fill's true absolute error in place of its uncertainty
     map: what a perfect uncertainty map would buy.
@@ -95,12 +99,13 @@ STRATEGIES = ("even", "x-stripes", "distance", "active")
 CLASSICAL = bench_scenes.CLASSICAL
 DEFAULT_METHODS = ("np", "bp", *CLASSICAL)
 DEFAULT_FRACTIONS = (20, 30, 40, 50, 60)
-#: What next_slices's greedy rule knows (``--active-error``): next_slices itself, two
+#: What next_slices's greedy rule knows (``--active-error``): next_slices itself, three
 #: ablations, three probes; each with the chooser the run's header names.
 ACTIVE_ERRORS = {
     "uncertainty": "next_slices",
     "no-uncertainty": "greedy choice with an uncertainty of 0 (an ablation)",
     "all-pixels": "greedy choice counting every unmeasured pixel (an ablation)",
+    "no-bend": "greedy choice without the bend term (an ablation)",
     "fill-error": "greedy choice with the fill's true error in place of its uncertainty "
                   "(a probe)",
     "truth-counts": "greedy choice counting the pixels with truth (a probe)",
@@ -153,7 +158,8 @@ def probe_slices(scene, partial: np.ndarray, n: int, error: str, method: str,
                  seed: int) -> np.ndarray:
     """next_slices's choice with one piece of its knowledge taken away or replaced by the
     truth's (``--active-error``): ``no-uncertainty``, an uncertainty map of 0;
-    ``all-pixels``, every unmeasured pixel counted; ``fill-error``, the fill's true absolute
+    ``all-pixels``, every unmeasured pixel counted; ``no-bend``, no bend term (the bend all
+    NaN); ``fill-error``, the fill's true absolute
     error in place of its uncertainty map; ``truth-counts``, the pixels with truth in place
     of the returning ones; ``truth``, :func:`truth_slices`."""
     if error == "truth":
@@ -161,16 +167,19 @@ def probe_slices(scene, partial: np.ndarray, n: int, error: str, method: str,
     result = synthesize(scene.intensity, partial, method=method, seed=seed)
     measured = measured_columns(partial)
     uncertainty, counts = result.uncertainty, returning_pixels(partial)
-    if error == "no-uncertainty":
+    bend = None
+    if error == "no-bend":
+        bend = np.full(partial.shape, np.nan)
+    elif error == "no-uncertainty":
         uncertainty = np.zeros_like(uncertainty)
     elif error == "fill-error":
         uncertainty = np.where(np.isfinite(partial), 0.0,
                                np.abs(result.range - nearest_truth(scene)))
     elif error == "all-pixels":
         counts = np.broadcast_to(~measured[None, :], counts.shape)
-    else:
+    elif error == "truth-counts":
         counts = scene.has_truth & ~measured[None, :]
-    return _greedy(result.range, uncertainty, measured, n, counts)
+    return _greedy(result.range, uncertainty, measured, n, counts, bend)
 
 
 def active_masks(scene, fractions: Sequence[int], step: int, method: str, seed: int,
@@ -329,7 +338,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--active-error", default="uncertainty", choices=tuple(ACTIVE_ERRORS),
                         help="active: choose with next_slices (default); without a piece of "
                         "its knowledge (ablations): an uncertainty of 0 (no-uncertainty), "
-                        "every unmeasured pixel counted (all-pixels); or, as a probe of what "
+                        "every unmeasured pixel counted (all-pixels), no bend term "
+                        "(no-bend); or, as a probe of what "
                         "a piece is worth, with the truth's in its place: the fill's error "
                         "for its uncertainty (fill-error), the pixels with truth for the "
                         "returning ones (truth-counts), or all (truth)")

@@ -179,6 +179,22 @@ def test_the_no_uncertainty_ablation_takes_away_only_the_uncertainty(bench, fold
                                                    measured, 6, counts))
 
 
+def test_the_no_bend_ablation_takes_away_only_the_bend(bench, folder):
+    """``--active-error no-bend``: next_slices's fill, uncertainty and returning pixels,
+    the bend all NaN (the scale of the line's error is the uncertainty alone). The wall is a
+    plane: with the bend no pick goes to its bare left part, without it some do."""
+    from refsynth.synthesis.api import synthesize
+
+    scene, partial = _shadowed_box(bench, folder)
+    result = synthesize(scene.intensity, partial, method="np", seed=0)
+    measured, counts = measured_columns(partial), returning_pixels(partial)
+    picks = bench.probe_slices(scene, partial, 9, "no-bend", "np", 0)
+    assert np.array_equal(picks, bench._greedy(result.range, result.uncertainty, measured, 9,
+                                               counts, np.full((40, 48), np.nan)))
+    bent = bench._greedy(result.range, result.uncertainty, measured, 9, counts)
+    assert np.all(bent > 20) and np.any(picks < 20), (bent, picks)
+
+
 def test_the_all_pixels_ablation_counts_every_unmeasured_pixel(bench, folder):
     """``--active-error all-pixels``: next_slices's fill and uncertainty, counting every
     unmeasured pixel instead of the returning ones."""
@@ -188,12 +204,12 @@ def test_the_all_pixels_ablation_counts_every_unmeasured_pixel(bench, folder):
     result = synthesize(scene.intensity, partial, method="np", seed=0)
     measured, counts = measured_columns(partial), returning_pixels(partial)
     assert not counts[10:20, 27:47].any() and counts[20:30, 27:31].all()
-    picks = bench.probe_slices(scene, partial, 3, "all-pixels", "np", 0)
+    picks = bench.probe_slices(scene, partial, 6, "all-pixels", "np", 0)
     every = np.broadcast_to(~measured[None, :], (40, 48))
-    assert np.array_equal(picks, bench._greedy(result.range, result.uncertainty, measured, 3,
+    assert np.array_equal(picks, bench._greedy(result.range, result.uncertainty, measured, 6,
                                                every))
     assert not np.array_equal(picks, bench._greedy(result.range, result.uncertainty,
-                                                   measured, 3, counts))
+                                                   measured, 6, counts))
 
 
 def test_the_target_ratio_skips_missing_runs(bench):
@@ -221,6 +237,7 @@ def test_an_active_run_alone_prints_no_ratio(bench, folder):
 @pytest.mark.parametrize("error, header", [
     ("no-uncertainty", "with an uncertainty of 0 (an ablation)"),
     ("all-pixels", "counting every unmeasured pixel (an ablation)"),
+    ("no-bend", "without the bend term (an ablation)"),
     ("truth", "with the truth in place of the fill (a probe)"),
     ("fill-error", "with the fill's true error in place of its uncertainty (a probe)"),
     ("truth-counts", "counting the pixels with truth (a probe)"),
