@@ -189,6 +189,8 @@ def test_bending_of_a_quadratic_row_is_its_half_second_derivative(alpha, beta, g
     ((np.zeros((2, 5)), np.zeros((2, 5)), np.zeros(5, bool)), "`measured`"),
     ((np.full((2, 5), np.nan), np.zeros((2, 5)), np.ones(5, bool)), "`estimate`"),
     ((np.zeros((2, 5)), np.zeros((2, 5)), np.ones(5, bool), np.ones(5, bool)), "`counts`"),
+    ((np.zeros((2, 5)), np.zeros((2, 5)), np.ones(5, bool), None, np.zeros(5)), "`bend`"),
+    ((np.zeros((2, 5)), np.zeros((2, 5)), np.ones(5, bool), None, -np.ones((2, 5))), "`bend`"),
 ])
 def test_expected_gain_refuses_bad_input_by_name(arguments, match):
     with pytest.raises(ValueError, match=match):

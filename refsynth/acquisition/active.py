@@ -350,7 +350,8 @@ def expected_gain(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.nd
         The pixels that enter the sums (:func:`returning_pixels` in
         :func:`next_slices`); default every pixel.
     bend : ndarray of shape (H, W), optional
-        ``B`` (NaN: no estimate); default :func:`bending` of ``estimate`` and ``measured``.
+        ``B`` (≥ 0, or NaN: no estimate); default :func:`bending` of ``estimate`` and
+        ``measured``.
 
     Returns
     -------
@@ -362,7 +363,7 @@ def expected_gain(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.nd
     ValueError
         Naming the argument: ``estimate`` not a finite 2-D array, ``uncertainty`` of
         another shape or negative, ``measured`` not of shape (W,) or all False, ``counts``
-        or ``bend`` not of the shape of ``estimate``.
+        or ``bend`` not of the shape of ``estimate`` (or negative).
 
     Examples
     --------
@@ -395,9 +396,9 @@ def expected_gain(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.nd
                          f"`estimate` {estimate.shape}, got shape {counts.shape}")
     bend = (bending(estimate, measured) if bend is None
             else np.asarray(bend, dtype=np.float64))
-    if bend.shape != estimate.shape:
+    if bend.shape != estimate.shape or np.any(bend < 0):
         raise ValueError("The parameter `bend` must be an array of the shape of `estimate` "
-                         f"{estimate.shape}, got shape {bend.shape}")
+                         f"{estimate.shape} with values >= 0 or NaN, got shape {bend.shape}")
     gaps = _Gaps(estimate, uncertainty, measured, counts, bend)
     gain = np.full(gaps.width, -np.inf)
     for left, right in _gaps_of(measured):
@@ -463,8 +464,8 @@ def next_slices(
        from the measured columns (:func:`bending`).
     2. For every unmeasured column ``c`` of the gap ``(a, b)`` compute the error
        its measurement removes, ``g(c)`` (the module's notes): the expected error
-       of the line ``L_ab`` against ``R``, with ``ε``'s scale ``√(U · b)`` between
-       two measured columns (``U`` beyond them), less that of the
+       of the line ``L_ab`` against ``R``, with ``ε``'s scale ``√(U · b)``
+       (``U`` alone with fewer than three measured columns), less that of the
        lines ``L_ac`` and ``L_cb``, summed over the pixels a measurement can
        reach (:func:`returning_pixels`: those whose row returned a range in a
        measured column bounding their gap).
