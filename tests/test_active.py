@@ -282,28 +282,64 @@ def test_greedy_goes_where_the_range_leaves_the_line():
 
 
 @settings(max_examples=60)
-@given(hnp.arrays(np.bool_, st.tuples(st.integers(1, 4), st.integers(2, 12))))
-def test_returning_pixels_look_at_the_nearest_measured_column_each_side(returned):
+@given(hnp.arrays(np.bool_, st.tuples(st.integers(1, 4), st.integers(2, 12))), st.booleans(),
+       st.integers(0, 2**32 - 1))
+def test_returning_pixels_look_at_the_nearest_measured_column_each_side(returned, grey, seed):
     """A pixel of an unmeasured column counts when its row returned in the nearest measured
-    column to its left or to its right (one side at the borders): a loop per pixel."""
+    columns on both sides, not when in neither; on one side only, when (with an intensity)
+    its grey level is at least as near the returning bound's as the other's, or (without)
+    always. One side at the borders. A loop per pixel."""
     returned[0, returned.shape[1] // 2] = True          # at least one measured column
     partial = np.where(returned, 1.0, np.nan)
     measured = returned.any(axis=0)
+    intensity = (np.random.default_rng(seed).integers(0, 4, returned.shape + (3,)) / 3.0
+                 if grey else None)
+    level = None if intensity is None else intensity.mean(axis=2)
     expected = np.zeros(returned.shape, bool)
     for r, c in np.ndindex(*returned.shape):
         if measured[c]:
             continue
         left = [k for k in range(c) if measured[k]]
         right = [k for k in range(c + 1, returned.shape[1]) if measured[k]]
-        expected[r, c] = bool((left and returned[r, left[-1]])
-                              or (right and returned[r, right[0]]))
-    assert np.array_equal(returning_pixels(partial), expected)
+        a = left[-1] if left else right[0]
+        b = right[0] if right else left[-1]
+        if returned[r, a] and returned[r, b]:
+            expected[r, c] = True
+        elif returned[r, a] or returned[r, b]:
+            yes, no = (a, b) if returned[r, a] else (b, a)
+            expected[r, c] = (level is None or abs(level[r, c] - level[r, yes])
+                              <= abs(level[r, c] - level[r, no]))
+    assert np.array_equal(returning_pixels(partial, intensity), expected)
+
+
+def test_returning_pixels_leave_out_a_dark_pole_beside_a_returning_wall():
+    """Columns 0, 4 and 8 measured; a dark pole on columns 3-5 returned nothing in column 4
+    of row 0, the wall returned everywhere else. In row 0 the wall's pixels count, the
+    pole's do not; without the intensity all do; row 1 returned on both sides: all count."""
+    intensity = np.full((2, 9), 0.8)
+    intensity[:, 3:6] = 0.05
+    partial = np.full((2, 9), np.nan)
+    partial[:, [0, 8]] = 3.0
+    partial[1, 4] = 1.0
+    counted = returning_pixels(partial, intensity)
+    assert counted[1, [1, 2, 3, 5, 6, 7]].all()
+    assert counted[0, [1, 2, 6, 7]].all() and not counted[0, [3, 5]].any()
+    assert returning_pixels(partial)[0, [1, 2, 3, 5, 6, 7]].all()
 
 
 @pytest.mark.parametrize("partial", [np.full((3, 4), np.nan), np.ones(4)])
 def test_returning_pixels_refuses_bad_input_by_name(partial):
     with pytest.raises(ValueError, match="`partial_range`"):
         returning_pixels(partial)
+
+
+@pytest.mark.parametrize("intensity", [np.zeros((3, 5)), np.zeros((2, 5, 3)), np.zeros(4),
+                                       np.full((2, 4), np.nan)])
+def test_returning_pixels_refuse_a_bad_intensity_by_name(intensity):
+    partial = np.full((2, 4), np.nan)
+    partial[:, 0] = 1.0
+    with pytest.raises(ValueError, match="`intensity`"):
+        returning_pixels(partial, intensity)
 
 
 def test_next_slices_counts_only_the_pixels_a_measurement_reaches():
@@ -314,8 +350,10 @@ def test_next_slices_counts_only_the_pixels_a_measurement_reaches():
     partial[4:12, 20:] = np.nan                           # the object's rows: no return
     result = synthesize(intensity, partial, method="np", seed=0)
     measured = measured_columns(partial)
-    counted = returning_pixels(partial)
-    assert not counted[4:12, 25:].any() and counted[:, :24][:, ~measured[:24]].all()
+    counted = returning_pixels(partial, intensity)
+    assert not counted[4:12, 25:].any() and counted[:, :18][:, ~measured[:18]].all()
+    # between column 18 (wall, returned) and 24 (box, no return): the wall's pixels count
+    assert counted[4:12, 19:23].all() and not counted[4:12, 23].any()
     picks = next_slices(intensity, partial, 4, method="np")
     assert np.array_equal(picks, _greedy(result.range, result.uncertainty, measured, 4,
                                          counted))

@@ -78,10 +78,14 @@ columns there is no bend to read, and the scale is ``U_s`` alone.
 Only the pixels a measurement can reach count in the sums. A rangefinder
 returns nothing from some directions (glass, black surfaces, beyond its range),
 and a measured column says which: a pixel counts when its row returned a range
-in the nearest measured column on its left or on its right
+in both measured columns bounding its gap, and not when it returned in neither
 (:func:`returning_pixels`). A row that returned nothing on either side is
 likely to return nothing from the columns between, and the error of a pixel
-no measurement reaches is not removed by measuring.
+no measurement reaches is not removed by measuring. Where the row returned on
+one side only, the intensity decides which surface the pixel lies on: it
+counts when its grey level is at least as close to that of the bound that
+returned as to that of the bound that did not (a dark pole that returns
+nothing beside a wall that does).
 
 The picks are greedy: after choosing the best column it is taken as measured
 and the gains of the two gaps it leaves are computed again; a pick therefore
@@ -107,7 +111,7 @@ import numpy as np
 
 from refsynth._checks import check_choice, check_int
 from refsynth.numeric import portable_exp
-from refsynth.synthesis import synthesize, validate_inputs
+from refsynth.synthesis import normalise_intensity, synthesize, validate_inputs
 
 __all__ = ["next_slices", "measured_columns", "returning_pixels", "line_error", "bending",
            "expected_gain"]
@@ -179,14 +183,23 @@ def _distances(measured: np.ndarray) -> np.ndarray:
     return np.minimum(np.abs(columns - left), np.abs(columns - right)).astype(np.float64)
 
 
-def returning_pixels(partial_range: np.ndarray) -> np.ndarray:
-    """The pixels a measurement can reach: each unmeasured pixel whose row returned a range
-    in the nearest measured column on its left or on its right (the module's notes).
+def returning_pixels(partial_range: np.ndarray,
+                     intensity: np.ndarray | None = None) -> np.ndarray:
+    """The pixels a measurement can reach (the module's notes).
+
+    Each unmeasured pixel whose row returned a range in both measured columns bounding
+    its gap (the nearest on its left and on its right; at the borders, the one there is)
+    counts, and none whose row returned in neither. Where the row returned on one side
+    only, a pixel counts when its grey level (the mean of the channels) is at least as
+    close to that of the bound that returned as to that of the bound that did not; without
+    ``intensity``, every such pixel counts.
 
     Parameters
     ----------
     partial_range : ndarray of shape (H, W)
         NaN where unknown; at least one column measured.
+    intensity : ndarray of shape (H, W) or (H, W, C), optional
+        The registered intensity (as for :func:`refsynth.synthesize`).
 
     Returns
     -------
@@ -196,18 +209,22 @@ def returning_pixels(partial_range: np.ndarray) -> np.ndarray:
     Raises
     ------
     ValueError
-        Naming ``partial_range``: not 2-D, or no pixel measured.
+        Naming the argument: ``partial_range`` not 2-D, or no pixel measured;
+        ``intensity`` of another height and width, or not finite.
 
     Examples
     --------
     Columns 0 and 4 are measured; row 1 returned nothing in either of them, row 0
-    only in column 0.
+    only in column 0, where the intensity is bright; column 4 is dark.
 
     >>> import numpy as np
     >>> partial = np.full((3, 5), np.nan)
     >>> partial[[0, 2], 0] = 1.0; partial[2, 4] = 2.0
     >>> returning_pixels(partial).astype(int).tolist()
     [[0, 1, 1, 1, 0], [0, 0, 0, 0, 0], [0, 1, 1, 1, 0]]
+    >>> intensity = np.array([[0.9, 0.8, 0.5, 0.2, 0.1]] * 3)
+    >>> returning_pixels(partial, intensity).astype(int).tolist()
+    [[0, 1, 1, 0, 0], [0, 0, 0, 0, 0], [0, 1, 1, 1, 0]]
     """
     values = np.asarray(partial_range, dtype=np.float64)
     if values.ndim != 2 or not np.isfinite(values).any():
@@ -216,7 +233,22 @@ def returning_pixels(partial_range: np.ndarray) -> np.ndarray:
     measured = measured_columns(values)
     left, right = _nearest_measured(measured)
     returned = np.isfinite(values)
-    return (returned[:, left] | returned[:, right]) & ~measured[None, :]
+    on_left, on_right = returned[:, left], returned[:, right]
+    counts = on_left | on_right
+    if intensity is not None:
+        grey = np.asarray(intensity)
+        if (grey.ndim not in (2, 3) or grey.shape[:2] != values.shape
+                or grey.dtype.kind not in "biuf" or not np.all(np.isfinite(grey))):
+            raise ValueError("The parameter `intensity` must be a finite real (H, W) or "
+                             f"(H, W, C) array with (H, W) = {values.shape}, got "
+                             f"{grey.dtype} of shape {grey.shape}")
+        grey = normalise_intensity(grey).mean(axis=2)  # as synthesize reads it
+        nearer_left = np.abs(grey - grey[:, left]) <= np.abs(grey - grey[:, right])
+        nearer_right = np.abs(grey - grey[:, right]) <= np.abs(grey - grey[:, left])
+        one_side = on_left ^ on_right
+        counts = (on_left & on_right) | (one_side & np.where(on_left, nearer_left,
+                                                             nearer_right))
+    return counts & ~measured[None, :]
 
 
 def bending(estimate: np.ndarray, measured: np.ndarray) -> np.ndarray:
@@ -422,8 +454,8 @@ def next_slices(
     measurement is expected to remove from the line across their gap (see the
     module's notes): the synthesis says where the range leaves that line, its
     uncertainty map how sure it is, the measured columns how much the range bends
-    between them, and the rows that returned a range in the measured columns which
-    pixels a measurement can reach. Each pick is taken as measured before the
+    between them, and the rows that returned a range in the measured columns, with
+    the intensity, which pixels a measurement can reach. Each pick is taken as measured before the
     next, so that the picks spread over the sites with depth profiles rather
     than bunch.
 
@@ -467,8 +499,9 @@ def next_slices(
        of the line ``L_ab`` against ``R``, with ``ε``'s scale ``√(U · b)``
        (``U`` alone with fewer than three measured columns), less that of the
        lines ``L_ac`` and ``L_cb``, summed over the pixels a measurement can
-       reach (:func:`returning_pixels`: those whose row returned a range in a
-       measured column bounding their gap).
+       reach (:func:`returning_pixels` with the intensity: those whose row
+       returned a range in both measured columns bounding their gap, or in one
+       whose grey level is the nearer).
     3. Pick ``argmax g`` (ties: the leftmost); take it as measured (the gap
        splits in two, the uncertainty of its columns scales by their new
        distance to a measured column over the old, their bend term by the new
@@ -504,7 +537,8 @@ def next_slices(
                          "unmeasured (all NaN), got every column measured")
     n = check_int("n", n, minimum=1, maximum=unmeasured)
     result = synthesize(intensity, partial_range, method=method, seed=seed, **synth_options)
-    return _greedy(result.range, result.uncertainty, measured, n, returning_pixels(values))
+    return _greedy(result.range, result.uncertainty, measured, n,
+                   returning_pixels(values, intensity))
 
 
 def _greedy(estimate: np.ndarray, uncertainty: np.ndarray, measured: np.ndarray,
