@@ -24,8 +24,9 @@ version would buy, not strategies a rig can run: they read the truth):
 
 ``uncertainty``
     ``next_slices`` itself: the fill, its uncertainty map, the bend of the
-    measured columns, and the pixels whose rows returned a range in the
-    measured columns bounding their gap.
+    measured columns, and the pixels a measurement can reach (their rows
+    returned a range in the measured columns bounding their gap; on one side
+    only, the intensity decides).
 ``no-uncertainty``
     the same with an uncertainty map of 0 (each gain is the line's distance
     from the fill alone): what the uncertainty map buys.
@@ -166,7 +167,7 @@ def probe_slices(scene, partial: np.ndarray, n: int, error: str, method: str,
         return truth_slices(scene, partial, n)
     result = synthesize(scene.intensity, partial, method=method, seed=seed)
     measured = measured_columns(partial)
-    uncertainty, counts = result.uncertainty, returning_pixels(partial)
+    uncertainty, counts = result.uncertainty, returning_pixels(partial, scene.intensity)
     bend = None
     if error == "no-bend":
         bend = np.full(partial.shape, np.nan)

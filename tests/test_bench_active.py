@@ -123,7 +123,8 @@ def test_the_fill_error_probe_replaces_only_the_uncertainty(bench, folder):
 
     scene, partial = _holed_box(bench, folder)
     result = synthesize(scene.intensity, partial, method="np", seed=0)
-    measured, counts = measured_columns(partial), returning_pixels(partial)
+    measured = measured_columns(partial)
+    counts = returning_pixels(partial, scene.intensity)
     error = np.abs(result.range - bench.nearest_truth(scene))
     assert np.isfinite(error).all() and error[~scene.has_truth].max() > 0
     picks = bench.probe_slices(scene, partial, 6, "fill-error", "np", 0)
@@ -144,8 +145,9 @@ def test_the_truth_counts_probe_replaces_only_the_counted_pixels(bench, folder):
     picks = bench.probe_slices(scene, partial, 3, "truth-counts", "np", 0)
     assert np.array_equal(picks, bench._greedy(result.range, result.uncertainty, measured, 3,
                                                scene.has_truth))
+    returning = returning_pixels(partial, scene.intensity)
     assert not np.array_equal(picks, bench._greedy(result.range, result.uncertainty,
-                                                   measured, 3, returning_pixels(partial)))
+                                                   measured, 3, returning))
 
 
 def _shadowed_box(bench, folder):
@@ -171,7 +173,8 @@ def test_the_no_uncertainty_ablation_takes_away_only_the_uncertainty(bench, fold
 
     scene, partial = _holed_box(bench, folder)
     result = synthesize(scene.intensity, partial, method="np", seed=0)
-    measured, counts = measured_columns(partial), returning_pixels(partial)
+    measured = measured_columns(partial)
+    counts = returning_pixels(partial, scene.intensity)
     picks = bench.probe_slices(scene, partial, 6, "no-uncertainty", "np", 0)
     assert np.array_equal(picks, bench._greedy(result.range, np.zeros((40, 48)), measured, 6,
                                                counts))
@@ -187,7 +190,8 @@ def test_the_no_bend_ablation_takes_away_only_the_bend(bench, folder):
 
     scene, partial = _shadowed_box(bench, folder)
     result = synthesize(scene.intensity, partial, method="np", seed=0)
-    measured, counts = measured_columns(partial), returning_pixels(partial)
+    measured = measured_columns(partial)
+    counts = returning_pixels(partial, scene.intensity)
     picks = bench.probe_slices(scene, partial, 9, "no-bend", "np", 0)
     assert np.array_equal(picks, bench._greedy(result.range, result.uncertainty, measured, 9,
                                                counts, np.full((40, 48), np.nan)))
@@ -202,7 +206,8 @@ def test_the_all_pixels_ablation_counts_every_unmeasured_pixel(bench, folder):
 
     scene, partial = _shadowed_box(bench, folder)
     result = synthesize(scene.intensity, partial, method="np", seed=0)
-    measured, counts = measured_columns(partial), returning_pixels(partial)
+    measured = measured_columns(partial)
+    counts = returning_pixels(partial, scene.intensity)
     assert not counts[10:20, 27:47].any() and counts[20:30, 27:31].all()
     picks = bench.probe_slices(scene, partial, 6, "all-pixels", "np", 0)
     every = np.broadcast_to(~measured[None, :], (40, 48))
