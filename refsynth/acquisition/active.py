@@ -210,7 +210,8 @@ def returning_pixels(partial_range: np.ndarray,
     ------
     ValueError
         Naming the argument: ``partial_range`` not 2-D, or no pixel measured;
-        ``intensity`` of another height and width, or not finite.
+        ``intensity`` not a real (H, W) or (H, W, C) array of ``partial_range``'s height
+        and width, or not finite.
 
     Examples
     --------
@@ -454,10 +455,10 @@ def next_slices(
     measurement is expected to remove from the line across their gap (see the
     module's notes): the synthesis says where the range leaves that line, its
     uncertainty map how sure it is, the measured columns how much the range bends
-    between them, and the rows that returned a range in the measured columns, with
-    the intensity, which pixels a measurement can reach. Each pick is taken as measured before the
-    next, so that the picks spread over the sites with depth profiles rather
-    than bunch.
+    between them, and the rows that returned a range in the measured columns (with
+    the intensity where one side did not) which pixels a measurement can reach.
+    Each pick is taken as measured before the next, so that the picks spread over
+    the sites with depth profiles rather than bunch.
 
     Parameters
     ----------
@@ -501,7 +502,7 @@ def next_slices(
        lines ``L_ac`` and ``L_cb``, summed over the pixels a measurement can
        reach (:func:`returning_pixels` with the intensity: those whose row
        returned a range in both measured columns bounding their gap, or in one
-       whose grey level is the nearer).
+       of them whose grey level is nearer the pixel's than the other's).
     3. Pick ``argmax g`` (ties: the leftmost); take it as measured (the gap
        splits in two, the uncertainty of its columns scales by their new
        distance to a measured column over the old, their bend term by the new
