@@ -232,16 +232,16 @@ def check_image(name: str, image, *, allow_nan: bool = True, colour: bool = True
 # ----------------------------------------------------------------------------- grey
 
 
-def grey(image: np.ndarray, weights: np.ndarray = BT709) -> np.ndarray:
+def grey(image: np.ndarray, weights: np.ndarray | None = BT709) -> np.ndarray:
     """The luminance of a float image: (H, W) as is, (H, W, 1) its channel, (H, W, 3) weighted.
 
     Parameters
     ----------
     image : ndarray of shape (H, W), (H, W, 1), (H, W, 3) or (H, W, C)
         A floating image (see :func:`to_float` for integers).
-    weights : ndarray of shape (3,), default :data:`BT709`
+    weights : ndarray of shape (3,) or None, default :data:`BT709`
         Luminance weights for three channels; :data:`BT601` gives MATLAB's
-        ``rgb2gray``. Other channel counts are averaged.
+        ``rgb2gray``; None averages the three too. Other channel counts are averaged.
 
     Returns
     -------
@@ -259,7 +259,7 @@ def grey(image: np.ndarray, weights: np.ndarray = BT709) -> np.ndarray:
         return image
     if image.shape[2] == 1:
         return image[:, :, 0]
-    if image.shape[2] == 3:
+    if image.shape[2] == 3 and weights is not None:
         w = np.asarray(weights, dtype=np.float64)
         return (w[0] * image[:, :, 0] + w[1] * image[:, :, 1]) + w[2] * image[:, :, 2]
     total = np.zeros(image.shape[:2])

@@ -13,6 +13,7 @@ from refsynth import synthesize
 from refsynth.acquisition import next_slices
 from refsynth.acquisition.active import (
     _greedy,
+    _grey_level,
     bending,
     expected_gain,
     line_error,
@@ -333,6 +334,23 @@ def test_returning_pixels_refuses_bad_input_by_name(partial):
         returning_pixels(partial)
 
 
+@settings(max_examples=40)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([(), (1,), (3,), (4,)]))
+def test_the_grey_level_is_the_channel_mean_summed_left_to_right(seed, channels):
+    """As synthesize reads the intensity (8-bit scaled by 255), then ((c0 + c1) + c2) / C:
+    the same bits on every machine."""
+    image = np.random.default_rng(seed).integers(0, 256, (3, 4) + channels).astype(np.uint8)
+    values = image / 255.0
+    if values.ndim == 2:
+        expected = values
+    else:
+        expected = values[:, :, 0]
+        for c in range(1, values.shape[2]):
+            expected = expected + values[:, :, c]
+        expected = expected / values.shape[2]
+    assert np.array_equal(_grey_level(image, (3, 4)), expected)
+
+
 @pytest.mark.parametrize("intensity", [np.zeros((3, 5)), np.zeros((2, 5, 3)), np.zeros(4),
                                        np.full((2, 4), np.nan)])
 def test_returning_pixels_refuse_a_bad_intensity_by_name(intensity):
@@ -340,6 +358,8 @@ def test_returning_pixels_refuse_a_bad_intensity_by_name(intensity):
     partial[:, 0] = 1.0
     with pytest.raises(ValueError, match="`intensity`"):
         returning_pixels(partial, intensity)
+    with pytest.raises(TypeError, match="`intensity`"):
+        returning_pixels(partial, intensity.tolist())
 
 
 def test_next_slices_counts_only_the_pixels_a_measurement_reaches():

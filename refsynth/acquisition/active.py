@@ -109,9 +109,9 @@ import math
 
 import numpy as np
 
-from refsynth._checks import check_choice, check_int
+from refsynth._checks import check_choice, check_int, check_real_array, grey, to_float
 from refsynth.numeric import portable_exp
-from refsynth.synthesis import normalise_intensity, synthesize, validate_inputs
+from refsynth.synthesis import synthesize, validate_inputs
 
 __all__ = ["next_slices", "measured_columns", "returning_pixels", "line_error", "bending",
            "expected_gain"]
@@ -208,10 +208,10 @@ def returning_pixels(partial_range: np.ndarray,
 
     Raises
     ------
-    ValueError
+    TypeError, ValueError
         Naming the argument: ``partial_range`` not 2-D, or no pixel measured;
-        ``intensity`` not a real (H, W) or (H, W, C) array of ``partial_range``'s height
-        and width, or not finite.
+        ``intensity`` not a real numpy array (TypeError), or not (H, W) or (H, W, C) of
+        ``partial_range``'s height and width, or not finite.
 
     Examples
     --------
@@ -237,19 +237,23 @@ def returning_pixels(partial_range: np.ndarray,
     on_left, on_right = returned[:, left], returned[:, right]
     counts = on_left | on_right
     if intensity is not None:
-        grey = np.asarray(intensity)
-        if (grey.ndim not in (2, 3) or grey.shape[:2] != values.shape
-                or grey.dtype.kind not in "biuf" or not np.all(np.isfinite(grey))):
-            raise ValueError("The parameter `intensity` must be a finite real (H, W) or "
-                             f"(H, W, C) array with (H, W) = {values.shape}, got "
-                             f"{grey.dtype} of shape {grey.shape}")
-        grey = normalise_intensity(grey).mean(axis=2)  # as synthesize reads it
-        nearer_left = np.abs(grey - grey[:, left]) <= np.abs(grey - grey[:, right])
-        nearer_right = np.abs(grey - grey[:, right]) <= np.abs(grey - grey[:, left])
-        one_side = on_left ^ on_right
-        counts = (on_left & on_right) | (one_side & np.where(on_left, nearer_left,
-                                                             nearer_right))
+        level = _grey_level(intensity, values.shape)
+        to_left = np.abs(level - level[:, left])
+        to_right = np.abs(level - level[:, right])
+        nearer_returning = np.where(on_left, to_left <= to_right, to_right <= to_left)
+        counts = (on_left & on_right) | ((on_left ^ on_right) & nearer_returning)
     return counts & ~measured[None, :]
+
+
+def _grey_level(intensity, shape: tuple[int, int]) -> np.ndarray:
+    """The mean of the intensity's channels, read as :func:`refsynth.synthesize` reads it
+    (integers scaled by their dtype's maximum), summed left to right (the numeric contract);
+    ``ValueError`` naming ``intensity`` unless real, finite, (H, W) or (H, W, C) of ``shape``."""
+    image = to_float(check_real_array("intensity", intensity, (2, 3)))
+    if image.shape[:2] != shape or not np.all(np.isfinite(image)):
+        raise ValueError("The parameter `intensity` must be a finite (H, W) or (H, W, C) "
+                         f"array with (H, W) = {shape}, got shape {image.shape}")
+    return grey(image, weights=None)
 
 
 def bending(estimate: np.ndarray, measured: np.ndarray) -> np.ndarray:
