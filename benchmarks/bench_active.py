@@ -54,7 +54,9 @@ Each fill (NP, BP, the classical fills of :mod:`refsynth.evaluation.baselines`)
 is scored with MAR (Eq. 13) over the unknown pixels that have ground truth. The
 target: active BP at 40 % ≤ 0.8× the best of BP and the classical fills on
 ``even`` and on ``distance`` at 40 % (the printed ratio, per scene, with its
-geometric mean and largest value).
+geometric mean and largest value). With ``even`` runs above 40 % it also prints
+a yardstick: BP on those evenly spread columns over the same denominator, what
+measuring more columns buys without choosing them.
 
 Run::
 
@@ -64,6 +66,8 @@ Run::
         --fractions 20,40
     python benchmarks/bench_active.py --size 225x188 --from-json a.json,b.json \\
         --figure docs/images/active_scanning.png     # the tables of saved runs
+    python benchmarks/bench_active.py --from-json a.json,even.json \\
+        --fractions 40,60,80     # the yardstick: even.json has BP on even at 60, 80 %
 """
 
 from __future__ import annotations
@@ -246,28 +250,53 @@ def run_scene(name: str, scene, fractions, methods, strategies, step, active_met
     return rows, calls
 
 
+def _key(row) -> tuple:
+    return row["scene"], row["strategy"], row["fraction"], row["method"]
+
+
 def _mar(rows, scene, strategy, fraction, method) -> float:
     for row in rows:
-        if (row["scene"], row["strategy"], row["fraction"], row["method"]) == (
-                scene, strategy, fraction, method):
+        if _key(row) == (scene, strategy, fraction, method):
             return row["mar"]
     return math.nan
 
 
-def target_ratios(rows, scenes, methods, at: int = 40) -> dict[str, float]:
-    """Per scene: active BP's MAR over the best of BP and the classical fills on even and
-    distance at ``at`` % (NaN where a run is missing)."""
+def target_ratios(rows, scenes, methods, at: int = 40, *, strategy: str = "active",
+                  fraction: int | None = None) -> dict[str, float]:
+    """Per scene: BP's MAR on ``strategy``'s columns at ``fraction`` % (default ``at``) over
+    the best of BP and the classical fills on even and distance at ``at`` % (NaN where a
+    run is missing). The target is the default; ``strategy="even"`` at a larger
+    ``fraction`` is the yardstick: what more evenly spread columns buy."""
     rivals = [m for m in ("bp", *CLASSICAL) if m in methods]
     ratios = {}
     for scene in scenes:
         fixed = [_mar(rows, scene, s, at, m) for s in ("even", "distance") for m in rivals]
         best = min((mar for mar in fixed if not math.isnan(mar)), default=math.nan)
-        active = _mar(rows, scene, "active", at, "bp")
+        active = _mar(rows, scene, strategy, at if fraction is None else fraction, "bp")
         if math.isnan(best) or math.isnan(active):
             ratios[scene] = math.nan
         else:
             ratios[scene] = active / best if best > 0 else (math.inf if active > 0 else math.nan)
     return ratios
+
+
+def yardstick(rows, scenes, methods, fractions) -> str:
+    """The yardstick's table: BP on evenly spread columns at each of ``fractions`` (above
+    40 %) over the target's denominator, per scene and as a geometric mean."""
+    table = {f: target_ratios(rows, scenes, methods, strategy="even", fraction=f)
+             for f in fractions}
+    lines = ["\nyardstick: BP on evenly spread columns at more than 40 % / the same best "
+             "at 40 %:", f"  {'columns scanned, %':>24s}  "
+             + " ".join(f"{f:>6d}" for f in fractions)]
+    for scene in scenes:
+        lines.append(f"  {scene:>24s}  " + " ".join(f"{table[f][scene]:6.3f}"
+                                                    for f in fractions))
+    means = []
+    for f in fractions:
+        finite = [r for r in table[f].values() if np.isfinite(r)]
+        means.append(math.exp(np.mean(np.log(finite))) if finite else math.nan)
+    lines.append(f"  {'geometric mean':>24s}  " + " ".join(f"{m:6.3f}" for m in means))
+    return "\n".join(lines)
 
 
 def format_tables(rows, scenes, methods, strategies, fractions) -> str:
@@ -348,7 +377,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     parser.add_argument("--json", default=None, help="write the runs here")
     parser.add_argument("--figure", default=None, metavar="PATH", help="write the curves here")
     parser.add_argument("--from-json", default=None, metavar="FILE,...",
-                        help="print (and plot) the runs saved by --json instead of running")
+                        help="print (and plot) the runs saved by --json instead of running; "
+                        "a later file's run replaces an earlier's of the same scene, "
+                        "strategy, fraction and method")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
     try:
@@ -382,7 +413,8 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         saved = json.loads(Path(path).read_text())
         active_method = saved.get("active_method", active_method)   # as the runs chose
         active_error = saved.get("active_error", active_error)
-        rows += saved["rows"]
+        later = {_key(r) for r in saved["rows"]}   # a later file's run replaces an earlier's
+        rows = [r for r in rows if _key(r) not in later] + saved["rows"]
         calls.update(saved["next_slices_seconds"])
         scenes += [s for s in dict.fromkeys(r["scene"] for r in saved["rows"]) if s not in scenes]
     if args.from_json:
@@ -418,6 +450,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         if finite:
             print(f"  {'geometric mean':>24s}  {math.exp(np.mean(np.log(finite))):.3f}"
                   f"   largest {max(finite):.3f}", file=out)
+    larger = [f for f in fractions if f > 40]
+    if "even" in strategies and 40 in fractions and "bp" in methods and larger:
+        print(yardstick(rows, scenes, methods, larger), file=out)
     every = [s for seconds in calls.values() for s in seconds]
     if every and active_error == "uncertainty":  # only next_slices's own calls
         fills = [r["seconds"] for r in rows if r["method"] == active_method]

@@ -229,6 +229,39 @@ def test_the_target_ratio_skips_missing_runs(bench):
     assert math.isnan(ratios["t"]) and math.isnan(ratios["u"])
 
 
+def test_the_yardstick_is_even_bp_at_more_columns_over_the_target_denominator(bench):
+    """The yardstick divides BP on evenly spread columns at each larger fraction by the
+    same best-of-fixed-fills at 40 % as the target, with a geometric mean over scenes."""
+    rows = [dict(scene="s", strategy="even", fraction=40, method="linear", mar=0.2),
+            dict(scene="s", strategy="distance", fraction=40, method="bp", mar=0.4),
+            dict(scene="s", strategy="even", fraction=60, method="bp", mar=0.1),
+            dict(scene="s", strategy="even", fraction=80, method="linear", mar=0.01),
+            dict(scene="t", strategy="even", fraction=40, method="bp", mar=1.0),
+            dict(scene="t", strategy="even", fraction=60, method="bp", mar=0.8),
+            dict(scene="t", strategy="even", fraction=80, method="bp", mar=0.5)]
+    ratios = bench.target_ratios(rows, ["s", "t"], ["bp", "linear"], strategy="even",
+                                 fraction=60)
+    assert ratios == {"s": pytest.approx(0.5), "t": pytest.approx(0.8)}
+    lines = bench.yardstick(rows, ["s", "t"], ["bp", "linear"], [60, 80]).splitlines()
+    assert lines[2].split() == ["columns", "scanned,", "%", "60", "80"]
+    assert lines[3].split() == ["s", "0.500", "nan"]      # 80 %: linear is not BP
+    assert lines[4].split() == ["t", "0.800", "0.500"]
+    assert lines[5].split() == ["geometric", "mean", f"{math.sqrt(0.4):.3f}", "0.500"]
+
+
+def test_the_yardstick_prints_only_with_even_runs_above_40(bench, folder):
+    runs = {}
+    for fractions in ("20,40", "20,40,45"):
+        out = io.StringIO()
+        assert bench.main([str(folder), "--size", "48x40", "--fractions", fractions,
+                           "--methods", "bp,linear", "--strategies", "even",
+                           "--quiet"], out=out) == 0
+        runs[fractions] = out.getvalue()
+    assert "yardstick" not in runs["20,40"]
+    table = runs["20,40,45"].split("yardstick")[1].splitlines()
+    assert table[1].split()[-1] == "45" and table[-1].split()[:2] == ["geometric", "mean"]
+
+
 def test_an_active_run_alone_prints_no_ratio(bench, folder):
     out = io.StringIO()
     assert bench.main([str(folder), "--size", "48x40", "--fractions", "20,40", "--methods",
@@ -272,6 +305,27 @@ def test_table_ratio_json_and_from_json(bench, folder, tmp_path):
     assert bench.main(["--size", "48x40", "--fractions", "20,40", "--methods", "bp,nearest",
                        "--from-json", str(target)], out=again) == 0
     assert again.getvalue() == text            # the saved runs' active method included
+
+
+def test_from_json_a_later_file_replaces_an_earlier_run(bench, tmp_path):
+    """Merging a probe after the runs it is compared with: its active rows are read, its
+    header printed, and the rows no later file repeats are kept."""
+    def row(strategy, mar):
+        return dict(scene="s", units="m", strategy=strategy, fraction=40, columns_percent=40.0,
+                    method="bp", mar=mar, seconds=1.0)
+    first, probe = tmp_path / "a.json", tmp_path / "p.json"
+    first.write_text(json.dumps(dict(rows=[row("even", 0.2), row("active", 0.18)],
+                                     next_slices_seconds={"s": [1.0]},
+                                     active_method="bp", active_error="uncertainty")))
+    probe.write_text(json.dumps(dict(rows=[row("active", 0.1)], next_slices_seconds={},
+                                     active_method="bp", active_error="truth-counts")))
+    out = io.StringIO()
+    assert bench.main(["--from-json", f"{first},{probe}", "--fractions", "40",
+                       "--methods", "bp"], out=out) == 0
+    text = out.getvalue()
+    assert "counting the pixels with truth (a probe)" in text
+    assert "      s  0.500" in text and "0.900" not in text
+    assert "    bp      even    0.2000" in text
 
 
 @pytest.mark.parametrize("argv", [["--fractions", "20,42"], ["--methods", "magic"],
