@@ -411,8 +411,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     active_method, active_error = args.active_method, args.active_error
     for path in bench_scenes.split_list(args.from_json or ""):
         saved = json.loads(Path(path).read_text())
-        active_method = saved.get("active_method", active_method)   # as the runs chose
-        active_error = saved.get("active_error", active_error)
+        if any(r["strategy"] == "active" for r in saved["rows"]):   # as its active runs chose
+            active_method = saved.get("active_method", active_method)
+            active_error = saved.get("active_error", active_error)
         later = {_key(r) for r in saved["rows"]}   # a later file's run replaces an earlier's
         rows = [r for r in rows if _key(r) not in later] + saved["rows"]
         calls.update(saved["next_slices_seconds"])

@@ -319,13 +319,18 @@ def test_from_json_a_later_file_replaces_an_earlier_run(bench, tmp_path):
                                      active_method="bp", active_error="uncertainty")))
     probe.write_text(json.dumps(dict(rows=[row("active", 0.1)], next_slices_seconds={},
                                      active_method="bp", active_error="truth-counts")))
+    even = tmp_path / "even.json"                   # no active run: says nothing of them
+    even.write_text(json.dumps(dict(rows=[dict(row("even", 0.15), fraction=60)],
+                                    next_slices_seconds={}, active_method="bp",
+                                    active_error="uncertainty")))
     out = io.StringIO()
-    assert bench.main(["--from-json", f"{first},{probe}", "--fractions", "40",
+    assert bench.main(["--from-json", f"{first},{probe},{even}", "--fractions", "40,60",
                        "--methods", "bp"], out=out) == 0
     text = out.getvalue()
     assert "counting the pixels with truth (a probe)" in text
     assert "      s  0.500" in text and "0.900" not in text
     assert "    bp      even    0.2000" in text
+    assert text.split("yardstick")[1].splitlines()[2].split() == ["s", "0.750"]
 
 
 @pytest.mark.parametrize("argv", [["--fractions", "20,42"], ["--methods", "magic"],
