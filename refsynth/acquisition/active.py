@@ -506,7 +506,8 @@ def next_slices(
        lines ``L_ac`` and ``L_cb``, summed over the pixels a measurement can
        reach (:func:`returning_pixels` with the intensity: those whose row
        returned a range in both measured columns bounding their gap, or in one
-       of them whose grey level is nearer the pixel's than the other's).
+       of them where the pixel's grey level is at least as near that column's
+       as the other's).
     3. Pick ``argmax g`` (ties: the leftmost); take it as measured (the gap
        splits in two, the uncertainty of its columns scales by their new
        distance to a measured column over the old, their bend term by the new
