@@ -164,9 +164,9 @@ def probe_slices(scene, partial: np.ndarray, n: int, error: str, method: str,
     """next_slices's choice with one piece of its knowledge taken away or replaced by the
     truth's (``--active-error``): ``no-uncertainty``, an uncertainty map of 0;
     ``all-pixels``, every unmeasured pixel counted; ``no-bend``, no bend term (the bend all
-    NaN); ``fill-error``, the fill's true absolute
-    error in place of its uncertainty map; ``truth-counts``, the pixels with truth in place
-    of the returning ones; ``truth``, :func:`truth_slices`."""
+    NaN); ``fill-error``, the fill's true absolute error in place of its uncertainty map;
+    ``truth-counts``, the pixels with truth in place of the returning ones; ``truth``,
+    :func:`truth_slices`."""
     if error == "truth":
         return truth_slices(scene, partial, n)
     result = synthesize(scene.intensity, partial, method=method, seed=seed)
@@ -280,6 +280,12 @@ def target_ratios(rows, scenes, methods, at: int = 40, *, strategy: str = "activ
     return ratios
 
 
+def geometric_mean(ratios) -> float:
+    """The geometric mean of the finite ratios (NaN if none is)."""
+    finite = [r for r in ratios if np.isfinite(r)]
+    return math.exp(np.mean(np.log(finite))) if finite else math.nan
+
+
 def yardstick(rows, scenes, methods, fractions) -> str:
     """The yardstick's table: BP on evenly spread columns at each of ``fractions`` (above
     40 %) over the target's denominator, per scene and as a geometric mean."""
@@ -291,10 +297,7 @@ def yardstick(rows, scenes, methods, fractions) -> str:
     for scene in scenes:
         lines.append(f"  {scene:>24s}  " + " ".join(f"{table[f][scene]:6.3f}"
                                                     for f in fractions))
-    means = []
-    for f in fractions:
-        finite = [r for r in table[f].values() if np.isfinite(r)]
-        means.append(math.exp(np.mean(np.log(finite))) if finite else math.nan)
+    means = [geometric_mean(table[f].values()) for f in fractions]
     lines.append(f"  {'geometric mean':>24s}  " + " ".join(f"{m:6.3f}" for m in means))
     return "\n".join(lines)
 
@@ -442,15 +445,14 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     print(format_tables(rows, scenes, methods, strategies, fractions), file=out)
     if "active" in strategies and 40 in fractions and "bp" in methods:
         ratios = target_ratios(rows, scenes, methods)
-        finite = [r for r in ratios.values() if np.isfinite(r)]
         print("\nactive BP at 40 % / best of BP and the classical fills on even and distance "
               "at 40 % (target <= 0.8):", file=out)
         for scene, ratio in ratios.items():
             shown = "n/a (no even or distance run)" if math.isnan(ratio) else f"{ratio:.3f}"
             print(f"  {scene:>24s}  {shown}", file=out)
-        if finite:
-            print(f"  {'geometric mean':>24s}  {math.exp(np.mean(np.log(finite))):.3f}"
-                  f"   largest {max(finite):.3f}", file=out)
+        if not math.isnan(geometric_mean(ratios.values())):
+            print(f"  {'geometric mean':>24s}  {geometric_mean(ratios.values()):.3f}"
+                  f"   largest {np.nanmax(list(ratios.values())):.3f}", file=out)
     larger = [f for f in fractions if f > 40]
     if "even" in strategies and 40 in fractions and "bp" in methods and larger:
         print(yardstick(rows, scenes, methods, larger), file=out)

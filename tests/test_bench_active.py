@@ -338,3 +338,10 @@ def test_from_json_a_later_file_replaces_an_earlier_run(bench, tmp_path):
 def test_bad_options_exit_2(bench, folder, argv, capsys):
     assert bench.main([str(folder), "--quiet", *argv]) == 2
     assert capsys.readouterr().err.startswith("bench_active.py: ")
+
+
+def test_geometric_mean_skips_the_missing_ratios(bench):
+    assert bench.geometric_mean([0.5, math.nan, 2.0]) == pytest.approx(1.0)
+    assert bench.geometric_mean([0.25, 0.81]) == pytest.approx(0.45)
+    assert math.isnan(bench.geometric_mean([math.nan]))
+    assert math.isnan(bench.geometric_mean([]))
