@@ -450,8 +450,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         for scene, ratio in ratios.items():
             shown = "n/a (no even or distance run)" if math.isnan(ratio) else f"{ratio:.3f}"
             print(f"  {scene:>24s}  {shown}", file=out)
-        if not math.isnan(geometric_mean(ratios.values())):
-            print(f"  {'geometric mean':>24s}  {geometric_mean(ratios.values()):.3f}"
+        mean = geometric_mean(ratios.values())
+        if not math.isnan(mean):
+            print(f"  {'geometric mean':>24s}  {mean:.3f}"
                   f"   largest {np.nanmax(list(ratios.values())):.3f}", file=out)
     larger = [f for f in fractions if f > 40]
     if "even" in strategies and 40 in fractions and "bp" in methods and larger:

@@ -247,8 +247,9 @@ def returning_pixels(partial_range: np.ndarray,
 
 def _grey_level(intensity, shape: tuple[int, int]) -> np.ndarray:
     """The mean of the intensity's channels, read as :func:`refsynth.synthesize` reads it
-    (integers scaled by their dtype's maximum), summed left to right (the numeric contract);
-    ``ValueError`` naming ``intensity`` unless real, finite, (H, W) or (H, W, C) of ``shape``."""
+    (integers scaled by their dtype's maximum), summed left to right (the numeric contract).
+    Raises, naming ``intensity``, ``TypeError`` unless a real array and ``ValueError``
+    unless finite and (H, W) or (H, W, C) of ``shape``."""
     image = to_float(check_real_array("intensity", intensity, (2, 3)))
     if image.shape[:2] != shape or not np.all(np.isfinite(image)):
         raise ValueError("The parameter `intensity` must be a finite (H, W) or (H, W, C) "
